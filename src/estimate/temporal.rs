@@ -1,0 +1,175 @@
+//! Temporal behaviour of the estimate: smoothing across frames and the change detector that tells
+//! later stages when to relight.
+//!
+//! # Smoothing
+//! Each of the six intensities (`Pd`, `Pa` × RGB) is smoothed by a scalar Kalman filter with a
+//! random-walk model: between frames `Δt` apart the true value may drift with standard deviation
+//! `q·x·√Δt` (`q` = `smoothing_rate_per_sqrt_s`, relative to the current value `x`), and each
+//! frame's measurement has the variance of its standard error. A precise estimate (small standard
+//! error) is trusted almost fully; a noisy one is averaged over more frames. A frame whose
+//! parameter was not observed (e.g. `Pd` when every sample is in shadow) only predicts, so the held
+//! value carries on with growing uncertainty. With `q = 0` the filter is a running inverse-variance
+//! mean; with `q → ∞` it passes measurements through.
+//!
+//! # Change detection
+//! [`ChangeDetector`] compares the smoothed lighting with the lighting that the last relight used.
+//! It reports a change when, in any channel, `Pd` or `Pa` moved by more than `relight_threshold`
+//! of that channel's total `Pd + Pa`, or when the sun direction moved by more than
+//! `relight_sun_deg`. Stages downstream (relight, probe update, shadow volumes) run only then.
+
+use glam::Vec3;
+
+/// Kalman smoother of the six intensities.
+#[derive(Clone, Debug, Default)]
+pub struct Smoother {
+    x: Option<[f64; 6]>,
+    var: [f64; 6],
+    last_time_s: f64,
+}
+
+/// Variance floor relative to the squared value, so a zero standard error cannot freeze the filter.
+const REL_VAR_FLOOR: f64 = 1e-8;
+
+impl Smoother {
+    /// Feeds one frame at `time_s` (seconds, any origin). `meas[k]` is `Some((value, std_err))` for
+    /// observed parameters (order `Pd r,g,b, Pa r,g,b`). Returns the smoothed values, or `None`
+    /// until something has been observed.
+    pub fn update(&mut self, time_s: f64, rate_per_sqrt_s: f64, meas: [Option<(f64, f64)>; 6]) -> Option<[f64; 6]> {
+        let dt = (time_s - self.last_time_s).abs();
+        self.last_time_s = time_s;
+        let Some(x) = self.x.as_mut() else {
+            // Initialise from the first observation of each parameter.
+            if meas.iter().all(Option::is_none) {
+                return None;
+            }
+            let mut x0 = [0.0; 6];
+            let mut v0 = [f64::INFINITY; 6];
+            for k in 0..6 {
+                if let Some((v, se)) = meas[k] {
+                    x0[k] = v;
+                    v0[k] = (se * se).max(REL_VAR_FLOOR * v * v);
+                }
+            }
+            self.x = Some(x0);
+            self.var = v0;
+            return self.x;
+        };
+        for k in 0..6 {
+            // Predict.
+            let q = rate_per_sqrt_s * x[k].abs();
+            self.var[k] += q * q * dt;
+            // Update.
+            if let Some((z, se)) = meas[k] {
+                let r = (se * se).max(REL_VAR_FLOOR * z * z);
+                if !self.var[k].is_finite() {
+                    x[k] = z;
+                    self.var[k] = r;
+                    continue;
+                }
+                let gain = if self.var[k] + r > 0.0 { self.var[k] / (self.var[k] + r) } else { 1.0 };
+                x[k] += gain * (z - x[k]);
+                x[k] = x[k].max(0.0);
+                self.var[k] *= 1.0 - gain;
+            }
+        }
+        self.x
+    }
+}
+
+/// Why the detector asked for a relight (or did not).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ChangeReason {
+    /// Nothing relit yet.
+    FirstFrame,
+    /// `Pd` moved past the threshold.
+    DirectChanged,
+    /// `Pa` moved past the threshold.
+    AmbientChanged,
+    /// The sun moved past its threshold.
+    SunMoved,
+    /// Within both thresholds: later stages may reuse their results.
+    Unchanged,
+}
+
+/// Decides when the lighting changed enough to relight.
+#[derive(Clone, Debug, Default)]
+pub struct ChangeDetector {
+    reference: Option<(Vec3, [f64; 6])>,
+}
+
+impl ChangeDetector {
+    /// Compares `lighting` (`Pd` rgb, `Pa` rgb) and `sun_dir` with the last relit state; on a change
+    /// the new state becomes the reference.
+    pub fn check(&mut self, sun_dir: Vec3, lighting: [f64; 6], threshold: f64, sun_deg: f64) -> ChangeReason {
+        let reason = match &self.reference {
+            None => ChangeReason::FirstFrame,
+            Some((dir, old)) => {
+                let angle = dir.dot(sun_dir).clamp(-1.0, 1.0).acos().to_degrees() as f64;
+                let mut reason = ChangeReason::Unchanged;
+                for c in 0..3 {
+                    let total = (old[c] + old[c + 3]).max(lighting[c] + lighting[c + 3]).max(1e-300);
+                    if (lighting[c] - old[c]).abs() > threshold * total {
+                        reason = ChangeReason::DirectChanged;
+                        break;
+                    }
+                    if (lighting[c + 3] - old[c + 3]).abs() > threshold * total {
+                        reason = ChangeReason::AmbientChanged;
+                    }
+                }
+                if reason == ChangeReason::Unchanged && angle > sun_deg {
+                    reason = ChangeReason::SunMoved;
+                }
+                reason
+            }
+        };
+        if reason != ChangeReason::Unchanged {
+            self.reference = Some((sun_dir, lighting));
+        }
+        reason
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn smoother_averages_noise_and_follows_steps() {
+        let mut s = Smoother::default();
+        let mut out = [0.0; 6];
+        // 50 frames at 10 fps of a constant 1.0 with ±2% alternating noise, se = 2%.
+        for i in 0..50 {
+            let z = 1.0 + if i % 2 == 0 { 0.02 } else { -0.02 };
+            out = s.update(i as f64 * 0.1, 0.01, [Some((z, 0.02)); 6]).unwrap();
+        }
+        assert!((out[0] - 1.0).abs() < 0.01, "{out:?}");
+        // A step to 0.2 (a cloud) with precise measurements is followed within a few frames.
+        for i in 50..60 {
+            out = s.update(i as f64 * 0.1, 0.01, [Some((0.2, 0.002)); 6]).unwrap();
+        }
+        assert!((out[0] - 0.2).abs() < 0.01, "{out:?}");
+    }
+
+    #[test]
+    fn unobserved_parameters_hold() {
+        let mut s = Smoother::default();
+        s.update(0.0, 0.5, [Some((3.0, 0.01)); 6]);
+        let mut m = [Some((1.0, 0.01)); 6];
+        m[0] = None;
+        let out = s.update(1.0, 0.5, m).unwrap();
+        assert_eq!(out[0], 3.0);
+        assert!(out[3] < 1.1);
+    }
+
+    #[test]
+    fn change_detector_thresholds() {
+        let mut d = ChangeDetector::default();
+        let l = [3.0, 3.0, 3.0, 1.0, 1.0, 1.0];
+        assert_eq!(d.check(Vec3::Y, l, 0.02, 0.5), ChangeReason::FirstFrame);
+        assert_eq!(d.check(Vec3::Y, [3.05, 3.0, 3.0, 1.0, 1.0, 1.0], 0.02, 0.5), ChangeReason::Unchanged);
+        assert_eq!(d.check(Vec3::Y, [2.5, 3.0, 3.0, 1.0, 1.0, 1.0], 0.02, 0.5), ChangeReason::DirectChanged);
+        let tilted = Vec3::new(0.0, 1.0, (1.0f32).to_radians().tan()).normalize();
+        assert_eq!(d.check(tilted, [2.5, 3.0, 3.0, 1.0, 1.0, 1.0], 0.02, 0.5), ChangeReason::SunMoved);
+    }
+}

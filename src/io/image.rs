@@ -1,0 +1,190 @@
+//! Linear RGB images and their files: OpenEXR (linear, half or float) and PNG (8/16-bit sRGB).
+
+use super::IoError;
+use std::path::Path;
+
+/// A linear-light RGB image, row-major, row 0 at the top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LinearImage {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// `width × height` RGB triples, row-major.
+    pub data: Vec<[f32; 3]>,
+}
+
+/// Sample precision of an EXR file written by [`LinearImage::write_exr`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ExrPrecision {
+    /// 16-bit half floats (compact; about 3 significant digits).
+    Half,
+    /// 32-bit floats.
+    Float,
+}
+
+impl LinearImage {
+    /// A black image.
+    pub fn new(width: u32, height: u32) -> Self {
+        Self { width, height, data: vec![[0.0; 3]; (width * height) as usize] }
+    }
+
+    /// Builds an image from a function of `(x, y)`.
+    pub fn from_fn(width: u32, height: u32, mut f: impl FnMut(u32, u32) -> [f32; 3]) -> Self {
+        let mut data = Vec::with_capacity((width * height) as usize);
+        for y in 0..height {
+            for x in 0..width {
+                data.push(f(x, y));
+            }
+        }
+        Self { width, height, data }
+    }
+
+    /// The pixel at `(x, y)`.
+    #[inline]
+    pub fn get(&self, x: u32, y: u32) -> [f32; 3] {
+        self.data[(y * self.width + x) as usize]
+    }
+
+    /// Sets the pixel at `(x, y)`.
+    #[inline]
+    pub fn set(&mut self, x: u32, y: u32, v: [f32; 3]) {
+        let w = self.width;
+        self.data[(y * w + x) as usize] = v;
+    }
+
+    /// Reads the first RGB(A) layer of an OpenEXR file (alpha is ignored; a missing B or G
+    /// channel is an error).
+    pub fn read_exr(path: &Path) -> Result<Self, IoError> {
+        use exr::prelude::*;
+        if !path.exists() {
+            return Err(IoError::File {
+                path: path.to_owned(),
+                source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+            });
+        }
+        let image = read_first_rgba_layer_from_file(
+            path,
+            |res, _| LinearImage::new(res.width() as u32, res.height() as u32),
+            |img: &mut LinearImage, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                img.set(pos.x() as u32, pos.y() as u32, [r, g, b]);
+            },
+        )
+        .map_err(|e| IoError::Exr { path: path.to_owned(), message: e.to_string() })?;
+        Ok(image.layer_data.channel_data.pixels)
+    }
+
+    /// Writes an RGB OpenEXR file (ZIP compressed).
+    pub fn write_exr(&self, path: &Path, precision: ExrPrecision) -> Result<(), IoError> {
+        use exr::prelude::*;
+        let (w, h) = (self.width as usize, self.height as usize);
+        let err = |e: exr::error::Error| IoError::Exr { path: path.to_owned(), message: e.to_string() };
+        let encoding = Encoding {
+            compression: Compression::ZIP16,
+            blocks: Blocks::ScanLines,
+            line_order: LineOrder::Increasing,
+        };
+        match precision {
+            ExrPrecision::Float => {
+                let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
+                    let v = self.data[p.y() * w + p.x()];
+                    (v[0], v[1], v[2])
+                });
+                let layer = Layer::new((w, h), LayerAttributes::default(), encoding, channels);
+                Image::from_layer(layer).write().to_file(path).map_err(err)
+            }
+            ExrPrecision::Half => {
+                let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
+                    let v = self.data[p.y() * w + p.x()];
+                    (f16::from_f32(v[0]), f16::from_f32(v[1]), f16::from_f32(v[2]))
+                });
+                let layer = Layer::new((w, h), LayerAttributes::default(), encoding, channels);
+                Image::from_layer(layer).write().to_file(path).map_err(err)
+            }
+        }
+    }
+
+    /// Writes an 8-bit sRGB PNG of `exposure · self`, clamped to `[0, 1]` (a preview; no tone
+    /// curve beyond the sRGB encoding).
+    pub fn write_png_srgb(&self, path: &Path, exposure: f32) -> Result<(), IoError> {
+        let mut buf = Vec::with_capacity(self.data.len() * 3);
+        for p in &self.data {
+            for c in p {
+                buf.push(srgb_u8_from_linear(c * exposure));
+            }
+        }
+        ::image::save_buffer(path, &buf, self.width, self.height, ::image::ExtendedColorType::Rgb8)
+            .map_err(|source| IoError::Png { path: path.to_owned(), source })
+    }
+
+    /// Counts and replaces non-finite and negative pixels by zero; returns how many were replaced.
+    pub fn sanitize(&mut self) -> usize {
+        let mut n = 0;
+        for p in &mut self.data {
+            if p.iter().any(|c| !c.is_finite() || *c < 0.0) {
+                *p = [0.0; 3];
+                n += 1;
+            }
+        }
+        n
+    }
+}
+
+/// The sRGB encoding (IEC 61966-2-1) of a linear value in `[0, 1]`.
+pub fn srgb_from_linear(x: f32) -> f32 {
+    if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 }
+}
+
+/// The linear value of an sRGB-encoded value in `[0, 1]`.
+pub fn linear_from_srgb(x: f32) -> f32 {
+    if x <= 0.040_45 { x / 12.92 } else { ((x + 0.055) / 1.055).powf(2.4) }
+}
+
+/// 8-bit sRGB code of a linear value (clamped, NaN → 0).
+pub fn srgb_u8_from_linear(x: f32) -> u8 {
+    let x = if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) };
+    (srgb_from_linear(x) * 255.0 + 0.5) as u8
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_round_trip() {
+        for i in 0..=255u32 {
+            let e = i as f32 / 255.0;
+            assert!((srgb_from_linear(linear_from_srgb(e)) - e).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn exr_round_trip_float_and_half() {
+        let dir = std::env::temp_dir().join(format!("heliar-exr-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let img = LinearImage::from_fn(7, 5, |x, y| [x as f32 * 1e3, y as f32 * 1e-3, 0.5]);
+        let p = dir.join("a.exr");
+        img.write_exr(&p, ExrPrecision::Float).unwrap();
+        assert_eq!(LinearImage::read_exr(&p).unwrap(), img);
+        img.write_exr(&p, ExrPrecision::Half).unwrap();
+        let back = LinearImage::read_exr(&p).unwrap();
+        for (a, b) in img.data.iter().zip(&back.data) {
+            for c in 0..3 {
+                // half floats keep 11 significant bits: relative error ≤ 2^-11
+                assert!((a[c] - b[c]).abs() <= a[c].abs() * 4.9e-4 + 1e-7, "{a:?} {b:?}");
+            }
+        }
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn corrupt_exr_names_the_file() {
+        let dir = std::env::temp_dir().join(format!("heliar-exr-bad-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("bad.exr");
+        std::fs::write(&p, b"v/1\x01 definitely not an exr").unwrap();
+        let e = LinearImage::read_exr(&p).unwrap_err().to_string();
+        assert!(e.contains("bad.exr"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}

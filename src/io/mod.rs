@@ -1,0 +1,58 @@
+//! Frame sources and image files.
+//!
+//! - [`image`]: linear RGB images and their EXR/PNG files.
+//! - [`frames`]: decoded camera frames (LDR codes or HDR radiance) and per-pixel linearisation.
+
+pub mod frames;
+pub mod image;
+
+use std::path::PathBuf;
+
+/// Errors reading or writing image and frame files.
+#[derive(Debug, thiserror::Error)]
+pub enum IoError {
+    /// The file could not be opened, read or written.
+    #[error("{path}: {source}")]
+    File {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The OpenEXR file is corrupt or not an RGB(A) image.
+    #[error("{path}: not a readable RGB OpenEXR image: {message}")]
+    Exr {
+        /// The file.
+        path: PathBuf,
+        /// What the EXR decoder said.
+        message: String,
+    },
+    /// The PNG file is corrupt or could not be encoded.
+    #[error("{path}: {source}")]
+    Png {
+        /// The file.
+        path: PathBuf,
+        /// What the PNG codec said.
+        source: ::image::ImageError,
+    },
+    /// The file extension is not one heliar reads or writes.
+    #[error("{path}: unsupported image format (expected .exr or .png)")]
+    UnsupportedFormat {
+        /// The file.
+        path: PathBuf,
+    },
+    /// The image does not have the size the camera calibration says.
+    #[error("{path}: image is {got_w}×{got_h} but the camera calibration says {want_w}×{want_h}")]
+    Size {
+        /// The file.
+        path: PathBuf,
+        /// Width of the file.
+        got_w: u32,
+        /// Height of the file.
+        got_h: u32,
+        /// Width the calibration expects.
+        want_w: u32,
+        /// Height the calibration expects.
+        want_h: u32,
+    },
+}

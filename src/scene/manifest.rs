@@ -1,0 +1,305 @@
+//! The serde shape of `scene.toml` and `calib/camera.toml` (documented in `scenes/README.md`).
+
+use super::{SceneError, invalid, parse_time};
+use crate::estimate::EstimatorConfig;
+use chrono::{DateTime, FixedOffset};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// A time written either as a TOML string or a TOML offset date-time.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum TimeValue {
+    /// `"2024-06-21T14:00:00+02:00"`
+    Text(String),
+    /// `2024-06-21T14:00:00+02:00` (unquoted)
+    Toml(toml::value::Datetime),
+}
+
+impl std::fmt::Display for TimeValue {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            TimeValue::Text(s) => f.write_str(s),
+            TimeValue::Toml(d) => write!(f, "{d}"),
+        }
+    }
+}
+
+/// `scene.toml`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Manifest {
+    /// Scene name.
+    pub name: String,
+    /// Free text.
+    #[serde(default)]
+    pub description: String,
+    /// Where the scene is.
+    pub place: PlaceSpec,
+    /// The real proxy.
+    pub proxy: ProxySpec,
+    /// The camera calibration file.
+    pub camera: CameraRef,
+    /// Virtual objects to insert.
+    #[serde(default)]
+    pub virtual_objects: Vec<VirtualObjectSpec>,
+    /// The HDR environment map.
+    pub envmap: Option<EnvMapSpec>,
+    /// The irradiance-volume grid.
+    pub irradiance: Option<GridSpec>,
+    /// Frame sequences.
+    #[serde(default)]
+    pub sequences: Vec<SequenceSpec>,
+    /// Estimator settings (defaults when absent).
+    pub estimator: Option<EstimatorConfig>,
+}
+
+fn default_north() -> [f64; 3] {
+    [0.0, 0.0, -1.0]
+}
+fn default_pressure() -> f64 {
+    crate::sun::DEFAULT_PRESSURE_MBAR
+}
+fn default_temperature() -> f64 {
+    crate::sun::DEFAULT_TEMPERATURE_C
+}
+
+/// `[place]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlaceSpec {
+    /// Degrees, positive north.
+    pub latitude_deg: f64,
+    /// Degrees, positive east.
+    pub longitude_deg: f64,
+    /// Metres above sea level.
+    #[serde(default)]
+    pub elevation_m: f64,
+    /// World-frame direction of geographic north (horizontal), default `[0, 0, -1]`.
+    #[serde(default = "default_north")]
+    pub north: [f64; 3],
+    /// Air pressure for refraction.
+    #[serde(default = "default_pressure")]
+    pub pressure_mbar: f64,
+    /// Air temperature for refraction.
+    #[serde(default = "default_temperature")]
+    pub temperature_c: f64,
+    /// ΔT = TT − UT1 in seconds (estimated when absent).
+    pub delta_t_s: Option<f64>,
+}
+
+/// `[proxy]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProxySpec {
+    /// glTF file of the real proxy, relative to the scene folder.
+    pub file: String,
+    /// Node names to mark as diffuse estimation surfaces, besides those marked in the glTF extras.
+    #[serde(default)]
+    pub diffuse_nodes: Vec<String>,
+}
+
+/// `[camera]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraRef {
+    /// Camera calibration file, relative to the scene folder (e.g. `calib/camera.toml`).
+    pub file: String,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// `[[virtual_objects]]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VirtualObjectSpec {
+    /// glTF file, relative to the scene folder.
+    pub file: String,
+    /// World position of the object's origin, metres.
+    #[serde(default)]
+    pub translation: [f64; 3],
+    /// Rotation about +Y, degrees (counter-clockwise seen from above).
+    #[serde(default)]
+    pub rotation_y_deg: f64,
+    /// Uniform scale.
+    #[serde(default = "one")]
+    pub scale: f64,
+}
+
+/// `[envmap]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EnvMapSpec {
+    /// Equirectangular OpenEXR file, relative to the scene folder.
+    pub file: String,
+    /// World position where it was captured.
+    pub capture_center: [f64; 3],
+    /// When it was captured (RFC 3339 with offset).
+    pub capture_time: TimeValue,
+}
+
+/// `[irradiance]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridSpec {
+    /// Lower corner of the region where virtual objects may stand, world metres.
+    pub min: [f64; 3],
+    /// Upper corner.
+    pub max: [f64; 3],
+    /// Probe spacing, metres.
+    pub spacing_m: f64,
+}
+
+/// Frame times: either `start` + `fps` or an explicit `times` list.
+#[derive(Clone, Debug, Default)]
+pub struct TimeSpec {
+    /// Time of the first frame.
+    pub start: Option<TimeValue>,
+    /// Frames per second.
+    pub fps: Option<f64>,
+    /// One time per frame.
+    pub times: Option<Vec<TimeValue>>,
+}
+
+impl TimeSpec {
+    /// The time of each of `n` frames.
+    pub fn frame_times(&self, path: &Path, field: &str, n: usize) -> Result<Vec<DateTime<FixedOffset>>, SceneError> {
+        match (&self.times, &self.start, self.fps) {
+            (Some(list), None, None) => {
+                if list.len() != n {
+                    return Err(invalid(path, field, format!("{} times listed for {n} frames", list.len())));
+                }
+                list.iter().enumerate().map(|(i, t)| parse_time(path, &format!("{field}[{i}]"), &t.to_string())).collect()
+            }
+            (None, Some(start), Some(fps)) => {
+                if !(fps.is_finite() && fps > 0.0) {
+                    return Err(invalid(path, field, format!("fps = {fps} must be positive")));
+                }
+                let t0 = parse_time(path, field, &start.to_string())?;
+                Ok((0..n)
+                    .map(|i| t0 + chrono::Duration::nanoseconds((i as f64 / fps * 1e9).round() as i64))
+                    .collect())
+            }
+            _ => Err(invalid(path, field, "give either `times = [...]` or both `start` and `fps`")),
+        }
+    }
+}
+
+/// `[[sequences]]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SequenceSpec {
+    /// Name used on the command line (`--sequence`).
+    pub name: String,
+    /// Folder of `.exr`/`.png` frames (sorted by name), relative to the scene folder.
+    pub dir: String,
+    /// Time of the first frame (with `fps`).
+    pub start: Option<TimeValue>,
+    /// Frames per second (with `start`).
+    pub fps: Option<f64>,
+    /// One time per frame (instead of `start` and `fps`).
+    pub times: Option<Vec<TimeValue>>,
+    /// Exposure of this sequence (overrides the camera file's `response.exposure`).
+    pub exposure: Option<f32>,
+    /// CSV of known lighting per frame (`frame,time,pd_r,pd_g,pd_b,pa_r,pa_g,pa_b`).
+    pub truth: Option<String>,
+}
+
+impl SequenceSpec {
+    /// The timing fields.
+    pub fn time_spec(&self) -> TimeSpec {
+        TimeSpec { start: self.start.clone(), fps: self.fps, times: self.times.clone() }
+    }
+}
+
+/// `calib/camera.toml`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraFile {
+    /// Image width, pixels.
+    pub width: u32,
+    /// Image height, pixels.
+    pub height: u32,
+    /// Focal length, pixels.
+    pub fx: f64,
+    /// Focal length, pixels.
+    pub fy: f64,
+    /// Principal point, pixels (OpenCV convention).
+    pub cx: f64,
+    /// Principal point, pixels.
+    pub cy: f64,
+    /// Brown–Conrady `[k1, k2, p1, p2, k3]`.
+    #[serde(default)]
+    pub distortion: [f64; 5],
+    /// Camera pose.
+    pub pose: PoseSpec,
+    /// Photometric response.
+    #[serde(default)]
+    pub response: ResponseSpec,
+}
+
+/// `[pose]`: look-at form or OpenCV `solvePnP` form.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(untagged, deny_unknown_fields)]
+pub enum PoseSpec {
+    /// A camera at `position` looking at `look_at`.
+    LookAt {
+        /// Camera centre, world.
+        position: [f64; 3],
+        /// A world point on the optical axis.
+        look_at: [f64; 3],
+        /// World direction that appears up in the image.
+        #[serde(default = "up")]
+        up: [f64; 3],
+    },
+    /// `camera_from_world` as OpenCV's Rodrigues vector and translation.
+    OpenCv {
+        /// Rodrigues rotation vector.
+        rvec_camera_from_world: [f64; 3],
+        /// Translation.
+        tvec_camera_from_world: [f64; 3],
+    },
+}
+
+fn up() -> [f64; 3] {
+    [0.0, 1.0, 0.0]
+}
+
+fn srgb() -> String {
+    "srgb".into()
+}
+fn sat() -> f32 {
+    0.98
+}
+fn exposure_one() -> f32 {
+    1.0
+}
+
+/// `[response]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ResponseSpec {
+    /// `srgb` (default), `linear`, `gamma` or `table`.
+    #[serde(default = "srgb")]
+    pub kind: String,
+    /// Exponent for `kind = "gamma"`.
+    pub gamma: Option<f32>,
+    /// CSV file for `kind = "table"`.
+    pub table: Option<String>,
+    /// Camera linear value per unit scene radiance.
+    #[serde(default = "exposure_one")]
+    pub exposure: f32,
+    /// LDR codes at or above this fraction of full scale count as clipped.
+    #[serde(default = "sat")]
+    pub saturation: f32,
+    /// HDR values at or above this count as clipped.
+    pub hdr_clip: Option<f32>,
+}
+
+impl Default for ResponseSpec {
+    fn default() -> Self {
+        Self { kind: srgb(), gamma: None, table: None, exposure: 1.0, saturation: sat(), hdr_clip: None }
+    }
+}

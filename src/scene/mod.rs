@@ -1,0 +1,457 @@
+//! Scene folders: the manifest, the real proxy and virtual objects (glTF), the calibrated camera,
+//! the place and its geographic frame, frame sequences and their times.
+//!
+//! The format is documented for scene authors in `scenes/README.md`. [`Scene::load`] validates
+//! everything it reads and names the file and field of the first problem it finds.
+
+pub mod camera;
+pub mod gltf;
+mod manifest;
+
+pub use manifest::{CameraFile, EnvMapSpec, GridSpec, Manifest, PoseSpec, ResponseSpec, SequenceSpec, TimeSpec, VirtualObjectSpec};
+
+use crate::estimate::EstimatorConfig;
+use crate::geometry::Mesh;
+use crate::io::IoError;
+use crate::io::frames::{Linearizer, Response, list_frame_files};
+use crate::sun::{GeoFrame, Observer};
+use camera::{Camera, Intrinsics, Pose};
+use chrono::{DateTime, FixedOffset};
+use glam::{DVec3, Mat4, Quat, Vec3};
+use std::path::{Path, PathBuf};
+
+/// Name of the manifest file inside a scene folder.
+pub const MANIFEST_FILE: &str = "scene.toml";
+
+/// Errors loading a scene.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// A file the scene refers to does not exist.
+    #[error("{path}: file not found")]
+    Missing {
+        /// The missing file.
+        path: PathBuf,
+    },
+    /// A file could not be read.
+    #[error("{path}: {source}")]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// A TOML file is malformed or has a missing, unknown or mistyped field.
+    #[error("{path}: {message}")]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// The parser's message, which names the field and line.
+        message: String,
+    },
+    /// A field has a value heliar cannot use.
+    #[error("{path}: field `{field}`: {message}")]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// Dotted field name, e.g. `place.latitude_deg`.
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A glTF file is corrupt or unusable.
+    #[error("{path}: glTF: {message}")]
+    Gltf {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// An image or frame file problem.
+    #[error(transparent)]
+    Io(#[from] IoError),
+}
+
+/// Photometric calibration of a sequence's frames.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Photometry {
+    /// Response curve of LDR codes.
+    pub response: Response,
+    /// Camera linear value per unit scene radiance (LDR and HDR).
+    pub exposure: f32,
+    /// Fraction of the LDR code range treated as clipped.
+    pub saturation: f32,
+    /// HDR values at or above this are treated as clipped.
+    pub hdr_clip: Option<f32>,
+}
+
+impl Photometry {
+    /// Lookup tables for this calibration.
+    pub fn linearizer(&self) -> Linearizer {
+        Linearizer::new(&self.response, self.exposure, self.saturation, self.hdr_clip)
+    }
+}
+
+/// Known lighting of one frame (from a scene generator or a measurement).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Truth {
+    /// Sun irradiance on a surface facing the sun (RGB).
+    pub pd: [f64; 3],
+    /// Sky irradiance on an unoccluded horizontal surface (RGB).
+    pub pa: [f64; 3],
+}
+
+/// A sequence of frames with their times.
+#[derive(Clone, Debug)]
+pub struct Sequence {
+    /// Name from the manifest.
+    pub name: String,
+    /// Frame files in order.
+    pub files: Vec<PathBuf>,
+    /// Capture time of each frame.
+    pub times: Vec<DateTime<FixedOffset>>,
+    /// Photometric calibration (the camera's, with the sequence's exposure).
+    pub photometry: Photometry,
+    /// Known lighting per frame, when the sequence has a truth file.
+    pub truth: Option<Vec<Truth>>,
+}
+
+/// A placed virtual object.
+#[derive(Clone, Debug)]
+pub struct VirtualObject {
+    /// Source file.
+    pub path: PathBuf,
+    /// Its triangles in world coordinates.
+    pub mesh: Mesh,
+}
+
+/// A loaded and validated scene folder.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The scene folder.
+    pub root: PathBuf,
+    /// The manifest as written.
+    pub manifest: Manifest,
+    /// Where the scene is on Earth.
+    pub observer: Observer,
+    /// North, east and up in the world frame.
+    pub geo: GeoFrame,
+    /// The calibrated camera.
+    pub camera: Camera,
+    /// The real proxy geometry.
+    pub proxy: Mesh,
+    /// Notes from loading the proxy.
+    pub proxy_notes: gltf::LoadNotes,
+    /// Virtual objects.
+    pub virtual_objects: Vec<VirtualObject>,
+    /// Frame sequences.
+    pub sequences: Vec<Sequence>,
+    /// Estimator settings.
+    pub estimator: EstimatorConfig,
+}
+
+fn read_toml<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, SceneError> {
+    let text = std::fs::read_to_string(path).map_err(|source| match source.kind() {
+        std::io::ErrorKind::NotFound => SceneError::Missing { path: path.to_owned() },
+        _ => SceneError::Read { path: path.to_owned(), source },
+    })?;
+    toml::from_str(&text).map_err(|e| SceneError::Parse { path: path.to_owned(), message: e.to_string() })
+}
+
+fn invalid(path: &Path, field: &str, message: impl Into<String>) -> SceneError {
+    SceneError::Invalid { path: path.to_owned(), field: field.to_owned(), message: message.into() }
+}
+
+fn finite3(path: &Path, field: &str, v: [f64; 3]) -> Result<DVec3, SceneError> {
+    let d = DVec3::from(v);
+    if d.is_finite() { Ok(d) } else { Err(invalid(path, field, "must be finite numbers")) }
+}
+
+/// Parses an RFC 3339 time; the field name goes into the error.
+pub fn parse_time(path: &Path, field: &str, s: &str) -> Result<DateTime<FixedOffset>, SceneError> {
+    DateTime::parse_from_rfc3339(s.trim())
+        .map_err(|e| invalid(path, field, format!("'{s}' is not an RFC 3339 time with offset ({e})")))
+}
+
+fn load_camera(scene_dir: &Path, manifest_path: &Path, file: &str) -> Result<(Camera, CameraFile, PathBuf), SceneError> {
+    let path = scene_dir.join(file);
+    if !path.exists() {
+        return Err(invalid(manifest_path, "camera.file", format!("{} does not exist", path.display())));
+    }
+    let cf: CameraFile = read_toml(&path)?;
+    let p = path.as_path();
+    if cf.width == 0 || cf.height == 0 {
+        return Err(invalid(p, "width/height", "must be positive"));
+    }
+    for (name, v) in [("fx", cf.fx), ("fy", cf.fy)] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(invalid(p, name, format!("focal length {v} must be a positive number of pixels")));
+        }
+    }
+    for (name, v) in [("cx", cf.cx), ("cy", cf.cy)] {
+        if !v.is_finite() {
+            return Err(invalid(p, name, "must be finite"));
+        }
+    }
+    if cf.distortion.iter().any(|k| !k.is_finite()) {
+        return Err(invalid(p, "distortion", "coefficients must be finite"));
+    }
+    let intrinsics = Intrinsics {
+        width: cf.width,
+        height: cf.height,
+        fx: cf.fx,
+        fy: cf.fy,
+        cx: cf.cx,
+        cy: cf.cy,
+        distortion: cf.distortion,
+    };
+    let pose = match &cf.pose {
+        PoseSpec::LookAt { position, look_at, up } => {
+            let (pos, tgt, up) = (finite3(p, "pose.position", *position)?, finite3(p, "pose.look_at", *look_at)?, finite3(p, "pose.up", *up)?);
+            Pose::look_at(pos, tgt, up)
+                .ok_or_else(|| invalid(p, "pose.look_at", "the view direction is zero or parallel to `up`"))?
+        }
+        PoseSpec::OpenCv { rvec_camera_from_world, tvec_camera_from_world } => Pose::from_rvec_tvec(
+            finite3(p, "pose.rvec_camera_from_world", *rvec_camera_from_world)?,
+            finite3(p, "pose.tvec_camera_from_world", *tvec_camera_from_world)?,
+        ),
+    };
+    Ok((Camera { intrinsics, pose }, cf, path))
+}
+
+fn load_response(scene_dir: &Path, camera_path: &Path, spec: &ResponseSpec) -> Result<Response, SceneError> {
+    Ok(match spec.kind.as_str() {
+        "srgb" => Response::Srgb,
+        "linear" => Response::Linear,
+        "gamma" => {
+            let g = spec.gamma.unwrap_or(2.2);
+            if !(g.is_finite() && g > 0.0) {
+                return Err(invalid(camera_path, "response.gamma", "must be a positive number"));
+            }
+            Response::Gamma(g)
+        }
+        "table" => {
+            let file = spec.table.as_deref().ok_or_else(|| invalid(camera_path, "response.table", "kind = \"table\" needs a table file"))?;
+            let path = scene_dir.join(file);
+            let text = std::fs::read_to_string(&path).map_err(|source| match source.kind() {
+                std::io::ErrorKind::NotFound => SceneError::Missing { path: path.clone() },
+                _ => SceneError::Read { path: path.clone(), source },
+            })?;
+            let mut rows = Vec::new();
+            for (i, line) in text.lines().enumerate() {
+                let line = line.trim();
+                if line.is_empty() || line.starts_with('#') || line.chars().next().is_some_and(|c| c.is_alphabetic()) {
+                    continue;
+                }
+                let vals: Result<Vec<f32>, _> = line.split(',').map(|s| s.trim().parse::<f32>()).collect();
+                let row = match vals.as_deref() {
+                    Ok([v]) => [*v; 3],
+                    Ok([r, g, b]) => [*r, *g, *b],
+                    _ => return Err(invalid(&path, &format!("line {}", i + 1), "expected 1 or 3 comma-separated numbers")),
+                };
+                if row.iter().any(|v| !v.is_finite() || *v < 0.0) {
+                    return Err(invalid(&path, &format!("line {}", i + 1), "values must be finite and non-negative"));
+                }
+                rows.push(row);
+            }
+            if rows.len() < 2 {
+                return Err(invalid(&path, "rows", "a response table needs at least 2 rows"));
+            }
+            for c in 0..3 {
+                if rows.windows(2).any(|w| w[1][c] < w[0][c]) {
+                    return Err(invalid(&path, "rows", format!("channel {c} is not monotone non-decreasing")));
+                }
+            }
+            Response::Table(rows)
+        }
+        other => {
+            return Err(invalid(camera_path, "response.kind", format!("'{other}' is not one of srgb, linear, gamma, table")));
+        }
+    })
+}
+
+fn load_truth(path: &Path, n: usize) -> Result<Vec<Truth>, SceneError> {
+    let text = std::fs::read_to_string(path).map_err(|source| match source.kind() {
+        std::io::ErrorKind::NotFound => SceneError::Missing { path: path.to_owned() },
+        _ => SceneError::Read { path: path.to_owned(), source },
+    })?;
+    let mut lines = text.lines().filter(|l| !l.trim().is_empty());
+    let header: Vec<&str> = lines.next().unwrap_or("").split(',').map(str::trim).collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).ok_or_else(|| invalid(path, name, "column missing from the header"));
+    let cols: Vec<usize> = ["pd_r", "pd_g", "pd_b", "pa_r", "pa_g", "pa_b"].iter().map(|c| col(c)).collect::<Result<_, _>>()?;
+    let mut out = Vec::new();
+    for (i, line) in lines.enumerate() {
+        let f: Vec<&str> = line.split(',').map(str::trim).collect();
+        let mut v = [0.0f64; 6];
+        for (k, &c) in cols.iter().enumerate() {
+            v[k] = f.get(c).and_then(|s| s.parse().ok()).filter(|x: &f64| x.is_finite()).ok_or_else(|| {
+                invalid(path, &format!("row {} column {}", i + 2, header[c]), "not a finite number")
+            })?;
+        }
+        out.push(Truth { pd: [v[0], v[1], v[2]], pa: [v[3], v[4], v[5]] });
+    }
+    if out.len() != n {
+        return Err(invalid(path, "rows", format!("{} rows but the sequence has {n} frames", out.len())));
+    }
+    Ok(out)
+}
+
+impl Scene {
+    /// Loads and validates the scene folder `root` (which holds `scene.toml`).
+    pub fn load(root: &Path) -> Result<Scene, SceneError> {
+        let mpath = root.join(MANIFEST_FILE);
+        if !root.is_dir() {
+            return Err(SceneError::Missing { path: root.to_owned() });
+        }
+        let manifest: Manifest = read_toml(&mpath)?;
+        let m = &mpath;
+
+        // Place.
+        let pl = &manifest.place;
+        if !(pl.latitude_deg.is_finite() && pl.latitude_deg.abs() <= 90.0) {
+            return Err(invalid(m, "place.latitude_deg", format!("{} is not in [-90, 90]", pl.latitude_deg)));
+        }
+        if !(pl.longitude_deg.is_finite() && pl.longitude_deg.abs() <= 180.0) {
+            return Err(invalid(m, "place.longitude_deg", format!("{} is not in [-180, 180]", pl.longitude_deg)));
+        }
+        if !(pl.elevation_m.is_finite() && pl.elevation_m > -500.0 && pl.elevation_m < 9000.0) {
+            return Err(invalid(m, "place.elevation_m", format!("{} m is not a place on Earth", pl.elevation_m)));
+        }
+        if !(pl.pressure_mbar.is_finite() && pl.pressure_mbar > 0.0 && pl.pressure_mbar <= 2000.0) {
+            return Err(invalid(m, "place.pressure_mbar", "must be in (0, 2000]"));
+        }
+        if !(pl.temperature_c.is_finite() && pl.temperature_c > -273.0 && pl.temperature_c <= 100.0) {
+            return Err(invalid(m, "place.temperature_c", "must be in (-273, 100]"));
+        }
+        let geo = GeoFrame::from_north(finite3(m, "place.north", pl.north)?)
+            .ok_or_else(|| invalid(m, "place.north", "must have a horizontal (x/z) component"))?;
+        let observer = Observer {
+            latitude_deg: pl.latitude_deg,
+            longitude_deg: pl.longitude_deg,
+            elevation_m: pl.elevation_m,
+            pressure_mbar: pl.pressure_mbar,
+            temperature_c: pl.temperature_c,
+            delta_t_s: pl.delta_t_s,
+        };
+
+        // Camera.
+        let (camera, camera_file, camera_path) = load_camera(root, m, &manifest.camera.file)?;
+        let response = load_response(root, &camera_path, &camera_file.response)?;
+        let rs = &camera_file.response;
+        if !(rs.exposure.is_finite() && rs.exposure > 0.0) {
+            return Err(invalid(&camera_path, "response.exposure", "must be positive"));
+        }
+        if !(rs.saturation > 0.0 && rs.saturation <= 1.0) {
+            return Err(invalid(&camera_path, "response.saturation", "must be in (0, 1]"));
+        }
+        if rs.hdr_clip.is_some_and(|c| !(c > 0.0)) {
+            return Err(invalid(&camera_path, "response.hdr_clip", "must be positive"));
+        }
+
+        // Proxy.
+        let proxy_path = root.join(&manifest.proxy.file);
+        if !proxy_path.exists() {
+            return Err(invalid(m, "proxy.file", format!("{} does not exist", proxy_path.display())));
+        }
+        let (proxy, proxy_notes) = gltf::load_gltf(&proxy_path, Mat4::IDENTITY, &manifest.proxy.diffuse_nodes)?;
+        if !proxy.nodes.iter().any(|n| n.diffuse) {
+            return Err(invalid(
+                &proxy_path,
+                "extras.heliar.diffuse",
+                "no node is marked as a diffuse estimation surface (set it in the node's extras or list it in proxy.diffuse_nodes)",
+            ));
+        }
+
+        // Virtual objects.
+        let mut virtual_objects = Vec::new();
+        for (i, v) in manifest.virtual_objects.iter().enumerate() {
+            let field = |f: &str| format!("virtual_objects[{i}].{f}");
+            let path = root.join(&v.file);
+            if !path.exists() {
+                return Err(invalid(m, &field("file"), format!("{} does not exist", path.display())));
+            }
+            if !(v.scale.is_finite() && v.scale > 0.0) {
+                return Err(invalid(m, &field("scale"), "must be positive"));
+            }
+            let t = finite3(m, &field("translation"), v.translation)?.as_vec3();
+            let placement = Mat4::from_scale_rotation_translation(
+                Vec3::splat(v.scale as f32),
+                Quat::from_rotation_y((v.rotation_y_deg as f32).to_radians()),
+                t,
+            );
+            let (mesh, _) = gltf::load_gltf(&path, placement, &[])?;
+            virtual_objects.push(VirtualObject { path, mesh });
+        }
+
+        // Environment map and irradiance grid: checked here, used by the bake.
+        if let Some(env) = &manifest.envmap {
+            let p = root.join(&env.file);
+            if !p.exists() {
+                return Err(invalid(m, "envmap.file", format!("{} does not exist", p.display())));
+            }
+            finite3(m, "envmap.capture_center", env.capture_center)?;
+            parse_time(m, "envmap.capture_time", &env.capture_time.to_string())?;
+        }
+        if let Some(g) = &manifest.irradiance {
+            let (lo, hi) = (finite3(m, "irradiance.min", g.min)?, finite3(m, "irradiance.max", g.max)?);
+            if !(lo.cmplt(hi).all()) {
+                return Err(invalid(m, "irradiance.min/max", "min must be below max on every axis (empty or inverted bounds)"));
+            }
+            if !(g.spacing_m.is_finite() && g.spacing_m > 0.0) {
+                return Err(invalid(m, "irradiance.spacing_m", "must be positive"));
+            }
+        }
+
+        // Sequences.
+        let mut sequences = Vec::new();
+        for (i, s) in manifest.sequences.iter().enumerate() {
+            let field = |f: &str| format!("sequences[{i}].{f}");
+            let dir = root.join(&s.dir);
+            if !dir.is_dir() {
+                return Err(invalid(m, &field("dir"), format!("{} is not a folder", dir.display())));
+            }
+            let files = list_frame_files(&dir)?;
+            if files.is_empty() {
+                return Err(invalid(m, &field("dir"), format!("{} holds no .exr or .png frames", dir.display())));
+            }
+            let times = s.time_spec().frame_times(m, &field("times"), files.len())?;
+            let exposure = s.exposure.unwrap_or(rs.exposure);
+            if !(exposure.is_finite() && exposure > 0.0) {
+                return Err(invalid(m, &field("exposure"), "must be positive"));
+            }
+            let truth = match &s.truth {
+                Some(t) => Some(load_truth(&root.join(t), files.len())?),
+                None => None,
+            };
+            sequences.push(Sequence {
+                name: s.name.clone(),
+                files,
+                times,
+                photometry: Photometry { response: response.clone(), exposure, saturation: rs.saturation, hdr_clip: rs.hdr_clip },
+                truth,
+            });
+        }
+        let estimator = manifest.estimator.clone().unwrap_or_default();
+        estimator.validate().map_err(|(f, msg)| invalid(m, &format!("estimator.{f}"), msg))?;
+
+        Ok(Scene {
+            root: root.to_owned(),
+            manifest,
+            observer,
+            geo,
+            camera,
+            proxy,
+            proxy_notes,
+            virtual_objects,
+            sequences,
+            estimator,
+        })
+    }
+
+    /// The sequence called `name`, or the first one.
+    pub fn sequence(&self, name: Option<&str>) -> Option<&Sequence> {
+        match name {
+            Some(n) => self.sequences.iter().find(|s| s.name == n),
+            None => self.sequences.first(),
+        }
+    }
+}
