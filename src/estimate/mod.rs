@@ -9,7 +9,8 @@
 //! - [`pool`]: a one-off pixel map and sample pool over the marked diffuse surfaces seen by the
 //!   camera, with `ρ`, `n` and `c` per entry; per sun direction, `s`, `max(n·l,0)` and the
 //!   shadow-boundary exclusion.
-//! - Per frame: draw N entries (default 500, without replacement, seeded by frame index), read
+//! - Per frame: draw N entries (default 500, without replacement, seeded by frame index, half
+//!   from sunlit and half from shadowed entries when both exist: [`SunState::draw`]), read
 //!   and linearise their pixels, drop clipped and invalid ones, and fit
 //!   `I = ρ/π·(c·Pa + (s·max(n·l,0) + b)·Pd)` per channel with [`solve::robust_fit`].
 //! - Decide the [`Status`]; when `Pd` and `Pa` cannot be separated, fall back (see [`Fallback`])
@@ -31,7 +32,7 @@ use crate::sun::{GeoFrame, Observer, SunError, SunPosition, sun_position};
 use chrono::{DateTime, FixedOffset};
 use glam::Vec3;
 use pool::{PixelMap, Pool, SunState};
-use rand::{SeedableRng, rngs::SmallRng, seq::index};
+use rand::{SeedableRng, rngs::SmallRng};
 use serde::{Deserialize, Serialize};
 use solve::{COND_CAP, ChannelFit, ChannelRows, robust_fit};
 use std::sync::Arc;
@@ -41,6 +42,10 @@ use temporal::{ChangeDetector, ChangeReason, Smoother};
 pub const LUMA: [f64; 3] = [0.2126, 0.7152, 0.0722];
 /// Sunlit samples needed (besides the condition number) before `Pd` is fitted at all.
 const MIN_LIT_SAMPLES: usize = 5;
+/// When more than this fraction of the drawn samples of one surface and sun class (a proxy node,
+/// sunlit or not) is clipped, its unclipped samples are dropped too: they are the darkest part of
+/// a partly saturated population (albedo texture, noise), so keeping them would bias the fit low.
+const CENSOR_FRACTION: f64 = 0.05;
 
 /// Estimator settings (`[estimator]` in `scene.toml`). Every field has a default.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -83,15 +88,15 @@ impl Default for EstimatorConfig {
     fn default() -> Self {
         Self {
             samples: 500,
-            pool_size: 8192,
+            pool_size: 4096,
             edge_margin_px: 3,
-            ambient: TransportQuality { paths: 256, max_bounces: 4 },
-            bounce: TransportQuality { paths: 64, max_bounces: 3 },
+            ambient: TransportQuality { paths: 64, max_bounces: 4 },
+            bounce: TransportQuality { paths: 256, max_bounces: 3 },
             sun_bounce: true,
             sun_rebuild_deg: 0.25,
             min_samples: 30,
             max_condition: 30.0,
-            no_sun_ratio: 0.03,
+            no_sun_ratio: 0.05,
             saturated_fraction: 0.5,
             smoothing_rate_per_sqrt_s: 0.1,
             relight_threshold: 0.02,
@@ -200,6 +205,8 @@ pub struct SampleCounts {
     pub clipped: usize,
     /// Drawn samples skipped as NaN, infinite or negative.
     pub invalid: usize,
+    /// Unclipped samples skipped because their surface is partly clipped (see `CENSOR_FRACTION`).
+    pub censored: usize,
     /// Usable samples that are sunlit.
     pub lit: usize,
     /// Usable samples kept by the robust weights (fewest over the channels).
@@ -310,6 +317,8 @@ pub struct Estimator {
     lit: Vec<bool>,
     bounce_only: Vec<[f64; 3]>,
     rho_over_pi: Vec<[f64; 3]>,
+    drawn: Vec<u32>,
+    states: Vec<([f32; 3], PixelState)>,
     stats: SetupStats,
 }
 
@@ -365,6 +374,8 @@ impl Estimator {
             lit: Vec::new(),
             bounce_only: Vec::new(),
             rho_over_pi: Vec::new(),
+            drawn: Vec::new(),
+            states: Vec::new(),
             stats,
         })
     }
@@ -437,9 +448,10 @@ impl Estimator {
 
         // Draw.
         let mut rng = SmallRng::seed_from_u64(self.config.seed ^ (index as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
-        let available = sun.valid.len();
+        let available = sun.available();
         let n = self.config.samples.min(available);
-        let drawn = index::sample(&mut rng, available, n);
+        let mut drawn = std::mem::take(&mut self.drawn);
+        sun.draw(n, &mut rng, &mut drawn);
         for r in &mut self.rows {
             r.clear();
         }
@@ -448,15 +460,37 @@ impl Estimator {
         self.rho_over_pi.clear();
         let mut counts = SampleCounts { available, drawn: n, ..Default::default() };
         let mut clipped_lit = 0;
-        for k in drawn.iter() {
-            let e = sun.valid[k] as usize;
+        // Censoring: count drawn and clipped samples per (node, lit) group first.
+        let mut groups: Vec<(u32, bool, u32, u32)> = Vec::new(); // (node, lit, drawn, clipped)
+        let mut states = std::mem::take(&mut self.states);
+        states.clear();
+        for &e in &drawn {
+            let e = e as usize;
             let (v, state) = lin.radiance(frame, self.pool.pixel[e] as usize);
+            states.push((v, state));
+            let key = (self.pool.node[e], sun.lit[e]);
+            let g = match groups.iter().position(|g| (g.0, g.1) == key) {
+                Some(g) => g,
+                None => {
+                    groups.push((key.0, key.1, 0, 0));
+                    groups.len() - 1
+                }
+            };
+            groups[g].2 += 1;
+            groups[g].3 += (state == PixelState::Clipped) as u32;
+        }
+        let censored = |node: u32, lit: bool| {
+            groups.iter().any(|g| g.0 == node && g.1 == lit && g.3 as f64 > CENSOR_FRACTION * g.2 as f64)
+        };
+        for (&e, &(v, state)) in drawn.iter().zip(&states) {
+            let e = e as usize;
             match state {
                 PixelState::Invalid => counts.invalid += 1,
                 PixelState::Clipped => {
                     counts.clipped += 1;
                     clipped_lit += sun.lit[e] as usize;
                 }
+                PixelState::Ok if censored(self.pool.node[e], sun.lit[e]) => counts.censored += 1,
                 PixelState::Ok => {
                     let (a, b) = (self.pool.a[e], sun.b[e]);
                     for c in 0..3 {
@@ -471,6 +505,8 @@ impl Estimator {
                 }
             }
         }
+        self.states = states;
+        self.drawn = drawn;
         counts.usable = self.rows[0].len();
         counts.lit = self.lit.iter().filter(|&&l| l).count();
         let saturated = n > 0 && counts.clipped as f64 > self.config.saturated_fraction * n as f64;

@@ -175,6 +175,8 @@ pub struct Pool {
     pub c: Vec<Vec3>,
     /// Ambient coefficient `ρ·c/π` per channel.
     pub a: Vec<[f32; 3]>,
+    /// Proxy node seen by the entry.
+    pub node: Vec<u32>,
 }
 
 impl Pool {
@@ -200,7 +202,8 @@ impl Pool {
                 (p, n, albedo, t.c)
             })
             .collect();
-        let mut pool = Pool { pixel: picked, ..Default::default() };
+        let node = picked.iter().map(|&px| scene.mesh().tri_node[map.tri[px as usize] as usize]).collect();
+        let mut pool = Pool { pixel: picked, node, ..Default::default() };
         for (p, n, albedo, c) in entries {
             pool.point.push(p);
             pool.normal.push(n);
@@ -224,6 +227,11 @@ impl Pool {
 }
 
 /// Per-sun-direction model inputs of the pool.
+///
+/// The entries a frame may draw from are split by sun visibility: frames draw half of their
+/// samples from each class (or all of the smaller class and the rest from the other), a
+/// stratified draw that keeps both `Pd` and `Pa` well determined even when shadow covers a small
+/// part of the view.
 #[derive(Clone, Debug)]
 pub struct SunState {
     /// Sun direction this state was built for.
@@ -234,12 +242,32 @@ pub struct SunState {
     pub b: Vec<[f32; 3]>,
     /// Entry is sunlit (`s = 1`, `n·l` ≥ [`LIT_COS_MIN`]).
     pub lit: Vec<bool>,
-    /// Entries away from shadow boundaries (the ones frames may sample).
-    pub valid: Vec<u32>,
+    /// Sunlit entries away from shadow boundaries.
+    pub valid_lit: Vec<u32>,
+    /// Unlit entries away from shadow boundaries.
+    pub valid_unlit: Vec<u32>,
     /// Entries left out as near a shadow boundary.
     pub near_shadow_boundary: usize,
     /// Wall time to build, ms.
     pub build_ms: f64,
+}
+
+impl SunState {
+    /// Entries frames may draw from.
+    pub fn available(&self) -> usize {
+        self.valid_lit.len() + self.valid_unlit.len()
+    }
+
+    /// Draws `n` distinct entries, stratified by sun visibility (see the type docs).
+    pub fn draw(&self, n: usize, rng: &mut impl rand::Rng, out: &mut Vec<u32>) {
+        out.clear();
+        let (nl, nu) = (self.valid_lit.len(), self.valid_unlit.len());
+        let n = n.min(nl + nu);
+        let take_lit = (n / 2).max(n.saturating_sub(nu)).min(nl);
+        let take_unlit = n - take_lit;
+        out.extend(index::sample(rng, nl, take_lit).into_iter().map(|k| self.valid_lit[k]));
+        out.extend(index::sample(rng, nu, take_unlit).into_iter().map(|k| self.valid_unlit[k]));
+    }
 }
 
 impl SunState {
@@ -295,15 +323,18 @@ impl SunState {
             above_horizon,
             b: Vec::with_capacity(pool.len()),
             lit: Vec::with_capacity(pool.len()),
-            valid: Vec::new(),
+            valid_lit: Vec::new(),
+            valid_unlit: Vec::new(),
             near_shadow_boundary: 0,
             build_ms: 0.0,
         };
         for (k, (b, lit, ok)) in per_entry.into_iter().enumerate() {
             st.b.push(b);
             st.lit.push(lit);
-            if ok {
-                st.valid.push(k as u32);
+            if ok && lit {
+                st.valid_lit.push(k as u32);
+            } else if ok {
+                st.valid_unlit.push(k as u32);
             } else {
                 st.near_shadow_boundary += 1;
             }

@@ -80,7 +80,7 @@ impl LinearImage {
         let (w, h) = (self.width as usize, self.height as usize);
         let err = |e: exr::error::Error| IoError::Exr { path: path.to_owned(), message: e.to_string() };
         let encoding = Encoding {
-            compression: Compression::ZIP16,
+            compression: Compression::PIZ,
             blocks: Blocks::ScanLines,
             line_order: LineOrder::Increasing,
         };

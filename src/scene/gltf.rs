@@ -150,3 +150,132 @@ pub fn load_gltf(path: &Path, placement: Mat4, extra_diffuse: &[String]) -> Resu
     }
     Ok((mesh, notes))
 }
+
+/// Writes `mesh` as a binary glTF: one node per [`NodeInfo`] (named, with
+/// `extras.heliar.diffuse` set for diffuse nodes), its triangles in world coordinates, and one
+/// material per [`Material`] (base colour factor, metallic, roughness; textures are not written).
+pub fn save_glb(mesh: &Mesh, path: &Path) -> Result<(), SceneError> {
+    use serde_json::json;
+    let gerr = |message: String| SceneError::Gltf { path: path.to_owned(), message };
+    let mut bin: Vec<u8> = Vec::new();
+    let mut buffer_views = Vec::new();
+    let mut accessors = Vec::new();
+    let mut meshes = Vec::new();
+    let mut nodes = Vec::new();
+    for (ni, node) in mesh.nodes.iter().enumerate() {
+        // Group this node's triangles by material.
+        let mut by_material: std::collections::BTreeMap<u32, Vec<usize>> = Default::default();
+        for (t, &n) in mesh.tri_node.iter().enumerate() {
+            if n as usize == ni {
+                by_material.entry(mesh.tri_material[t]).or_default().push(t);
+            }
+        }
+        let mut primitives = Vec::new();
+        for (material, tris) in by_material {
+            // Unshared vertices per primitive: simple and exact.
+            let mut pos: Vec<f32> = Vec::with_capacity(tris.len() * 9);
+            let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+            for &t in &tris {
+                for v in mesh.triangles[t] {
+                    let p = mesh.positions[v as usize];
+                    lo = lo.min(p);
+                    hi = hi.max(p);
+                    pos.extend_from_slice(&p.to_array());
+                }
+            }
+            let offset = bin.len();
+            bin.extend(pos.iter().flat_map(|f| f.to_le_bytes()));
+            while bin.len() % 4 != 0 {
+                bin.push(0);
+            }
+            buffer_views.push(json!({"buffer": 0, "byteOffset": offset, "byteLength": pos.len() * 4, "target": 34962}));
+            accessors.push(json!({
+                "bufferView": buffer_views.len() - 1, "componentType": 5126, "count": tris.len() * 3,
+                "type": "VEC3", "min": lo.to_array(), "max": hi.to_array()
+            }));
+            primitives.push(json!({"attributes": {"POSITION": accessors.len() - 1}, "material": material, "mode": 4}));
+        }
+        meshes.push(json!({"name": node.name, "primitives": primitives}));
+        let mut n = json!({"name": node.name, "mesh": meshes.len() - 1});
+        if node.diffuse {
+            n["extras"] = json!({"heliar": {"diffuse": true}});
+        }
+        nodes.push(n);
+    }
+    let materials: Vec<_> = mesh
+        .materials
+        .iter()
+        .map(|m| {
+            json!({"name": m.name, "pbrMetallicRoughness": {
+                "baseColorFactor": m.base_color, "metallicFactor": m.metallic, "roughnessFactor": m.roughness}})
+        })
+        .collect();
+    let doc = json!({
+        "asset": {"version": "2.0", "generator": concat!("heliar ", env!("CARGO_PKG_VERSION"))},
+        "scene": 0,
+        "scenes": [{"nodes": (0..nodes.len()).collect::<Vec<_>>()}],
+        "nodes": nodes, "meshes": meshes, "materials": materials,
+        "accessors": accessors, "bufferViews": buffer_views,
+        "buffers": [{"byteLength": bin.len()}],
+    });
+    let mut json_bytes = serde_json::to_vec(&doc).map_err(|e| gerr(e.to_string()))?;
+    while json_bytes.len() % 4 != 0 {
+        json_bytes.push(b' ');
+    }
+    let glb = ::gltf::binary::Glb {
+        header: ::gltf::binary::Header { magic: *b"glTF", version: 2, length: (12 + 8 + json_bytes.len() + 8 + bin.len()) as u32 },
+        json: std::borrow::Cow::Owned(json_bytes),
+        bin: Some(std::borrow::Cow::Owned(bin)),
+    };
+    let file = std::fs::File::create(path).map_err(|source| SceneError::Read { path: path.to_owned(), source })?;
+    glb.to_writer(std::io::BufWriter::new(file)).map_err(|e| gerr(e.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Material;
+
+    #[test]
+    fn glb_round_trip_keeps_geometry_materials_and_marks() {
+        let mut mesh = Mesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Z, Vec3::new(0.0, 2.0, 0.0)],
+            uvs: vec![Vec2::ZERO; 4],
+            triangles: vec![[0, 2, 1], [0, 1, 3]],
+            tri_node: vec![0, 1],
+            tri_material: vec![0, 1],
+            nodes: vec![NodeInfo { name: "ground".into(), diffuse: true }, NodeInfo { name: "post".into(), diffuse: false }],
+            materials: vec![
+                Material { name: "paving".into(), base_color: [0.3, 0.2, 0.1, 1.0], ..Default::default() },
+                Material { name: "metal".into(), base_color: [0.9, 0.9, 0.9, 1.0], metallic: 1.0, roughness: 0.3, ..Default::default() },
+            ],
+            ..Default::default()
+        };
+        mesh.normals.clear();
+        let dir = std::env::temp_dir().join(format!("heliar-glb-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("m.glb");
+        save_glb(&mesh, &p).unwrap();
+        let (back, notes) = load_gltf(&p, Mat4::IDENTITY, &[]).unwrap();
+        assert_eq!(notes, LoadNotes::default());
+        assert_eq!(back.triangles.len(), 2);
+        assert_eq!(back.nodes.iter().filter(|n| n.diffuse).map(|n| n.name.as_str()).collect::<Vec<_>>(), ["ground"]);
+        for t in 0..2u32 {
+            let node = &back.nodes[back.tri_node[t as usize] as usize].name;
+            let orig = mesh.nodes.iter().position(|n| n.name == *node).unwrap() as u32;
+            let ot = mesh.tri_node.iter().position(|&n| n == orig).unwrap() as u32;
+            assert_eq!(back.corners(t), mesh.corners(ot));
+            assert_eq!(back.albedo(t, Vec2::ZERO), mesh.albedo(ot, Vec2::ZERO));
+        }
+        // Extra marks from the manifest, and a name that is not there.
+        let (marked, _) = load_gltf(&p, Mat4::IDENTITY, &["post".into()]).unwrap();
+        assert!(marked.nodes.iter().all(|n| n.diffuse));
+        let e = load_gltf(&p, Mat4::IDENTITY, &["nope".into()]).unwrap_err().to_string();
+        assert!(e.contains("nope") && e.contains("m.glb"), "{e}");
+        // A corrupt file names itself.
+        std::fs::write(&p, b"glTF garbage").unwrap();
+        let e = load_gltf(&p, Mat4::IDENTITY, &[]).unwrap_err().to_string();
+        assert!(e.contains("m.glb"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}

@@ -1,0 +1,175 @@
+//! `heliar bench`: error-against-run-time sweeps of the quality knobs.
+
+use crate::common::{frame_bar, load_scene, pick_sequence};
+use anyhow::{Context, Result, bail};
+use clap::{Args, Subcommand, ValueEnum};
+use heliar::estimate::{EstimatorConfig, Estimator};
+use heliar::io::frames::Frame;
+use heliar::report::{Table, lighting_error, median, percentile};
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct BenchArgs {
+    #[command(subcommand)]
+    what: BenchWhat,
+}
+
+#[derive(Subcommand)]
+enum BenchWhat {
+    /// The estimator on a sequence with known truth.
+    Estimate(EstimateSweep),
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Knob {
+    /// Pixels drawn per frame: 50 … 5000.
+    Samples,
+    /// Paths per pool entry for the weighted-ambient factor c.
+    AmbientPaths,
+    /// Paths per pool entry for the sun-bounce term (0 = term off).
+    BouncePaths,
+    /// Pool size.
+    PoolSize,
+}
+
+#[derive(Args)]
+struct EstimateSweep {
+    /// Scene folder.
+    #[arg(default_value = "scenes/courtyard")]
+    scene: PathBuf,
+    /// Sequence (needs a truth file).
+    #[arg(long)]
+    sequence: Option<String>,
+    /// Which knob to sweep.
+    #[arg(long, value_enum, default_value = "samples")]
+    knob: Knob,
+    /// Draws per frame and knob value (different seeds).
+    #[arg(long, default_value_t = 10)]
+    repeats: usize,
+    /// CSV output.
+    #[arg(long, default_value = "out/bench_estimate.csv")]
+    csv: PathBuf,
+}
+
+struct Row {
+    value: String,
+    errs_pd: Vec<f64>,
+    errs_pa: Vec<f64>,
+    missing: usize,
+    ms: Vec<f64>,
+    setup_ms: f64,
+    rebuild_ms: Vec<f64>,
+}
+
+fn run_config(
+    scene: &heliar::scene::Scene,
+    ray: std::sync::Arc<heliar::geometry::raycast::RayScene>,
+    seq: &heliar::scene::Sequence,
+    frames: &[Frame],
+    cfg: EstimatorConfig,
+    repeats: usize,
+    value: String,
+) -> Result<Row> {
+    let truth = seq.truth.as_ref().context("the sequence has no truth file")?;
+    let t = std::time::Instant::now();
+    let mut est = Estimator::with_camera(cfg, scene.observer, scene.geo, &scene.camera, ray)?;
+    let setup_ms = t.elapsed().as_secs_f64() * 1e3;
+    let lin = seq.photometry.linearizer();
+    let mut row = Row { value, errs_pd: vec![], errs_pa: vec![], missing: 0, ms: vec![], setup_ms, rebuild_ms: vec![] };
+    for (i, frame) in frames.iter().enumerate() {
+        for r in 0..repeats {
+            let e = est.estimate(i + 1_000_003 * r, &seq.times[i], frame, &lin)?;
+            if e.sun_rebuilt {
+                row.rebuild_ms.push(e.sun_rebuild_ms);
+            }
+            row.ms.push(e.estimate_ms);
+            match (e.pd, e.pa) {
+                (Some(pd), Some(pa)) => {
+                    let (a, b) = lighting_error(&pd, &pa, &truth[i].pd, &truth[i].pa);
+                    row.errs_pd.push(a);
+                    row.errs_pa.push(b);
+                }
+                _ => row.missing += 1,
+            }
+        }
+    }
+    Ok(row)
+}
+
+pub fn run(a: BenchArgs) -> Result<()> {
+    let BenchWhat::Estimate(s) = a.what;
+    let (scene, ray) = load_scene(&s.scene)?;
+    let seq = pick_sequence(&scene, s.sequence.as_deref())?.clone();
+    if seq.truth.is_none() {
+        bail!("sequence '{}' of {} has no truth file: nothing to measure error against", seq.name, s.scene.display());
+    }
+    let frames: Vec<Frame> = seq.files.iter().map(|p| Frame::load(p)).collect::<Result<_, _>>()?;
+    let base = scene.estimator.clone();
+    let configs: Vec<(String, EstimatorConfig)> = match s.knob {
+        Knob::Samples => [50, 100, 200, 500, 1000, 2000, 5000]
+            .iter()
+            .map(|&n| (n.to_string(), EstimatorConfig { samples: n, pool_size: base.pool_size.max(n), ..base.clone() }))
+            .collect(),
+        Knob::AmbientPaths => [4, 16, 64, 256, 1024]
+            .iter()
+            .map(|&p| {
+                let mut c = base.clone();
+                c.ambient.paths = p;
+                (p.to_string(), c)
+            })
+            .collect(),
+        Knob::BouncePaths => [0, 4, 16, 64, 256]
+            .iter()
+            .map(|&p| {
+                let mut c = base.clone();
+                c.sun_bounce = p > 0;
+                c.bounce.paths = p.max(1);
+                (p.to_string(), c)
+            })
+            .collect(),
+        Knob::PoolSize => [512, 1024, 2048, 4096, 8192, 16384]
+            .iter()
+            .map(|&p| (p.to_string(), EstimatorConfig { pool_size: p, samples: base.samples.min(p), ..base.clone() }))
+            .collect(),
+    };
+    let knob_name = match s.knob {
+        Knob::Samples => "samples",
+        Knob::AmbientPaths => "ambient_paths",
+        Knob::BouncePaths => "bounce_paths",
+        Knob::PoolSize => "pool_size",
+    };
+    let pb = frame_bar(configs.len(), &format!("sweep {knob_name}"));
+    let mut table = Table::new(&[
+        knob_name,
+        "pd_err_mean_pct",
+        "pd_err_p95_pct",
+        "pa_err_mean_pct",
+        "pa_err_p95_pct",
+        "no_estimate",
+        "median_ms_per_frame",
+        "setup_ms",
+        "sun_rebuild_ms",
+    ]);
+    for (value, cfg) in configs {
+        let r = run_config(&scene, ray.clone(), &seq, &frames, cfg, s.repeats, value)?;
+        let mean = |v: &[f64]| if v.is_empty() { f64::NAN } else { v.iter().sum::<f64>() / v.len() as f64 };
+        table.push(vec![
+            r.value,
+            format!("{:.3}", 100.0 * mean(&r.errs_pd)),
+            format!("{:.3}", 100.0 * percentile(&r.errs_pd, 0.95)),
+            format!("{:.3}", 100.0 * mean(&r.errs_pa)),
+            format!("{:.3}", 100.0 * percentile(&r.errs_pa, 0.95)),
+            r.missing.to_string(),
+            format!("{:.4}", median(&r.ms)),
+            format!("{:.0}", r.setup_ms),
+            format!("{:.0}", median(&r.rebuild_ms)),
+        ]);
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    println!("estimator sweep over '{}' of {} ({} frames × {} draws per value)", seq.name, s.scene.display(), frames.len(), s.repeats);
+    print!("{table}");
+    table.write_csv(&s.csv).with_context(|| format!("writing {}", s.csv.display()))?;
+    println!("wrote {}", s.csv.display());
+    Ok(())
+}

@@ -1,0 +1,109 @@
+//! `heliar estimate`: per-frame sun and sky intensities as JSON lines.
+
+use crate::common::{build_estimator, frame_bar, load_scene, pick_sequence};
+use anyhow::{Context, Result};
+use clap::Args;
+use heliar::estimate::{FrameEstimate, Status};
+use heliar::io::frames::Frame;
+use heliar::report::{JsonLines, Table, lighting_error, median};
+use heliar::scene::Truth;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct EstimateArgs {
+    /// Scene folder.
+    scene: PathBuf,
+    /// Sequence name (default: the first in the manifest).
+    #[arg(long)]
+    sequence: Option<String>,
+    /// JSON-lines output file (default: stdout).
+    #[arg(long, short)]
+    output: Option<PathBuf>,
+    /// Pixels drawn per frame (overrides the manifest).
+    #[arg(long)]
+    samples: Option<usize>,
+    /// Leave the sun-bounce term out of the model.
+    #[arg(long)]
+    no_sun_bounce: bool,
+}
+
+#[derive(Serialize)]
+struct Record<'a> {
+    #[serde(flatten)]
+    estimate: &'a FrameEstimate,
+    decode_ms: f64,
+    truth: Option<Truth>,
+    error: Option<ErrorPair>,
+}
+
+#[derive(Serialize, Clone, Copy)]
+struct ErrorPair {
+    pd: f64,
+    pa: f64,
+}
+
+pub fn run(a: EstimateArgs) -> Result<()> {
+    let (mut scene, ray) = load_scene(&a.scene)?;
+    if let Some(n) = a.samples {
+        scene.estimator.samples = n;
+        scene.estimator.pool_size = scene.estimator.pool_size.max(n);
+    }
+    if a.no_sun_bounce {
+        scene.estimator.sun_bounce = false;
+    }
+    let seq = pick_sequence(&scene, a.sequence.as_deref())?.clone();
+    let mut est = build_estimator(&scene, ray)?;
+    let lin = seq.photometry.linearizer();
+    let mut out = match &a.output {
+        Some(p) => JsonLines::create(p).with_context(|| format!("creating {}", p.display()))?,
+        None => JsonLines::stdout(),
+    };
+    let pb = frame_bar(seq.files.len(), &format!("estimate {}", seq.name));
+    let mut statuses: BTreeMap<Status, usize> = BTreeMap::new();
+    let (mut errs_pd, mut errs_pa, mut ms, mut decode) = (vec![], vec![], vec![], vec![]);
+    let k = &scene.camera.intrinsics;
+    for (i, path) in seq.files.iter().enumerate() {
+        let t = std::time::Instant::now();
+        let frame = Frame::load(path)?;
+        frame.check_size(path, k.width, k.height)?;
+        let decode_ms = t.elapsed().as_secs_f64() * 1e3;
+        let e = est.estimate(i, &seq.times[i], &frame, &lin).with_context(|| format!("{}", path.display()))?;
+        let truth = seq.truth.as_ref().map(|t| t[i]);
+        let error = match (truth, e.pd, e.pa) {
+            (Some(t), Some(pd), Some(pa)) => {
+                let (ed, ea) = lighting_error(&pd, &pa, &t.pd, &t.pa);
+                errs_pd.push(ed);
+                errs_pa.push(ea);
+                Some(ErrorPair { pd: ed, pa: ea })
+            }
+            _ => None,
+        };
+        *statuses.entry(e.status).or_default() += 1;
+        ms.push(e.estimate_ms);
+        decode.push(decode_ms);
+        out.write(&Record { estimate: &e, decode_ms, truth, error })?;
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+
+    let mut t = Table::new(&["quantity", "value"]);
+    t.push(vec!["frames".into(), seq.files.len().to_string()]);
+    for (s, n) in &statuses {
+        t.push(vec![format!("status {}", serde_json::to_value(s)?.as_str().unwrap_or("?")), n.to_string()]);
+    }
+    if !errs_pd.is_empty() {
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        let max = |v: &[f64]| v.iter().cloned().fold(0.0, f64::max);
+        t.push(vec!["Pd error vs truth, mean / max".into(), format!("{:.2}% / {:.2}%", 100.0 * mean(&errs_pd), 100.0 * max(&errs_pd))]);
+        t.push(vec!["Pa error vs truth, mean / max".into(), format!("{:.2}% / {:.2}%", 100.0 * mean(&errs_pa), 100.0 * max(&errs_pa))]);
+    }
+    t.push(vec!["median estimate time per frame".into(), format!("{:.3} ms", median(&ms))]);
+    t.push(vec!["median decode time per frame".into(), format!("{:.3} ms", median(&decode))]);
+    eprint!("{t}");
+    if let Some(p) = out.path() {
+        eprintln!("wrote {}", p.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,38 @@
+//! The `heliar` command.
+
+mod bench;
+mod common;
+mod estimate;
+mod sun;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(name = "heliar", version, about = "Virtual objects lit and shadowed by the real sun and sky in outdoor video")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Solar position (NREL SPA) for a place and time, or a CSV batch.
+    Sun(sun::SunArgs),
+    /// Estimate sun and sky intensities for every frame of a scene's sequence (JSON lines).
+    Estimate(estimate::EstimateArgs),
+    /// Error-against-run-time sweeps.
+    Bench(bench::BenchArgs),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Sun(a) => sun::run(a),
+        Command::Estimate(a) => estimate::run(a),
+        Command::Bench(a) => bench::run(a),
+    };
+    if let Err(e) = result {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}

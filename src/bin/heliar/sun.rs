@@ -1,0 +1,146 @@
+//! `heliar sun`: solar position for one place and time, or a CSV batch.
+
+use anyhow::{Context, Result, bail};
+use chrono::DateTime;
+use clap::Args;
+use heliar::scene::Scene;
+use heliar::sun::{GeoFrame, Observer, sun_position};
+use std::io::Write;
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct SunArgs {
+    /// Latitude, degrees north (default: the scene's).
+    #[arg(long, allow_hyphen_values = true)]
+    lat: Option<f64>,
+    /// Longitude, degrees east (default: the scene's).
+    #[arg(long, allow_hyphen_values = true)]
+    lon: Option<f64>,
+    /// Time, RFC 3339 with offset (e.g. 2024-06-21T15:30:00+02:00).
+    #[arg(long)]
+    time: Option<String>,
+    /// Height above sea level, metres.
+    #[arg(long, allow_hyphen_values = true)]
+    elevation: Option<f64>,
+    /// Air pressure for refraction, mbar.
+    #[arg(long)]
+    pressure: Option<f64>,
+    /// Air temperature for refraction, °C.
+    #[arg(long, allow_hyphen_values = true)]
+    temperature: Option<f64>,
+    /// ΔT = TT − UT1, seconds (estimated from the date when absent).
+    #[arg(long, allow_hyphen_values = true)]
+    delta_t: Option<f64>,
+    /// A scene folder: gives defaults for the place and adds the direction in its world frame.
+    #[arg(long)]
+    scene: Option<PathBuf>,
+    /// Batch mode: rows of `lat,lon,time[,elevation_m]` (a header row is allowed).
+    #[arg(long, conflicts_with_all = ["lat", "lon", "time"])]
+    csv: Option<PathBuf>,
+    /// Where batch output goes (default: stdout).
+    #[arg(long, requires = "csv")]
+    output: Option<PathBuf>,
+}
+
+pub fn run(a: SunArgs) -> Result<()> {
+    let scene = match &a.scene {
+        Some(dir) => Some(Scene::load(dir).with_context(|| format!("loading scene {}", dir.display()))?),
+        None => None,
+    };
+    let geo: Option<GeoFrame> = scene.as_ref().map(|s| s.geo);
+    let base = |lat: Option<f64>, lon: Option<f64>, elev: Option<f64>| -> Result<Observer> {
+        let s = scene.as_ref().map(|s| s.observer);
+        let lat = lat.or(s.map(|o| o.latitude_deg)).context("--lat is required (or --scene)")?;
+        let lon = lon.or(s.map(|o| o.longitude_deg)).context("--lon is required (or --scene)")?;
+        if !(lat.abs() <= 90.0) || !(lon.abs() <= 180.0) {
+            bail!("latitude {lat} / longitude {lon} out of range");
+        }
+        let mut o = s.unwrap_or_else(|| Observer::new(lat, lon, 0.0));
+        o.latitude_deg = lat;
+        o.longitude_deg = lon;
+        if let Some(e) = elev.or(a.elevation) {
+            o.elevation_m = e;
+        }
+        if let Some(p) = a.pressure {
+            o.pressure_mbar = p;
+        }
+        if let Some(t) = a.temperature {
+            o.temperature_c = t;
+        }
+        if a.delta_t.is_some() {
+            o.delta_t_s = a.delta_t;
+        }
+        Ok(o)
+    };
+
+    if let Some(csv) = &a.csv {
+        let text = std::fs::read_to_string(csv).with_context(|| format!("reading {}", csv.display()))?;
+        let mut out: Box<dyn Write> = match &a.output {
+            Some(p) => Box::new(std::io::BufWriter::new(std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?)),
+            None => Box::new(std::io::stdout()),
+        };
+        let mut header = "lat,lon,time,elevation_m,zenith_deg,apparent_zenith_deg,azimuth_deg,above_horizon".to_string();
+        if geo.is_some() {
+            header += ",dir_x,dir_y,dir_z";
+        }
+        writeln!(out, "{header}")?;
+        for (i, line) in text.lines().enumerate() {
+            let f: Vec<&str> = line.split(',').map(str::trim).collect();
+            if line.trim().is_empty() || line.trim_start().starts_with('#') {
+                continue;
+            }
+            let lat = f.first().and_then(|s| s.parse::<f64>().ok());
+            if i == 0 && lat.is_none() {
+                continue; // header
+            }
+            let row = || format!("{}: row {}", csv.display(), i + 1);
+            if f.len() < 3 || f.len() > 4 {
+                bail!("{}: expected lat,lon,time[,elevation_m], got {} fields", row(), f.len());
+            }
+            let lat = lat.with_context(|| format!("{}: lat '{}' is not a number", row(), f[0]))?;
+            let lon: f64 = f[1].parse().with_context(|| format!("{}: lon '{}' is not a number", row(), f[1]))?;
+            let t = DateTime::parse_from_rfc3339(f[2]).with_context(|| format!("{}: time '{}' is not RFC 3339", row(), f[2]))?;
+            let elev = match f.get(3) {
+                Some(s) if !s.is_empty() => Some(s.parse::<f64>().with_context(|| format!("{}: elevation '{s}' is not a number", row()))?),
+                _ => None,
+            };
+            let obs = base(Some(lat), Some(lon), elev).with_context(row)?;
+            let p = sun_position(&obs, &t).with_context(row)?;
+            let mut line = format!(
+                "{lat},{lon},{},{},{:.6},{:.6},{:.6},{}",
+                t.to_rfc3339(),
+                obs.elevation_m,
+                p.zenith_deg,
+                p.apparent_zenith_deg,
+                p.azimuth_deg,
+                p.above_horizon()
+            );
+            if let Some(g) = geo {
+                let d = g.sun_dir_in_world(&p);
+                line += &format!(",{:.7},{:.7},{:.7}", d.x, d.y, d.z);
+            }
+            writeln!(out, "{line}")?;
+        }
+        return Ok(());
+    }
+
+    let time = a.time.as_deref().context("--time is required (or --csv FILE)")?;
+    let t = DateTime::parse_from_rfc3339(time).with_context(|| format!("--time '{time}' is not RFC 3339 with offset"))?;
+    let obs = base(a.lat, a.lon, None)?;
+    let p = sun_position(&obs, &t)?;
+    let mut v = serde_json::json!({
+        "time": t.to_rfc3339(),
+        "latitude_deg": obs.latitude_deg,
+        "longitude_deg": obs.longitude_deg,
+        "elevation_m": obs.elevation_m,
+        "zenith_deg": p.zenith_deg,
+        "apparent_zenith_deg": p.apparent_zenith_deg,
+        "azimuth_deg": p.azimuth_deg,
+        "above_horizon": p.above_horizon(),
+    });
+    if let Some(g) = geo {
+        v["dir_world"] = serde_json::json!(g.sun_dir_in_world(&p).to_array());
+    }
+    println!("{}", serde_json::to_string_pretty(&v)?);
+    Ok(())
+}

@@ -1,0 +1,363 @@
+//! Generates the bundled `courtyard` scene: proxy glTF, camera calibration, an HDR environment map,
+//! an HDR and a clipped LDR frame sequence in which a cloud passes the sun, and the true `Pd`/`Pa`
+//! of every frame.
+//!
+//! Frames are rendered by an independent path tracer (`render.rs`) with effects the estimator's
+//! model leaves out: interreflection (up to 12 bounces), spatially varying true albedo (±8%
+//! around the proxy's base colour, and a darker wet patch), an unmodelled person and its shadow,
+//! anti-aliased edges, lens distortion, sensor noise, and in the LDR variant sRGB quantisation and
+//! clipping. Everything is seeded: the same command writes the same files.
+//!
+//! `cargo run --release --bin gen-courtyard -- --out scenes/courtyard`
+
+mod render;
+
+use anyhow::{Context, Result};
+use clap::Parser;
+use glam::{DVec3, Vec2, Vec3};
+use heliar::geometry::raycast::RayScene;
+use heliar::geometry::{Material, Mesh, NodeInfo};
+use heliar::io::image::{ExrPrecision, LinearImage, srgb_u8_from_linear};
+use heliar::scene::camera::{Camera, Intrinsics, Pose};
+use heliar::sun::{GeoFrame, Observer, sun_position};
+use rand::{SeedableRng, rngs::SmallRng};
+use rand_distr_free::normal;
+use render::TrueAlbedo;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Standard normal samples by Box–Muller (a few lines; no extra crate).
+mod rand_distr_free {
+    use rand::Rng;
+    pub fn normal(rng: &mut impl Rng) -> f32 {
+        let u1: f32 = rng.random::<f32>().max(1e-12);
+        let u2: f32 = rng.random();
+        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f32::consts::PI * u2).cos()
+    }
+}
+
+#[derive(Parser)]
+#[command(about = "Generate the bundled courtyard scene")]
+struct Args {
+    /// Output scene folder.
+    #[arg(long, default_value = "scenes/courtyard")]
+    out: PathBuf,
+    /// Frame width.
+    #[arg(long, default_value_t = 320)]
+    width: u32,
+    /// Frame height.
+    #[arg(long, default_value_t = 240)]
+    height: u32,
+    /// Number of frames.
+    #[arg(long, default_value_t = 12)]
+    frames: usize,
+    /// Seconds between frames.
+    #[arg(long, default_value_t = 10.0)]
+    interval_s: f64,
+    /// Samples per pixel of the sky basis (the sun basis uses half).
+    #[arg(long, default_value_t = 256)]
+    spp: u32,
+    /// Environment map width (height is half).
+    #[arg(long, default_value_t = 256)]
+    env_width: u32,
+}
+
+const START: &str = "2024-06-21T15:30:00+02:00";
+const LAT: f64 = 57.0488;
+const LON: f64 = 9.9217;
+const ELEV: f64 = 8.0;
+/// Nominal clear-sky sun irradiance (scaled radiance units).
+const PD0: [f32; 3] = [3.2, 3.0, 2.7];
+/// Nominal sky irradiance on a horizontal surface.
+const PA0: [f32; 3] = [0.55, 0.62, 0.80];
+/// Relative sensor noise (shot-noise-like) and absolute read noise of the HDR frames.
+const NOISE_REL: f32 = 0.01;
+const NOISE_ABS: f32 = 5e-4;
+/// Exposure of the LDR variant: chosen so that the sunlit paving clips.
+const LDR_EXPOSURE: f32 = 3.5;
+
+fn quad(m: &mut Mesh, o: Vec3, u: Vec3, v: Vec3, node: u32, material: u32) {
+    let v0 = m.positions.len() as u32;
+    m.positions.extend([o, o + u, o + u + v, o + v]);
+    m.uvs.extend([Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y]);
+    m.triangles.extend([[v0, v0 + 1, v0 + 2], [v0, v0 + 2, v0 + 3]]);
+    m.tri_node.extend([node, node]);
+    m.tri_material.extend([material, material]);
+}
+
+/// An axis-aligned box with outward-facing triangles (bottom face left out when `open_bottom`).
+fn boxed(m: &mut Mesh, lo: Vec3, hi: Vec3, node: u32, material: u32, open_bottom: bool) {
+    let d = hi - lo;
+    let (x, y, z) = (Vec3::X * d.x, Vec3::Y * d.y, Vec3::Z * d.z);
+    quad(m, Vec3::new(hi.x, lo.y, lo.z), y, z, node, material); // +X
+    quad(m, lo, z, y, node, material); // -X
+    quad(m, Vec3::new(lo.x, hi.y, lo.z), z, x, node, material); // +Y
+    if !open_bottom {
+        quad(m, lo, x, z, node, material); // -Y
+    }
+    quad(m, Vec3::new(lo.x, lo.y, hi.z), x, y, node, material); // +Z
+    quad(m, lo, y, x, node, material); // -Z
+}
+
+fn material(name: &str, rgb: [f32; 3]) -> Material {
+    Material { name: name.into(), base_color: [rgb[0], rgb[1], rgb[2], 1.0], base_color_texture: None, metallic: 0.0, roughness: 1.0 }
+}
+
+/// The real proxy and, separately, what is really there but not modelled.
+fn build_geometry() -> (Mesh, Mesh) {
+    let mut proxy = Mesh::default();
+    proxy.materials = vec![
+        material("paving", [0.32, 0.30, 0.27]),
+        material("brick", [0.34, 0.17, 0.12]),
+        material("plaster", [0.62, 0.60, 0.55]),
+        material("concrete", [0.45, 0.45, 0.43]),
+    ];
+    proxy.nodes = vec![
+        NodeInfo { name: "ground".into(), diffuse: true },
+        NodeInfo { name: "north_building".into(), diffuse: true },
+        NodeInfo { name: "west_building".into(), diffuse: true },
+        NodeInfo { name: "wall".into(), diffuse: false },
+    ];
+    quad(&mut proxy, Vec3::new(-40.0, 0.0, -40.0), Vec3::Z * 80.0, Vec3::X * 80.0, 0, 0);
+    boxed(&mut proxy, Vec3::new(-12.0, 0.0, -14.0), Vec3::new(12.0, 9.0, -8.0), 1, 1, true);
+    boxed(&mut proxy, Vec3::new(-14.0, 0.0, -8.0), Vec3::new(-8.0, 6.0, 8.0), 2, 2, true);
+    boxed(&mut proxy, Vec3::new(-3.2, 0.0, -1.5), Vec3::new(-2.8, 2.4, 1.5), 3, 3, true);
+
+    let mut extra = Mesh::default();
+    extra.materials = vec![material("person", [0.12, 0.11, 0.10])];
+    extra.nodes = vec![NodeInfo { name: "person".into(), diffuse: false }];
+    boxed(&mut extra, Vec3::new(1.6, 0.0, 1.0), Vec3::new(2.1, 1.75, 1.35), 0, 0, true);
+    (proxy, extra)
+}
+
+/// True albedo: the base colour with ±8% value noise on 0.3 m cells, and a wet patch (×0.55)
+/// of radius 0.9 m on the ground.
+struct Courtyard {
+    ground_tris: usize,
+}
+
+fn hash3(x: i32, y: i32, z: i32) -> f32 {
+    let mut h = (x as u32).wrapping_mul(0x8da6_b343) ^ (y as u32).wrapping_mul(0xd816_3841) ^ (z as u32).wrapping_mul(0xcb1a_b31f);
+    h ^= h >> 13;
+    h = h.wrapping_mul(0x5bd1_e995);
+    h ^= h >> 15;
+    (h & 0xffff) as f32 / 65535.0
+}
+
+fn value_noise(p: Vec3) -> f32 {
+    let q = p / 0.3;
+    let f = q.floor();
+    let t = q - f;
+    let (i, j, k) = (f.x as i32, f.y as i32, f.z as i32);
+    let mut acc = 0.0;
+    for dz in 0..2 {
+        for dy in 0..2 {
+            for dx in 0..2 {
+                let w = (if dx == 1 { t.x } else { 1.0 - t.x }) * (if dy == 1 { t.y } else { 1.0 - t.y }) * (if dz == 1 { t.z } else { 1.0 - t.z });
+                acc += w * hash3(i + dx, j + dy, k + dz);
+            }
+        }
+    }
+    acc
+}
+
+impl TrueAlbedo for Courtyard {
+    fn albedo(&self, tri: u32, p: Vec3, base: Vec3) -> Vec3 {
+        let mut a = base * (1.0 + 0.16 * (value_noise(p) - 0.5));
+        if (tri as usize) < self.ground_tris && Vec2::new(p.x - 2.5, p.z - 4.2).length() < 0.9 {
+            a *= 0.55;
+        }
+        a
+    }
+}
+
+fn camera() -> Camera {
+    let intrinsics = Intrinsics {
+        width: 0,
+        height: 0,
+        fx: 0.0,
+        fy: 0.0,
+        cx: 0.0,
+        cy: 0.0,
+        distortion: [-0.08, 0.012, 0.0005, -0.0003, 0.0],
+    };
+    let pose = Pose::look_at(DVec3::new(4.5, 1.7, 9.0), DVec3::new(-2.5, 0.6, -4.0), DVec3::Y).expect("valid look-at");
+    Camera { intrinsics, pose }
+}
+
+/// Cloud transmission of the sun for frame `i` of `n`: clear, then a cloud passes (minimum 1%).
+fn cloud(i: usize, n: usize) -> f32 {
+    let mid = (n / 2) as f32;
+    let width = (n as f32 / 7.0).max(0.8);
+    1.0 - 0.99 * (-((i as f32 - mid) / width).powi(2)).exp()
+}
+
+fn write(path: &Path, text: &str) -> Result<()> {
+    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
+}
+
+fn main() -> Result<()> {
+    let args = Args::parse();
+    let out = &args.out;
+    for d in ["calib", "frames/hdr", "frames/ldr"] {
+        std::fs::create_dir_all(out.join(d))?;
+    }
+    let (proxy, extra) = build_geometry();
+    let ground_tris = 2;
+    heliar::scene::gltf::save_glb(&proxy, &out.join("proxy.glb"))?;
+    let mut world = proxy.clone();
+    world.append(&extra);
+    let scene = RayScene::new(world);
+    let truth_albedo = Courtyard { ground_tris };
+
+    let mut cam = camera();
+    let (w, h) = (args.width, args.height);
+    let f = 0.8125 * w as f64; // ≈ 63° horizontal field of view
+    cam.intrinsics = Intrinsics {
+        width: w,
+        height: h,
+        fx: f,
+        fy: f * 1.002,
+        cx: w as f64 / 2.0 + 1.2,
+        cy: h as f64 / 2.0 - 1.1,
+        distortion: cam.intrinsics.distortion,
+    };
+
+    let observer = Observer::new(LAT, LON, ELEV);
+    let geo = GeoFrame::default();
+    let t0 = chrono::DateTime::parse_from_rfc3339(START)?;
+
+    // Environment map at the first frame's time, clear sky, with the sun splatted into its texel.
+    let env_centre = Vec3::new(0.0, 1.5, 2.0);
+    let sun0 = geo.sun_dir_in_world(&sun_position(&observer, &t0)?);
+    let (ew, eh) = (args.env_width, args.env_width / 2);
+    eprintln!("rendering {ew}×{eh} environment map");
+    let (esky, esun) = render::render_env_basis(&scene, &truth_albedo, env_centre, ew, eh, sun0, args.spp / 4, 11);
+    let mut env = LinearImage::new(ew, eh);
+    for (i, p) in env.data.iter_mut().enumerate() {
+        let v = esky[i] * Vec3::from(PA0) + esun[i] * Vec3::from(PD0);
+        *p = v.to_array();
+    }
+    let (sx, sy) = heliar::envmap::texel_from_dir(sun0, ew, eh);
+    let (sx, sy) = ((sx as u32).min(ew - 1), (sy as u32).min(eh - 1));
+    let omega = heliar::envmap::texel_solid_angle(sy, ew, eh);
+    let prev = Vec3::from(env.get(sx, sy));
+    env.set(sx, sy, (prev + Vec3::from(PD0) / omega).to_array());
+    env.write_exr(&out.join("env.exr"), ExrPrecision::Half)?;
+
+    // Frames.
+    let sky_spp = args.spp;
+    eprintln!("rendering the sky basis ({w}×{h}, {sky_spp} spp)");
+    let (sky_basis, _) = render::render_basis(&scene, &truth_albedo, &cam, Vec3::Y, sky_spp, 1);
+    let mut truth = String::from("frame,time,pd_r,pd_g,pd_b,pa_r,pa_g,pa_b,sun_azimuth_deg,sun_apparent_zenith_deg\n");
+    let mut times = Vec::new();
+    for i in 0..args.frames {
+        let t = t0 + chrono::Duration::milliseconds((i as f64 * args.interval_s * 1e3) as i64);
+        let pos = sun_position(&observer, &t)?;
+        let l = geo.sun_dir_in_world(&pos);
+        eprintln!("frame {i}: sun az {:.3}° zen {:.3}°", pos.azimuth_deg, pos.apparent_zenith_deg);
+        let (_, sun_basis) = render::render_basis(&scene, &truth_albedo, &cam, l, (sky_spp / 2).max(1), 100 + i as u64);
+        let m = cloud(i, args.frames);
+        let pd = Vec3::from(PD0) * m;
+        // Clouds near the sun brighten and whiten the sky a little.
+        let pa = Vec3::from(PA0) * (1.0 + 0.25 * (1.0 - m)) + Vec3::splat(0.08 * (1.0 - m));
+        let mut rng = SmallRng::seed_from_u64(1000 + i as u64);
+        let mut hdr = LinearImage::new(w, h);
+        let mut ldr = Vec::with_capacity((w * h * 3) as usize);
+        for k in 0..(w * h) as usize {
+            let clean = sky_basis[k] * pa + sun_basis[k] * pd;
+            let noisy: [f32; 3] = std::array::from_fn(|c| {
+                let v = clean[c];
+                (v + (NOISE_REL * v + NOISE_ABS) * normal(&mut rng)).max(0.0)
+            });
+            hdr.data[k] = noisy;
+            for c in noisy {
+                ldr.push(srgb_u8_from_linear(c * LDR_EXPOSURE));
+            }
+        }
+        hdr.write_exr(&out.join(format!("frames/hdr/frame_{i:03}.exr")), ExrPrecision::Half)?;
+        image::save_buffer(out.join(format!("frames/ldr/frame_{i:03}.png")), &ldr, w, h, image::ExtendedColorType::Rgb8)?;
+        writeln!(
+            truth,
+            "{i},{},{},{},{},{},{},{},{:.6},{:.6}",
+            t.to_rfc3339(),
+            pd.x,
+            pd.y,
+            pd.z,
+            pa.x,
+            pa.y,
+            pa.z,
+            pos.azimuth_deg,
+            pos.apparent_zenith_deg
+        )?;
+        times.push(t);
+    }
+    write(&out.join("truth.csv"), &truth)?;
+
+    let k = &cam.intrinsics;
+    write(
+        &out.join("calib/camera.toml"),
+        &format!(
+            "# Camera calibration of the courtyard scene (written by gen-courtyard).\n\
+             # Pinhole + Brown–Conrady distortion, OpenCV conventions; see scenes/README.md.\n\
+             width = {}\nheight = {}\nfx = {}\nfy = {}\ncx = {}\ncy = {}\n\
+             distortion = {:?}  # k1, k2, p1, p2, k3\n\n\
+             [pose]\nposition = [4.5, 1.7, 9.0]\nlook_at = [-2.5, 0.6, -4.0]\nup = [0.0, 1.0, 0.0]\n\n\
+             [response]\nkind = \"srgb\"\nexposure = 1.0\nsaturation = 0.98\n",
+            k.width, k.height, k.fx, k.fy, k.cx, k.cy, k.distortion
+        ),
+    )?;
+    write(
+        &out.join("scene.toml"),
+        &format!(
+            r#"# The bundled courtyard (written by gen-courtyard; see scenes/README.md for the format).
+name = "courtyard"
+description = "A paved courtyard between a brick and a plaster building, with a free-standing concrete wall. A cloud passes the sun. Rendered by an independent path tracer with interreflection, albedo texture, an unmodelled person, a wet patch, lens distortion and sensor noise."
+
+[place]
+latitude_deg = {LAT}
+longitude_deg = {LON}
+elevation_m = {ELEV}
+north = [0.0, 0.0, -1.0]
+
+[proxy]
+file = "proxy.glb"
+
+[camera]
+file = "calib/camera.toml"
+
+[envmap]
+file = "env.exr"
+capture_center = [{}, {}, {}]
+capture_time = "{START}"
+
+[irradiance]
+min = [-6.0, 0.1, -6.0]
+max = [6.0, 3.0, 6.0]
+spacing_m = 1.0
+
+[[sequences]]
+name = "hdr"
+dir = "frames/hdr"
+start = "{START}"
+fps = {}
+truth = "truth.csv"
+
+[[sequences]]
+name = "ldr"
+dir = "frames/ldr"
+start = "{START}"
+fps = {}
+exposure = {LDR_EXPOSURE}
+truth = "truth.csv"
+"#,
+            env_centre.x,
+            env_centre.y,
+            env_centre.z,
+            1.0 / args.interval_s,
+            1.0 / args.interval_s
+        ),
+    )?;
+    eprintln!("wrote {}", out.display());
+    Ok(())
+}
