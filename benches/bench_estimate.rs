@@ -53,7 +53,7 @@ fn bench_solver(c: &mut Criterion) {
         rows.push(a, b, y * (1.0 + 0.01 * rng.random_range(-1.0..1.0)));
         lit.push(i % 2 == 0);
     }
-    c.bench_function("robust_fit_500_rows_one_channel", |b| b.iter(|| black_box(robust_fit(&rows, &lit, true, &mut rng))));
+    c.bench_function("robust_fit_500_rows_one_channel", |b| b.iter(|| black_box(robust_fit(&rows, &lit, true, heliar::estimate::solve::HDR_NOISE_FLOOR_REL, &mut rng))));
 }
 
 fn bench_setup(c: &mut Criterion) {

@@ -34,7 +34,7 @@ use glam::Vec3;
 use pool::{PixelMap, Pool, SunState};
 use rand::{SeedableRng, rngs::SmallRng};
 use serde::{Deserialize, Serialize};
-use solve::{COND_CAP, ChannelFit, ChannelRows, robust_fit};
+use solve::{COND_CAP, ChannelFit, ChannelRows, HDR_NOISE_FLOOR_REL, LDR_NOISE_FLOOR_REL, robust_fit};
 use std::sync::Arc;
 use temporal::{ChangeDetector, ChangeReason, Smoother};
 
@@ -319,6 +319,7 @@ pub struct Estimator {
     rho_over_pi: Vec<[f64; 3]>,
     drawn: Vec<u32>,
     states: Vec<([f32; 3], PixelState)>,
+    noise_floor: f64,
     stats: SetupStats,
 }
 
@@ -376,6 +377,7 @@ impl Estimator {
             rho_over_pi: Vec::new(),
             drawn: Vec::new(),
             states: Vec::new(),
+            noise_floor: HDR_NOISE_FLOOR_REL,
             stats,
         })
     }
@@ -441,6 +443,10 @@ impl Estimator {
     ) -> Result<FrameEstimate, EstimateError> {
         let (pos, dir) = self.sun_at(time)?;
         let above = pos.above_horizon();
+        self.noise_floor = match frame.data {
+            crate::io::frames::FrameData::Ldr { .. } => LDR_NOISE_FLOOR_REL,
+            crate::io::frames::FrameData::Hdr(_) => HDR_NOISE_FLOOR_REL,
+        };
         let rebuilt = self.ensure_sun(dir, above);
         let sun_rebuild_ms = if rebuilt { self.sun.as_ref().map_or(0.0, |s| s.build_ms) } else { 0.0 };
         let t_start = std::time::Instant::now();
@@ -544,16 +550,32 @@ impl Estimator {
             out.pd_se = Some([0.0; 3]);
             out.status = Status::Night;
         } else if counts.lit < MIN_LIT_SAMPLES {
-            // No sunlit samples: Pa is observable, Pd is not.
-            if let Some(pd) = held_pd {
-                for i in 0..counts.usable {
-                    for c in 0..3 {
-                        self.rows[c].y[i] -= self.bounce_only[i][c] * pd[c];
+            // No sunlit samples: Pa is observable, Pd is not (directly). Shadowed samples still
+            // receive sun light bounced off lit proxy surfaces (the `b` column). Where that bounce
+            // varies enough across the samples, a two-parameter fit separates it and Pa is
+            // unbiased; otherwise the bounce of the held Pd is subtracted, or, with nothing held,
+            // Pa absorbs it (reported as such through the status).
+            let bounce_fit = self.fit_channels(true, &mut rng).filter(|f| {
+                f.iter().all(|c| c.condition <= self.config.max_condition && c.pd_se.is_finite())
+                    && luma(&f.map(|c| c.pa_se)) < 0.1 * luma(&f.map(|c| c.pa))
+            });
+            match bounce_fit {
+                Some(f) => {
+                    self.fill_pa_only(&mut out, &Some(f));
+                    out.condition_number = Some(f.iter().map(|c| c.condition).fold(1.0, f64::max));
+                }
+                None => {
+                    if let Some(pd) = held_pd {
+                        for i in 0..counts.usable {
+                            for c in 0..3 {
+                                self.rows[c].y[i] -= self.bounce_only[i][c] * pd[c];
+                            }
+                        }
                     }
+                    let fits = self.fit_channels(false, &mut rng);
+                    self.fill_pa_only(&mut out, &fits);
                 }
             }
-            let fits = self.fit_channels(false, &mut rng);
-            self.fill_pa_only(&mut out, &fits);
             match held_pd {
                 Some(pd) => {
                     out.pd = Some(pd);
@@ -618,9 +640,10 @@ impl Estimator {
     }
 
     fn fit_channels(&self, two: bool, rng: &mut SmallRng) -> Option<[ChannelFit; 3]> {
-        let f0 = robust_fit(&self.rows[0], &self.lit, two, rng)?;
-        let f1 = robust_fit(&self.rows[1], &self.lit, two, rng)?;
-        let f2 = robust_fit(&self.rows[2], &self.lit, two, rng)?;
+        let fl = self.noise_floor;
+        let f0 = robust_fit(&self.rows[0], &self.lit, two, fl, rng)?;
+        let f1 = robust_fit(&self.rows[1], &self.lit, two, fl, rng)?;
+        let f2 = robust_fit(&self.rows[2], &self.lit, two, fl, rng)?;
         Some([f0, f1, f2])
     }
 
@@ -647,7 +670,7 @@ impl Estimator {
                     for i in 0..n {
                         z.push(r.a[i] + k[c] * r.b[i], 0.0, r.y[i]);
                     }
-                    if let Some(f) = robust_fit(&z, &self.lit, false, rng) {
+                    if let Some(f) = robust_fit(&z, &self.lit, false, self.noise_floor, rng) {
                         fits[c] = f;
                     }
                 }
@@ -667,7 +690,7 @@ impl Estimator {
                     for i in 0..n {
                         z.push(self.rho_over_pi[i][c], 0.0, r.y[i]);
                     }
-                    if let Some(f) = robust_fit(&z, &self.lit, false, rng) {
+                    if let Some(f) = robust_fit(&z, &self.lit, false, self.noise_floor, rng) {
                         total[c] = f.pa;
                     }
                 }

@@ -4,11 +4,11 @@
 //! `b = ρ·(s·max(n·l,0) + b_bounce)/π` (Jensen §4.2, the same equation as the relighting). People,
 //! cars, wet patches and highlights make outliers, so the fit is robust:
 //!
-//! 1. **Weights.** Each row is divided by its own noise level `|y| + 0.1·median|y|`, so the fit
+//! 1. **Weights.** Each row is divided by its own noise level `|y| + floor`, so the fit
 //!    minimises relative residuals. Camera noise grows with the signal, so this is the right
 //!    weighting; it also makes the arithmetic independent of the overall scale (1e-4 … 1e5) and
 //!    keeps dark shadowed samples from being swamped by bright sunlit ones when the sun-to-sky ratio
-//!    is extreme.
+//!    is extreme. The floor is [`LDR_NOISE_FLOOR_REL`] or [`HDR_NOISE_FLOOR_REL`] of the median.
 //! 2. **Start (LMedS).** Minimal fits through pairs of rows (one sunlit, one shadowed when both
 //!    exist, so the pair is well conditioned), plus the plain least-squares fit, are scored by the
 //!    median squared residual; the best one wins (Rousseeuw's least median of squares, breakdown
@@ -40,9 +40,13 @@ const IRLS_MAX_ITERS: usize = 30;
 const IRLS_TOL: f64 = 1e-9;
 /// Scale floor relative to the median row value, so noise-free data does not divide by zero.
 const SIGMA_FLOOR: f64 = 1e-9;
-/// Rows are weighted as if their noise were proportional to `|y| + NOISE_FLOOR_REL·median|y|`:
-/// relative (shot-like) noise, with a floor so near-black pixels do not dominate.
-const NOISE_FLOOR_REL: f64 = 0.1;
+/// Noise floor for 8-bit-like LDR input, relative to the median row value: rows are weighted as
+/// if their noise were `|y| + floor`, relative (shot-like) noise with a floor for the quantisation
+/// and read noise that dominate near-black codes.
+pub const LDR_NOISE_FLOOR_REL: f64 = 0.05;
+/// Noise floor for HDR (floating-point) input: merged or rendered HDR keeps its noise relative
+/// over the whole range, so the floor only guards against division by zero.
+pub const HDR_NOISE_FLOOR_REL: f64 = 1e-12;
 /// Condition numbers are reported up to this value (larger means singular).
 pub const COND_CAP: f64 = 1e12;
 
@@ -173,8 +177,9 @@ fn condition(saa: f64, sab: f64, sbb: f64) -> f64 {
 
 /// Robust fit of `y = a·Pa + b·Pd` with `Pa, Pd ≥ 0`. `lit[i]` marks rows whose direct term is
 /// substantial; they pair with unlit rows in the LMedS start. `two_params = false` fits `Pa`
-/// alone (the `b` column is ignored). Returns `None` with fewer than 3 rows.
-pub fn robust_fit(rows: &ChannelRows, lit: &[bool], two_params: bool, rng: &mut impl Rng) -> Option<ChannelFit> {
+/// alone (the `b` column is ignored). `noise_floor_rel` is the weighting floor relative to the
+/// median row (see the module docs). Returns `None` with fewer than 3 rows.
+pub fn robust_fit(rows: &ChannelRows, lit: &[bool], two_params: bool, noise_floor_rel: f64, rng: &mut impl Rng) -> Option<ChannelFit> {
     let n = rows.len();
     if n < 3 {
         return None;
@@ -196,7 +201,7 @@ pub fn robust_fit(rows: &ChannelRows, lit: &[bool], two_params: bool, rng: &mut 
         });
     }
     // Each row is divided by its noise level d = |y| + floor, so residuals are relative.
-    let floor = NOISE_FLOOR_REL * scale;
+    let floor = noise_floor_rel * scale;
     let d: Vec<f64> = rows.y.iter().map(|v| v.abs() + floor).collect();
     let y: Vec<f64> = (0..n).map(|i| rows.y[i] / d[i]).collect();
     let a: Vec<f64> = (0..n).map(|i| rows.a[i] / d[i]).collect();
@@ -336,7 +341,7 @@ mod tests {
     #[test]
     fn exact_data_is_recovered_exactly() {
         let (rows, lit) = synth(200, 0.7, 3.1, 0.0, 1);
-        let f = robust_fit(&rows, &lit, true, &mut SmallRng::seed_from_u64(0)).unwrap();
+        let f = robust_fit(&rows, &lit, true, HDR_NOISE_FLOOR_REL, &mut SmallRng::seed_from_u64(0)).unwrap();
         assert!((f.pa - 0.7).abs() < 1e-9 && (f.pd - 3.1).abs() < 1e-9, "{f:?}");
         assert!(f.condition > 1.0 && f.condition < 10.0);
     }
@@ -349,7 +354,7 @@ mod tests {
         for i in 0..150 {
             rows.y[i * 3] *= if rng.random_bool(0.5) { rng.random_range(0.05..0.4) } else { rng.random_range(2.0..6.0) };
         }
-        let f = robust_fit(&rows, &lit, true, &mut rng).unwrap();
+        let f = robust_fit(&rows, &lit, true, HDR_NOISE_FLOOR_REL, &mut rng).unwrap();
         assert!((f.pa / 0.7 - 1.0).abs() < 0.02, "{f:?}");
         assert!((f.pd / 3.1 - 1.0).abs() < 0.02, "{f:?}");
         assert!(f.inliers < 380 && f.inliers > 330, "{f:?}");
@@ -365,7 +370,7 @@ mod tests {
             rows.push(0.1, if sun { 0.1 } else { 0.0 }, if sun { 0.5 } else { 1.0 });
             lit.push(sun);
         }
-        let f = robust_fit(&rows, &lit, true, &mut SmallRng::seed_from_u64(0)).unwrap();
+        let f = robust_fit(&rows, &lit, true, HDR_NOISE_FLOOR_REL, &mut SmallRng::seed_from_u64(0)).unwrap();
         assert!(f.pa >= 0.0 && f.pd == 0.0, "{f:?}");
     }
 
@@ -373,7 +378,7 @@ mod tests {
     fn scale_invariance_over_nine_decades() {
         for scale in [1e-4, 1.0, 1e5] {
             let (rows, lit) = synth(300, 0.7 * scale, 3.1 * scale, 0.01, 4);
-            let f = robust_fit(&rows, &lit, true, &mut SmallRng::seed_from_u64(0)).unwrap();
+            let f = robust_fit(&rows, &lit, true, HDR_NOISE_FLOOR_REL, &mut SmallRng::seed_from_u64(0)).unwrap();
             assert!((f.pa / (0.7 * scale) - 1.0).abs() < 0.02, "{scale}: {f:?}");
             assert!((f.pd / (3.1 * scale) - 1.0).abs() < 0.01, "{scale}: {f:?}");
         }
@@ -386,14 +391,14 @@ mod tests {
             let rho = 0.2 + 0.003 * i as f64;
             rows.push(rho * 0.9, rho * 0.7, rho * (0.9 * 0.5 + 0.7 * 3.0));
         }
-        let f = robust_fit(&rows, &[true; 100], true, &mut SmallRng::seed_from_u64(0)).unwrap();
+        let f = robust_fit(&rows, &[true; 100], true, HDR_NOISE_FLOOR_REL, &mut SmallRng::seed_from_u64(0)).unwrap();
         assert!(f.condition > 1e6, "{f:?}");
     }
 
     #[test]
     fn one_parameter_fit() {
         let (rows, _) = synth(100, 0.9, 0.0, 0.0, 5);
-        let f = robust_fit(&rows, &[false; 100], false, &mut SmallRng::seed_from_u64(0)).unwrap();
+        let f = robust_fit(&rows, &[false; 100], false, HDR_NOISE_FLOOR_REL, &mut SmallRng::seed_from_u64(0)).unwrap();
         assert!((f.pa - 0.9).abs() < 1e-9 && f.pd == 0.0 && f.pd_se.is_infinite());
     }
 }

@@ -27,6 +27,13 @@ pub struct Material {
     pub roughness: f32,
 }
 
+impl Material {
+    /// A rough dielectric of linear albedo `rgb` (the kind of material a real proxy has).
+    pub fn diffuse(name: &str, rgb: [f32; 3]) -> Self {
+        Self { name: name.to_owned(), base_color: [rgb[0], rgb[1], rgb[2], 1.0], base_color_texture: None, metallic: 0.0, roughness: 1.0 }
+    }
+}
+
 impl Default for Material {
     fn default() -> Self {
         // The glTF default material.
@@ -137,6 +144,46 @@ impl Mesh {
         let mut it = self.positions.iter();
         let first = *it.next()?;
         Some(it.fold((first, first), |(lo, hi), p| (lo.min(*p), hi.max(*p))))
+    }
+
+    /// Adds a node and returns its index.
+    pub fn add_node(&mut self, name: &str, diffuse: bool) -> u32 {
+        self.nodes.push(NodeInfo { name: name.to_owned(), diffuse });
+        self.nodes.len() as u32 - 1
+    }
+
+    /// Adds a material and returns its index.
+    pub fn add_material(&mut self, material: Material) -> u32 {
+        self.materials.push(material);
+        self.materials.len() as u32 - 1
+    }
+
+    /// Appends the parallelogram `o, o+u, o+u+v, o+v` as two triangles facing `u × v`.
+    pub fn push_quad(&mut self, o: Vec3, u: Vec3, v: Vec3, node: u32, material: u32) {
+        let v0 = self.positions.len() as u32;
+        self.positions.extend([o, o + u, o + u + v, o + v]);
+        if !self.normals.is_empty() {
+            self.normals.extend([u.cross(v).normalize_or_zero(); 4]);
+        }
+        self.uvs.extend([Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y]);
+        self.triangles.extend([[v0, v0 + 1, v0 + 2], [v0, v0 + 2, v0 + 3]]);
+        self.tri_node.extend([node, node]);
+        self.tri_material.extend([material, material]);
+    }
+
+    /// Appends an axis-aligned box `lo..hi` with outward-facing triangles; the bottom face is left
+    /// out when `open_bottom` (a building standing on the ground).
+    pub fn push_box(&mut self, lo: Vec3, hi: Vec3, node: u32, material: u32, open_bottom: bool) {
+        let d = hi - lo;
+        let (x, y, z) = (Vec3::X * d.x, Vec3::Y * d.y, Vec3::Z * d.z);
+        self.push_quad(Vec3::new(hi.x, lo.y, lo.z), y, z, node, material); // +X
+        self.push_quad(lo, z, y, node, material); // -X
+        self.push_quad(Vec3::new(lo.x, hi.y, lo.z), z, x, node, material); // +Y
+        if !open_bottom {
+            self.push_quad(lo, x, z, node, material); // -Y
+        }
+        self.push_quad(Vec3::new(lo.x, lo.y, hi.z), x, y, node, material); // +Z
+        self.push_quad(lo, y, x, node, material); // -Z
     }
 
     /// Appends another mesh (its node, material and texture indices are shifted).

@@ -16,7 +16,7 @@ use anyhow::{Context, Result};
 use clap::Parser;
 use glam::{DVec3, Vec2, Vec3};
 use heliar::geometry::raycast::RayScene;
-use heliar::geometry::{Material, Mesh, NodeInfo};
+use heliar::geometry::{Material, Mesh};
 use heliar::io::image::{ExrPrecision, LinearImage, srgb_u8_from_linear};
 use heliar::scene::camera::{Camera, Intrinsics, Pose};
 use heliar::sun::{GeoFrame, Observer, sun_position};
@@ -76,57 +76,26 @@ const NOISE_ABS: f32 = 5e-4;
 /// Exposure of the LDR variant: chosen so that the sunlit paving clips.
 const LDR_EXPOSURE: f32 = 3.5;
 
-fn quad(m: &mut Mesh, o: Vec3, u: Vec3, v: Vec3, node: u32, material: u32) {
-    let v0 = m.positions.len() as u32;
-    m.positions.extend([o, o + u, o + u + v, o + v]);
-    m.uvs.extend([Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y]);
-    m.triangles.extend([[v0, v0 + 1, v0 + 2], [v0, v0 + 2, v0 + 3]]);
-    m.tri_node.extend([node, node]);
-    m.tri_material.extend([material, material]);
-}
-
-/// An axis-aligned box with outward-facing triangles (bottom face left out when `open_bottom`).
-fn boxed(m: &mut Mesh, lo: Vec3, hi: Vec3, node: u32, material: u32, open_bottom: bool) {
-    let d = hi - lo;
-    let (x, y, z) = (Vec3::X * d.x, Vec3::Y * d.y, Vec3::Z * d.z);
-    quad(m, Vec3::new(hi.x, lo.y, lo.z), y, z, node, material); // +X
-    quad(m, lo, z, y, node, material); // -X
-    quad(m, Vec3::new(lo.x, hi.y, lo.z), z, x, node, material); // +Y
-    if !open_bottom {
-        quad(m, lo, x, z, node, material); // -Y
-    }
-    quad(m, Vec3::new(lo.x, lo.y, hi.z), x, y, node, material); // +Z
-    quad(m, lo, y, x, node, material); // -Z
-}
-
-fn material(name: &str, rgb: [f32; 3]) -> Material {
-    Material { name: name.into(), base_color: [rgb[0], rgb[1], rgb[2], 1.0], base_color_texture: None, metallic: 0.0, roughness: 1.0 }
-}
-
 /// The real proxy and, separately, what is really there but not modelled.
 fn build_geometry() -> (Mesh, Mesh) {
     let mut proxy = Mesh::default();
-    proxy.materials = vec![
-        material("paving", [0.32, 0.30, 0.27]),
-        material("brick", [0.34, 0.17, 0.12]),
-        material("plaster", [0.62, 0.60, 0.55]),
-        material("concrete", [0.45, 0.45, 0.43]),
-    ];
-    proxy.nodes = vec![
-        NodeInfo { name: "ground".into(), diffuse: true },
-        NodeInfo { name: "north_building".into(), diffuse: true },
-        NodeInfo { name: "west_building".into(), diffuse: true },
-        NodeInfo { name: "wall".into(), diffuse: false },
-    ];
-    quad(&mut proxy, Vec3::new(-40.0, 0.0, -40.0), Vec3::Z * 80.0, Vec3::X * 80.0, 0, 0);
-    boxed(&mut proxy, Vec3::new(-12.0, 0.0, -14.0), Vec3::new(12.0, 9.0, -8.0), 1, 1, true);
-    boxed(&mut proxy, Vec3::new(-14.0, 0.0, -8.0), Vec3::new(-8.0, 6.0, 8.0), 2, 2, true);
-    boxed(&mut proxy, Vec3::new(-3.2, 0.0, -1.5), Vec3::new(-2.8, 2.4, 1.5), 3, 3, true);
+    let paving = proxy.add_material(Material::diffuse("paving", [0.32, 0.30, 0.27]));
+    let brick = proxy.add_material(Material::diffuse("brick", [0.34, 0.17, 0.12]));
+    let plaster = proxy.add_material(Material::diffuse("plaster", [0.62, 0.60, 0.55]));
+    let concrete = proxy.add_material(Material::diffuse("concrete", [0.45, 0.45, 0.43]));
+    let ground = proxy.add_node("ground", true);
+    let north = proxy.add_node("north_building", true);
+    let west = proxy.add_node("west_building", true);
+    let wall = proxy.add_node("wall", false);
+    proxy.push_quad(Vec3::new(-40.0, 0.0, -40.0), Vec3::Z * 80.0, Vec3::X * 80.0, ground, paving);
+    proxy.push_box(Vec3::new(-12.0, 0.0, -14.0), Vec3::new(12.0, 9.0, -8.0), north, brick, true);
+    proxy.push_box(Vec3::new(-14.0, 0.0, -8.0), Vec3::new(-8.0, 6.0, 8.0), west, plaster, true);
+    proxy.push_box(Vec3::new(-3.2, 0.0, -1.5), Vec3::new(-2.8, 2.4, 1.5), wall, concrete, true);
 
     let mut extra = Mesh::default();
-    extra.materials = vec![material("person", [0.12, 0.11, 0.10])];
-    extra.nodes = vec![NodeInfo { name: "person".into(), diffuse: false }];
-    boxed(&mut extra, Vec3::new(1.6, 0.0, 1.0), Vec3::new(2.1, 1.75, 1.35), 0, 0, true);
+    let cloth = extra.add_material(Material::diffuse("person", [0.12, 0.11, 0.10]));
+    let person = extra.add_node("person", false);
+    extra.push_box(Vec3::new(1.6, 0.0, 1.0), Vec3::new(2.1, 1.75, 1.35), person, cloth, true);
     (proxy, extra)
 }
 
