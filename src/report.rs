@@ -162,3 +162,99 @@ mod tests {
         assert!(median(&[]).is_nan());
     }
 }
+
+/// A number with three significant digits and no trailing zeros (axis labels).
+pub fn sig3(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let digits = (2 - v.abs().log10().floor() as i32).max(0) as usize;
+    let s = format!("{v:.digits$}");
+    if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
+}
+
+/// One line of a plot: a name and its points.
+pub struct Series {
+    /// Legend text.
+    pub name: String,
+    /// `(x, y)` points in order.
+    pub points: Vec<(f64, f64)>,
+    /// Draw as a dashed reference (e.g. the truth) instead of a solid line with markers.
+    pub reference: bool,
+}
+
+/// Writes an SVG line plot (plotters). Axes are logarithmic when asked; non-positive values are
+/// dropped from a log axis.
+pub fn line_plot_svg(path: &Path, title: &str, x_label: &str, y_label: &str, series: &[Series], log_x: bool, log_y: bool) -> std::io::Result<()> {
+    use plotters::prelude::*;
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent)?;
+    }
+    let keep = |(x, y): &(f64, f64)| x.is_finite() && y.is_finite() && (!log_x || *x > 0.0) && (!log_y || *y > 0.0);
+    let pts: Vec<(f64, f64)> = series.iter().flat_map(|s| s.points.iter().copied().filter(keep)).collect();
+    if pts.is_empty() {
+        return Err(std::io::Error::other("nothing to plot"));
+    }
+    let (mut x0, mut x1, mut y0, mut y1) = pts.iter().fold((f64::MAX, f64::MIN, f64::MAX, f64::MIN), |a, p| (a.0.min(p.0), a.1.max(p.0), a.2.min(p.1), a.3.max(p.1)));
+    let pad = |lo: &mut f64, hi: &mut f64, log: bool| {
+        if log {
+            *lo /= 1.3;
+            *hi *= 1.3;
+        } else {
+            let d = (*hi - *lo).max(1e-12 * hi.abs().max(1.0));
+            *lo -= 0.05 * d;
+            *hi += 0.05 * d;
+        }
+    };
+    pad(&mut x0, &mut x1, log_x);
+    pad(&mut y0, &mut y1, log_y);
+    if !log_y && y0 > 0.0 && y0 < 0.3 * y1 {
+        y0 = 0.0;
+    }
+    let err = |e: &dyn std::fmt::Display| std::io::Error::other(e.to_string());
+    let root = SVGBackend::new(path, (720, 440)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let palette = [RGBColor(31, 119, 180), RGBColor(214, 39, 40), RGBColor(44, 160, 44), RGBColor(148, 103, 189), RGBColor(255, 127, 14), RGBColor(23, 190, 207)];
+    macro_rules! draw {
+        ($chart:expr) => {{
+            let mut chart = $chart;
+            chart
+                .configure_mesh()
+                .x_desc(x_label)
+                .y_desc(y_label)
+                .x_label_formatter(&|v| sig3(*v))
+                .y_label_formatter(&|v| sig3(*v))
+                .x_labels(8)
+                .y_labels(8)
+                .draw()
+                .map_err(|e| err(&e))?;
+            for (i, s) in series.iter().enumerate() {
+                let color = palette[i % palette.len()];
+                let data: Vec<(f64, f64)> = s.points.iter().copied().filter(keep).collect();
+                if s.reference {
+                    chart
+                        .draw_series(DashedLineSeries::new(data, 6, 4, color.stroke_width(2)))
+                        .map_err(|e| err(&e))?
+                        .label(s.name.clone())
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color));
+                } else {
+                    chart.draw_series(LineSeries::new(data.clone(), color.stroke_width(2))).map_err(|e| err(&e))?
+                        .label(s.name.clone())
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color));
+                    chart.draw_series(data.into_iter().map(|p| Circle::new(p, 3, color.filled()))).map_err(|e| err(&e))?;
+                }
+            }
+            chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(|e| err(&e))?;
+        }};
+    }
+    let mut b = ChartBuilder::on(&root);
+    b.caption(title, ("sans-serif", 18)).margin(12).x_label_area_size(40).y_label_area_size(60);
+    match (log_x, log_y) {
+        (false, false) => draw!(b.build_cartesian_2d(x0..x1, y0..y1).map_err(|e| err(&e))?),
+        (true, false) => draw!(b.build_cartesian_2d((x0..x1).log_scale(), y0..y1).map_err(|e| err(&e))?),
+        (false, true) => draw!(b.build_cartesian_2d(x0..x1, (y0..y1).log_scale()).map_err(|e| err(&e))?),
+        (true, true) => draw!(b.build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale()).map_err(|e| err(&e))?),
+    }
+    root.present().map_err(|e| err(&e))?;
+    Ok(())
+}

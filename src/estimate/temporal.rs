@@ -4,7 +4,8 @@
 //! # Smoothing
 //! Each of the six intensities (`Pd`, `Pa` × RGB) is smoothed by a scalar Kalman filter with a
 //! random-walk model: between frames `Δt` apart the true value may drift with standard deviation
-//! `q·x·√Δt` (`q` = `smoothing_rate_per_sqrt_s`, relative to the current value `x`), and each
+//! `q·(Pd + Pa)·√Δt` (`q` = `smoothing_rate_per_sqrt_s`, relative to the channel's current total
+//! light, so that a parameter near zero can still recover quickly), and each
 //! frame's measurement has the variance of its standard error. A precise estimate (small standard
 //! error) is trusted almost fully; a noisy one is averaged over more frames. A frame whose
 //! parameter was not observed (e.g. `Pd` when every sample is in shadow) only predicts, so the held
@@ -55,8 +56,10 @@ impl Smoother {
             return self.x;
         };
         for k in 0..6 {
-            // Predict.
-            let q = rate_per_sqrt_s * x[k].abs();
+            // Predict. The drift scales with the channel's total light (Pd + Pa), so a value near
+            // zero (the sun behind a cloud) can still grow back quickly.
+            let total = x[k % 3].abs() + x[k % 3 + 3].abs();
+            let q = rate_per_sqrt_s * total;
             self.var[k] += q * q * dt;
             // Update.
             if let Some((z, se)) = meas[k] {
@@ -152,6 +155,15 @@ mod tests {
     }
 
     #[test]
+    fn a_value_near_zero_recovers_quickly() {
+        // The sun behind a cloud (Pd ≈ 0) and back 10 s later: the filter follows at once.
+        let mut s = Smoother::default();
+        s.update(0.0, 0.1, [Some((0.03, 0.001)), Some((0.03, 0.001)), Some((0.03, 0.001)), Some((0.8, 0.01)), Some((0.8, 0.01)), Some((0.8, 0.01))]);
+        let out = s.update(10.0, 0.1, [Some((0.9, 0.01)), Some((0.9, 0.01)), Some((0.9, 0.01)), Some((0.8, 0.01)), Some((0.8, 0.01)), Some((0.8, 0.01))]).unwrap();
+        assert!((out[0] - 0.9).abs() < 0.02, "{out:?}");
+    }
+
+    #[test]
     fn unobserved_parameters_hold() {
         let mut s = Smoother::default();
         s.update(0.0, 0.5, [Some((3.0, 0.01)); 6]);
@@ -160,6 +172,7 @@ mod tests {
         let out = s.update(1.0, 0.5, m).unwrap();
         assert_eq!(out[0], 3.0);
         assert!(out[3] < 1.1);
+        assert!(out[1] < 1.1);
     }
 
     #[test]

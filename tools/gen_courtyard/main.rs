@@ -218,6 +218,7 @@ fn main() -> Result<()> {
     let sky_spp = args.spp;
     eprintln!("rendering the sky basis ({w}×{h}, {sky_spp} spp)");
     let (sky_basis, _) = render::render_basis(&scene, &truth_albedo, &cam, Vec3::Y, sky_spp, 1);
+    let mut previews: Vec<LinearImage> = Vec::new();
     let mut truth = String::from("frame,time,pd_r,pd_g,pd_b,pa_r,pa_g,pa_b,sun_azimuth_deg,sun_apparent_zenith_deg\n");
     let mut times = Vec::new();
     for i in 0..args.frames {
@@ -245,6 +246,9 @@ fn main() -> Result<()> {
             }
         }
         hdr.write_exr(&out.join(format!("frames/hdr/frame_{i:03}.exr")), ExrPrecision::Half)?;
+        if i == 0 || i == args.frames / 2 {
+            previews.push(hdr.clone());
+        }
         image::save_buffer(out.join(format!("frames/ldr/frame_{i:03}.png")), &ldr, w, h, image::ExtendedColorType::Rgb8)?;
         writeln!(
             truth,
@@ -262,6 +266,13 @@ fn main() -> Result<()> {
         times.push(t);
     }
     write(&out.join("truth.csv"), &truth)?;
+    // preview.png: the first frame and the frame with the sun behind the cloud, side by side.
+    let sheet = LinearImage::from_fn(w * previews.len() as u32 + 4 * (previews.len() as u32 - 1), h, |x, y| {
+        let k = x / (w + 4);
+        let xi = x % (w + 4);
+        if xi >= w { [1.0; 3] } else { previews[k as usize].get(xi, y) }
+    });
+    sheet.write_png_srgb(&out.join("preview.png"), 2.0)?;
 
     let k = &cam.intrinsics;
     write(

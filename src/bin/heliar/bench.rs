@@ -5,7 +5,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand, ValueEnum};
 use heliar::estimate::{EstimatorConfig, Estimator};
 use heliar::io::frames::Frame;
-use heliar::report::{Table, lighting_error, median, percentile};
+use heliar::report::{Series, Table, line_plot_svg, lighting_error, median, percentile};
 use std::path::PathBuf;
 
 #[derive(Args)]
@@ -49,6 +49,9 @@ struct EstimateSweep {
     /// CSV output.
     #[arg(long, default_value = "out/bench_estimate.csv")]
     csv: PathBuf,
+    /// SVG plot of error against time per frame (log–log).
+    #[arg(long)]
+    plot: Option<PathBuf>,
 }
 
 struct Row {
@@ -150,9 +153,18 @@ pub fn run(a: BenchArgs) -> Result<()> {
         "setup_ms",
         "sun_rebuild_ms",
     ]);
+    let (mut pd_pts, mut pa_pts) = (Vec::new(), Vec::new());
     for (value, cfg) in configs {
         let r = run_config(&scene, ray.clone(), &seq, &frames, cfg, s.repeats, value)?;
         let mean = |v: &[f64]| if v.is_empty() { f64::NAN } else { v.iter().sum::<f64>() / v.len() as f64 };
+        // Time axis: per-frame time for the sample count; set-up time for the set-up knobs.
+        let t = match s.knob {
+            Knob::Samples => median(&r.ms),
+            Knob::AmbientPaths | Knob::PoolSize => r.setup_ms,
+            Knob::BouncePaths => median(&r.rebuild_ms),
+        };
+        pd_pts.push((t, 100.0 * mean(&r.errs_pd)));
+        pa_pts.push((t, 100.0 * mean(&r.errs_pa)));
         table.push(vec![
             r.value,
             format!("{:.3}", 100.0 * mean(&r.errs_pd)),
@@ -171,5 +183,19 @@ pub fn run(a: BenchArgs) -> Result<()> {
     print!("{table}");
     table.write_csv(&s.csv).with_context(|| format!("writing {}", s.csv.display()))?;
     println!("wrote {}", s.csv.display());
+    if let Some(path) = &s.plot {
+        let x_label = match s.knob {
+            Knob::Samples => "median estimate time per frame (ms)",
+            Knob::AmbientPaths | Knob::PoolSize => "estimator set-up time (ms)",
+            Knob::BouncePaths => "sun-visibility rebuild time (ms)",
+        };
+        let series = vec![
+            Series { name: "Pd mean error".into(), points: pd_pts, reference: false },
+            Series { name: "Pa mean error".into(), points: pa_pts, reference: false },
+        ];
+        line_plot_svg(path, &format!("estimator error against run time ({knob_name})"), x_label, "mean relative error (%)", &series, true, true)
+            .with_context(|| format!("writing {}", path.display()))?;
+        println!("wrote {}", path.display());
+    }
     Ok(())
 }

@@ -5,7 +5,8 @@ use anyhow::{Context, Result};
 use clap::Args;
 use heliar::estimate::{FrameEstimate, Status};
 use heliar::io::frames::Frame;
-use heliar::report::{JsonLines, Table, lighting_error, median};
+use heliar::estimate::LUMA;
+use heliar::report::{JsonLines, Series, Table, line_plot_svg, lighting_error, median};
 use heliar::scene::Truth;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -27,6 +28,9 @@ pub struct EstimateArgs {
     /// Leave the sun-bounce term out of the model.
     #[arg(long)]
     no_sun_bounce: bool,
+    /// Also write an SVG plot of Pd and Pa (luminance) over time, with the truth when known.
+    #[arg(long)]
+    plot: Option<PathBuf>,
 }
 
 #[derive(Serialize)]
@@ -64,6 +68,8 @@ pub fn run(a: EstimateArgs) -> Result<()> {
     let mut statuses: BTreeMap<Status, usize> = BTreeMap::new();
     let (mut errs_pd, mut errs_pa, mut ms, mut decode) = (vec![], vec![], vec![], vec![]);
     let k = &scene.camera.intrinsics;
+    let luma = |v: &[f64; 3]| v[0] * LUMA[0] + v[1] * LUMA[1] + v[2] * LUMA[2];
+    let mut plot: [Vec<(f64, f64)>; 6] = Default::default(); // pd, pa, pd smoothed, pa smoothed, pd true, pa true
     for (i, path) in seq.files.iter().enumerate() {
         let t = std::time::Instant::now();
         let frame = Frame::load(path)?;
@@ -81,6 +87,19 @@ pub fn run(a: EstimateArgs) -> Result<()> {
             _ => None,
         };
         *statuses.entry(e.status).or_default() += 1;
+        let ts = (seq.times[i] - seq.times[0]).num_milliseconds() as f64 / 1e3;
+        if let (Some(pd), Some(pa)) = (e.pd, e.pa) {
+            plot[0].push((ts, luma(&pd)));
+            plot[1].push((ts, luma(&pa)));
+        }
+        if let Some(s) = e.smoothed {
+            plot[2].push((ts, luma(&s.pd)));
+            plot[3].push((ts, luma(&s.pa)));
+        }
+        if let Some(t) = truth {
+            plot[4].push((ts, luma(&t.pd)));
+            plot[5].push((ts, luma(&t.pa)));
+        }
         ms.push(e.estimate_ms);
         decode.push(decode_ms);
         out.write(&Record { estimate: &e, decode_ms, truth, error })?;
@@ -104,6 +123,20 @@ pub fn run(a: EstimateArgs) -> Result<()> {
     eprint!("{t}");
     if let Some(p) = out.path() {
         eprintln!("wrote {}", p.display());
+    }
+    if let Some(path) = &a.plot {
+        let names = ["Pd", "Pa", "Pd smoothed", "Pa smoothed", "Pd true", "Pa true"];
+        let series: Vec<Series> = plot
+            .into_iter()
+            .zip(names)
+            .enumerate()
+            .filter(|(_, (p, _))| !p.is_empty())
+            .map(|(k, (points, name))| Series { name: name.into(), points, reference: k >= 4 })
+            .collect();
+        let title = format!("{} / {}: sun and sky irradiance (luminance)", scene.manifest.name, seq.name);
+        line_plot_svg(path, &title, "time since first frame (s)", "irradiance (scaled radiance units)", &series, false, false)
+            .with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
     }
     Ok(())
 }
