@@ -59,6 +59,7 @@ pub mod envmap;
 pub mod estimate;
 pub mod geometry;
 pub mod io;
+pub mod irradiance;
 pub mod report;
 pub mod scene;
 pub mod sun;

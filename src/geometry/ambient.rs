@@ -7,8 +7,9 @@
 //! bake), so it is written once, here.
 //!
 //! # How it works
-//! The sky is a uniform dome of radiance `1/π`, so an unoccluded horizontal surface receives unit
-//! irradiance. From the point `p` with normal `n`, `paths` cosine-weighted paths are traced
+//! The sky is a uniform dome of radiance `1/π` over the upper hemisphere (directions with `y > 0`;
+//! below the horizon, where no proxy geometry is hit, there is no light), so an unoccluded
+//! horizontal surface receives unit irradiance and an unoccluded vertical one ½. From the point `p` with normal `n`, `paths` cosine-weighted paths are traced
 //! (stratified on the first bounce). With pdf `cos θ/π`, a path that escapes to the sky after
 //! passing Lambertian surfaces of albedos `ρ₁ … ρ_k` contributes `ρ₁⋯ρ_k` to the estimate of `c`
 //! (RGB, because coloured walls tint the light they pass on). Paths stop after `max_bounces`
@@ -67,7 +68,10 @@ pub fn transport(scene: &RayScene, p: Vec3, n: Vec3, sun: Option<Vec3>, quality:
         for bounce in 0..=quality.max_bounces {
             let hit = scene.intersect(origin + normal * RAY_EPSILON_M, dir, f32::MAX);
             let Some(hit) = hit else {
-                c += throughput;
+                // The sky is the upper hemisphere; below the horizon there is nothing.
+                if dir.y > 0.0 {
+                    c += throughput;
+                }
                 break;
             };
             if bounce == quality.max_bounces {
@@ -119,6 +123,16 @@ mod tests {
         let t = transport(&s, Vec3::ZERO, Vec3::Y, Some(Vec3::new(0.3, 0.8, 0.1).normalize()), TransportQuality::default(), 1);
         assert!((t.c - Vec3::ONE).abs().max_element() < 1e-6, "{:?}", t.c);
         assert_eq!(t.b, Vec3::ZERO);
+    }
+
+    #[test]
+    fn vertical_surface_in_empty_space_sees_half_the_sky() {
+        let s = RayScene::new(Mesh::default());
+        let q = TransportQuality { paths: 4096, max_bounces: 1 };
+        let t = transport(&s, Vec3::ZERO, Vec3::X, None, q, 5);
+        assert!((t.c.x - 0.5).abs() < 0.01, "{:?}", t.c);
+        let t = transport(&s, Vec3::ZERO, Vec3::NEG_Y, None, q, 5);
+        assert_eq!(t.c, Vec3::ZERO);
     }
 
     #[test]

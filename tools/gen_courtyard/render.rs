@@ -28,8 +28,10 @@ pub fn trace(scene: &RayScene, albedo: &dyn TrueAlbedo, origin: Vec3, dir: Vec3,
     let mut offset = Vec3::ZERO;
     for depth in 0..12 {
         let Some(hit) = scene.intersect(o + offset, d, f32::MAX) else {
-            // The sky dome: radiance Pa/π per unit Pa.
-            sky += throughput / PI;
+            // The sky dome over the upper hemisphere: radiance Pa/π per unit Pa.
+            if d.y > 0.0 {
+                sky += throughput / PI;
+            }
             break;
         };
         let base = scene.albedo(&hit);
