@@ -1,7 +1,11 @@
-//! Equirectangular environment maps.
+//! Equirectangular environment maps: the one direction ↔ texel mapping, the offline bake
+//! ([`bake`], Jensen §4.1) and the runtime relighting ([`relight`], Jensen §4.2).
 //!
-//! This module owns the one mapping between world directions and equirect texels (see the crate
-//! docs, "Equirectangular maps"). The bake and runtime relighting of Jensen §4 build on it.
+//! The mapping is the crate-wide convention (crate docs, "Equirectangular maps"); every other
+//! piece of code calls [`texel_from_dir`] and [`dir_from_texel`].
+
+pub mod bake;
+pub mod relight;
 
 use glam::Vec3;
 use std::f32::consts::PI;
@@ -35,6 +39,13 @@ pub fn dir_from_texel(x: f32, y: f32, width: u32, height: u32) -> Vec3 {
 /// Unit direction through the centre of texel `(i, j)`.
 pub fn dir_from_texel_centre(i: u32, j: u32, width: u32, height: u32) -> Vec3 {
     dir_from_texel(i as f32 + 0.5, j as f32 + 0.5, width, height)
+}
+
+/// Row-major index of the texel containing direction `dir`.
+pub fn texel_index(dir: Vec3, width: u32, height: u32) -> usize {
+    let (x, y) = texel_from_dir(dir, width, height);
+    let (i, j) = ((x as u32).min(width - 1), (y as u32).min(height - 1));
+    (j * width + i) as usize
 }
 
 /// Solid angle (sr) of texel row `j` in a `width × height` equirect map (all texels of a row are

@@ -27,7 +27,7 @@ use crate::geometry::ambient::TransportQuality;
 use crate::geometry::raycast::RayScene;
 use crate::io::frames::{Frame, Linearizer, PixelState};
 use crate::scene::Scene;
-use crate::scene::camera::Camera;
+use crate::scene::camera::{Camera, View};
 use crate::sun::{GeoFrame, Observer, SunError, SunPosition, sun_position};
 use chrono::{DateTime, FixedOffset};
 use glam::Vec3;
@@ -336,7 +336,7 @@ impl Estimator {
         Self::with_camera(scene.estimator.clone(), scene.observer, scene.geo, &scene.camera, ray_scene)
     }
 
-    /// Sets up the estimator from its parts.
+    /// Sets up the estimator from its parts, for a calibrated camera.
     pub fn with_camera(
         config: EstimatorConfig,
         observer: Observer,
@@ -344,8 +344,20 @@ impl Estimator {
         camera: &Camera,
         scene: Arc<RayScene>,
     ) -> Result<Self, EstimateError> {
+        Self::with_view(config, observer, geo, View::Camera(camera), scene)
+    }
+
+    /// Sets up the estimator for any view: a camera, or an equirect environment map at its
+    /// capture centre (the bake estimates the lighting of the capture this way).
+    pub fn with_view(
+        config: EstimatorConfig,
+        observer: Observer,
+        geo: GeoFrame,
+        view: View,
+        scene: Arc<RayScene>,
+    ) -> Result<Self, EstimateError> {
         let t = std::time::Instant::now();
-        let map = PixelMap::build(camera, &scene, config.edge_margin_px);
+        let map = PixelMap::build(view, &scene, config.edge_margin_px);
         let pixel_map_ms = t.elapsed().as_secs_f64() * 1e3;
         let candidates = map.candidates();
         if candidates < 3 {

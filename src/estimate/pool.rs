@@ -19,7 +19,7 @@
 use super::EstimatorConfig;
 use crate::geometry::ambient::{TransportQuality, transport};
 use crate::geometry::raycast::RayScene;
-use crate::scene::camera::Camera;
+use crate::scene::camera::View;
 use glam::Vec3;
 use rand::{SeedableRng, rngs::SmallRng, seq::index};
 use rayon::prelude::*;
@@ -54,16 +54,16 @@ pub struct PixelMap {
 }
 
 impl PixelMap {
-    /// Casts every pixel's ray and builds the candidate mask.
-    pub fn build(camera: &Camera, scene: &RayScene, edge_margin_px: u32) -> Self {
-        let (w, h) = (camera.intrinsics.width, camera.intrinsics.height);
+    /// Casts every pixel's ray (camera or equirect) and builds the candidate mask.
+    pub fn build(view: View, scene: &RayScene, edge_margin_px: u32) -> Self {
+        let (w, h) = view.size();
         let rows: Vec<Vec<(u32, Vec3, Vec3)>> = (0..h)
             .into_par_iter()
             .map(|y| {
                 (0..w)
                     .map(|x| {
-                        let hit = camera
-                            .pixel_ray(x, y)
+                        let hit = view
+                            .ray(x, y)
                             .and_then(|(o, d)| scene.intersect(o.as_vec3(), d.as_vec3(), f32::MAX));
                         match hit {
                             Some(hit) => (hit.tri, hit.point, hit.normal),
@@ -80,7 +80,7 @@ impl PixelMap {
             point.push(p);
             normal.push(nn);
         }
-        let eye = camera.pose.translation.as_vec3();
+        let eye = view.eye().as_vec3();
         let mesh = scene.mesh();
         let node = |i: usize| if tri[i] == NO_HIT { u32::MAX } else { mesh.tri_node[tri[i] as usize] };
         let cos_crease = CREASE_DEG.to_radians().cos();

@@ -103,6 +103,20 @@ impl RayScene {
         !self.occluded(p + n * RAY_EPSILON_M, l, f32::MAX)
     }
 
+    /// Of the rays from `p` along `dirs` that hit something, the fraction whose first hit is the
+    /// back of a triangle (its winding normal points along the ray). Near 1 inside a closed mesh,
+    /// 0 outside; `None` when no ray hits anything.
+    pub fn back_face_fraction(&self, p: Vec3, dirs: &[Vec3]) -> Option<f32> {
+        let (mut hits, mut back) = (0u32, 0u32);
+        for &d in dirs {
+            if let Some(h) = self.intersect(p, d, f32::MAX) {
+                hits += 1;
+                back += (self.normals[h.tri as usize].dot(d) > 0.0) as u32;
+            }
+        }
+        (hits > 0).then(|| back as f32 / hits as f32)
+    }
+
     /// Barycentric weights (corners 1 and 2) of point `p` on triangle `tri`.
     pub fn barycentric(&self, tri: u32, p: Vec3) -> Vec2 {
         let [a, b, c] = self.mesh.corners(tri);

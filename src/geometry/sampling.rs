@@ -40,9 +40,36 @@ pub fn sample_cosine_around(n: Vec3, u: Vec2) -> Vec3 {
     (t * l.x + b * l.y + n * l.z).normalize()
 }
 
+/// `n` directions spread evenly over the unit sphere (spherical Fibonacci lattice; Marques et al.
+/// 2013, "Spherical Fibonacci Point Sets for Illumination Integrals"). Each stands for `4π/n` sr.
+pub fn sphere_fibonacci(n: usize) -> Vec<Vec3> {
+    let golden = (1.0 + 5f64.sqrt()) / 2.0;
+    (0..n)
+        .map(|i| {
+            let z = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
+            let phi = 2.0 * std::f64::consts::PI * (i as f64 / golden).fract();
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            // y is up in the world frame: put the lattice's pole on +Y.
+            Vec3::new((r * phi.cos()) as f32, z as f32, (r * phi.sin()) as f32)
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fibonacci_directions_are_uniform() {
+        let d = sphere_fibonacci(4096);
+        assert!(d.iter().all(|v| (v.length() - 1.0).abs() < 1e-5));
+        // Mean of a uniform sphere is 0; mean of y² is 1/3; upper-hemisphere fraction ½.
+        let mean = d.iter().copied().sum::<Vec3>() / d.len() as f32;
+        assert!(mean.length() < 1e-3, "{mean}");
+        let y2 = d.iter().map(|v| v.y * v.y).sum::<f32>() / d.len() as f32;
+        assert!((y2 - 1.0 / 3.0).abs() < 1e-3);
+        assert_eq!(d.iter().filter(|v| v.y > 0.0).count(), 2048);
+    }
 
     #[test]
     fn basis_is_orthonormal() {

@@ -104,6 +104,46 @@ impl LinearImage {
         }
     }
 
+    /// Writes a four-channel float EXR (`R`, `G`, `B` from `self`, `A` from `alpha`), ZIP
+    /// compressed; used for baked geometry (position + an integer id in alpha, exact below 2²⁴).
+    pub fn write_exr_with_alpha(&self, alpha: &[f32], path: &Path) -> Result<(), IoError> {
+        use exr::prelude::*;
+        let (w, h) = (self.width as usize, self.height as usize);
+        let channels = SpecificChannels::rgba(|p: Vec2<usize>| {
+            let i = p.y() * w + p.x();
+            let v = self.data[i];
+            (v[0], v[1], v[2], alpha[i])
+        });
+        let encoding = Encoding { compression: Compression::ZIP16, blocks: Blocks::ScanLines, line_order: LineOrder::Increasing };
+        let layer = Layer::new((w, h), LayerAttributes::default(), encoding, channels);
+        Image::from_layer(layer)
+            .write()
+            .to_file(path)
+            .map_err(|e| IoError::Exr { path: path.to_owned(), message: e.to_string() })
+    }
+
+    /// Reads an RGBA EXR written by [`LinearImage::write_exr_with_alpha`]: the image and its alpha.
+    pub fn read_exr_with_alpha(path: &Path) -> Result<(Self, Vec<f32>), IoError> {
+        use exr::prelude::*;
+        if !path.exists() {
+            return Err(IoError::File {
+                path: path.to_owned(),
+                source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+            });
+        }
+        let image = read_first_rgba_layer_from_file(
+            path,
+            |res, _| (LinearImage::new(res.width() as u32, res.height() as u32), vec![0.0f32; res.width() * res.height()]),
+            |(img, a): &mut (LinearImage, Vec<f32>), pos, (r, g, b, alpha): (f32, f32, f32, f32)| {
+                let w = img.width as usize;
+                img.set(pos.x() as u32, pos.y() as u32, [r, g, b]);
+                a[pos.y() * w + pos.x()] = alpha;
+            },
+        )
+        .map_err(|e| IoError::Exr { path: path.to_owned(), message: e.to_string() })?;
+        Ok(image.layer_data.channel_data.pixels)
+    }
+
     /// Writes an 8-bit sRGB PNG of `exposure · self`, clamped to `[0, 1]` (a preview; no tone
     /// curve beyond the sRGB encoding).
     pub fn write_png_srgb(&self, path: &Path, exposure: f32) -> Result<(), IoError> {

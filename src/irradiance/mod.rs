@@ -6,6 +6,7 @@
 //! probe, and trilinear interpolation that leaves invalid probes out.
 
 pub mod sh;
+pub mod transfer;
 
 use glam::{UVec3, Vec3};
 use sh::ShRgb;

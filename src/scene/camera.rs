@@ -172,6 +172,51 @@ impl Camera {
     }
 }
 
+/// Where an image's pixel rays come from: a calibrated camera, or an equirect map seen from a
+/// point (an environment map at its capture centre).
+#[derive(Clone, Copy, Debug)]
+pub enum View<'a> {
+    /// A calibrated pinhole camera with distortion.
+    Camera(&'a Camera),
+    /// An equirect map of `width × height` texels (crate conventions) around `centre`.
+    Equirect {
+        /// World position of the map's centre of projection.
+        centre: DVec3,
+        /// Width in texels.
+        width: u32,
+        /// Height in texels.
+        height: u32,
+    },
+}
+
+impl View<'_> {
+    /// Image size.
+    pub fn size(&self) -> (u32, u32) {
+        match self {
+            View::Camera(c) => (c.intrinsics.width, c.intrinsics.height),
+            View::Equirect { width, height, .. } => (*width, *height),
+        }
+    }
+
+    /// The centre of projection.
+    pub fn eye(&self) -> DVec3 {
+        match self {
+            View::Camera(c) => c.pose.translation,
+            View::Equirect { centre, .. } => *centre,
+        }
+    }
+
+    /// World ray (origin, unit direction) through the centre of pixel `(x, y)`.
+    pub fn ray(&self, x: u32, y: u32) -> Option<(DVec3, DVec3)> {
+        match self {
+            View::Camera(c) => c.pixel_ray(x, y),
+            View::Equirect { centre, width, height } => {
+                Some((*centre, crate::envmap::dir_from_texel_centre(x, y, *width, *height).as_dvec3()))
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

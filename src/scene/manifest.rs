@@ -52,6 +52,8 @@ pub struct Manifest {
     pub sequences: Vec<SequenceSpec>,
     /// Estimator settings (defaults when absent).
     pub estimator: Option<EstimatorConfig>,
+    /// Bake, relighting and irradiance-volume settings (defaults when absent).
+    pub bake: Option<crate::envmap::bake::BakeConfig>,
 }
 
 fn default_north() -> [f64; 3] {
@@ -132,12 +134,30 @@ pub struct VirtualObjectSpec {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EnvMapSpec {
-    /// Equirectangular OpenEXR file, relative to the scene folder.
-    pub file: String,
-    /// World position where it was captured.
+    /// Equirectangular OpenEXR file, relative to the scene folder. Required unless
+    /// `albedo = "gltf"`.
+    pub file: Option<String>,
+    /// World position where it was captured (or, without a file, the centre of the baked maps).
     pub capture_center: [f64; 3],
     /// When it was captured (RFC 3339 with offset).
     pub capture_time: TimeValue,
+    /// Where the albedo map comes from: `inverse` rendering of the captured map (default), or the
+    /// proxy's glTF base colour (for scenes without a trusted HDRI).
+    #[serde(default)]
+    pub albedo: AlbedoSource,
+    /// Size of the baked maps `[width, height]` when there is no file (default `[256, 128]`).
+    pub resolution: Option<[u32; 2]>,
+}
+
+/// Source of the albedo environment map.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AlbedoSource {
+    /// `ρ = π·L / (c·Pa + (s·max(n·l,0) + b)·Pd)` from the captured map (Jensen §4.1).
+    #[default]
+    Inverse,
+    /// The proxy's base colour.
+    Gltf,
 }
 
 /// `[irradiance]`.

@@ -8,7 +8,7 @@ pub mod camera;
 pub mod gltf;
 mod manifest;
 
-pub use manifest::{CameraFile, EnvMapSpec, GridSpec, Manifest, PoseSpec, ResponseSpec, SequenceSpec, TimeSpec, VirtualObjectSpec};
+pub use manifest::{AlbedoSource, CameraFile, EnvMapSpec, GridSpec, Manifest, PoseSpec, ResponseSpec, SequenceSpec, TimeSpec, VirtualObjectSpec};
 
 use crate::estimate::EstimatorConfig;
 use crate::geometry::Mesh;
@@ -147,6 +147,8 @@ pub struct Scene {
     pub sequences: Vec<Sequence>,
     /// Estimator settings.
     pub estimator: EstimatorConfig,
+    /// Bake, relighting and irradiance-volume settings.
+    pub bake: crate::envmap::bake::BakeConfig,
 }
 
 fn read_toml<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, SceneError> {
@@ -384,9 +386,22 @@ impl Scene {
 
         // Environment map and irradiance grid: checked here, used by the bake.
         if let Some(env) = &manifest.envmap {
-            let p = root.join(&env.file);
-            if !p.exists() {
-                return Err(invalid(m, "envmap.file", format!("{} does not exist", p.display())));
+            match (&env.file, env.albedo) {
+                (Some(f), _) => {
+                    let p = root.join(f);
+                    if !p.exists() {
+                        return Err(invalid(m, "envmap.file", format!("{} does not exist", p.display())));
+                    }
+                }
+                (None, AlbedoSource::Inverse) => {
+                    return Err(invalid(m, "envmap.file", "an environment map file is needed unless albedo = \"gltf\""));
+                }
+                (None, AlbedoSource::Gltf) => {}
+            }
+            if let Some([w, h]) = env.resolution
+                && (w < 8 || h < 4 || w > 16384 || h > 8192)
+            {
+                return Err(invalid(m, "envmap.resolution", format!("{w}×{h} is not a usable map size")));
             }
             finite3(m, "envmap.capture_center", env.capture_center)?;
             parse_time(m, "envmap.capture_time", &env.capture_time.to_string())?;
@@ -432,6 +447,8 @@ impl Scene {
         }
         let estimator = manifest.estimator.clone().unwrap_or_default();
         estimator.validate().map_err(|(f, msg)| invalid(m, &format!("estimator.{f}"), msg))?;
+        let bake = manifest.bake.clone().unwrap_or_default();
+        bake.validate().map_err(|(f, msg)| invalid(m, &format!("bake.{f}"), msg))?;
 
         Ok(Scene {
             root: root.to_owned(),
@@ -444,6 +461,7 @@ impl Scene {
             virtual_objects,
             sequences,
             estimator,
+            bake,
         })
     }
 

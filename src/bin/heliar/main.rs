@@ -1,5 +1,6 @@
 //! The `heliar` command.
 
+mod bake;
 mod bench;
 mod common;
 mod estimate;
@@ -22,6 +23,12 @@ enum Command {
     Estimate(estimate::EstimateArgs),
     /// Error-against-run-time sweeps.
     Bench(bench::BenchArgs),
+    /// Bake the normal, weighted-ambient and albedo environment maps (cached by input hashes).
+    Bake(bake::BakeArgs),
+    /// Write the environment map relit for a frame's (or given) lighting, as EXR.
+    Relight(bake::RelightArgs),
+    /// Irradiance from the irradiance volume at a point and normal, as JSON.
+    Irradiance(bake::IrradianceArgs),
 }
 
 fn main() {
@@ -30,6 +37,9 @@ fn main() {
         Command::Sun(a) => sun::run(a),
         Command::Estimate(a) => estimate::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Bake(a) => bake::run_bake(a),
+        Command::Relight(a) => bake::run_relight(a),
+        Command::Irradiance(a) => bake::run_irradiance(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

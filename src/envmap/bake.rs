@@ -1,0 +1,492 @@
+//! The offline bake (Jensen §4.1): from the HDR environment map and the real proxy, the hit
+//! buffers, normal, weighted-ambient and albedo environment maps.
+//!
+//! # How it works
+//! 1. **Hit buffers.** For each texel a ray from the capture centre finds the proxy point the
+//!    texel shows, its facing normal and its node; texels that see no geometry are sky. (Jensen
+//!    renders the normal map in two passes as a GPU workaround; here normals come straight from the
+//!    geometry.)
+//! 2. **Weighted-ambient map `c`.** Per surface texel, [`crate::geometry::ambient::transport`] path
+//!    traces the irradiance from a uniform white upper-hemisphere sky of unit horizontal irradiance,
+//!    with interreflections between proxy surfaces (`bake.ambient.paths` cosine-weighted paths, at
+//!    most `bake.ambient.max_bounces` bounces; default 256 and 4). This replaces the radiosity
+//!    rendering the paper suggests.
+//! 3. **Lighting at capture.** The estimator runs on the environment map itself, as an equirect
+//!    view from the capture centre at the capture time, and gives `Pd`, `Pa` and the sun direction
+//!    `l` ([`crate::estimate::Estimator::with_view`]).
+//! 4. **Albedo map, by inverse rendering.** `ρ = π·L / (c·Pa + (s·max(n·l,0) + b)·Pd)` per channel,
+//!    with `s` the texel's sun visibility and `b` its sun bounce at capture (the estimator's model,
+//!    Jensen §4.2 plus the bounce term). Texels whose denominator is below
+//!    [`MIN_DENOMINATOR_REL`]` · Pa` or whose result is implausible (`ρ > `[`MAX_ALBEDO`], negative or
+//!    NaN) are flagged and filled from valid neighbours of the same node (repeated 8-neighbour
+//!    averaging, wrapping at the seam); a node with no valid texel falls back to its base colour.
+//!    With `envmap.albedo = "gltf"` the base colour is used everywhere instead.
+//! 5. **Outputs** under `<scene>/baked/`: `albedo.exr`, `normal.exr`, `ambient.exr`,
+//!    `geometry.exr` (hit position in RGB, node index + 1 in A, 0 for sky), PNG previews, and
+//!    `bake.json` (settings, input hashes, counts, lighting at capture, timings). A bake whose
+//!    input hashes match `bake.json` is loaded instead of recomputed.
+
+use super::relight::RelightConfig;
+use crate::estimate::{EstimateError, Estimator, Status};
+use crate::geometry::ambient::{TransportQuality, transport};
+use crate::geometry::raycast::RayScene;
+use crate::geometry::sampling::sphere_fibonacci;
+use crate::io::IoError;
+use crate::io::frames::{Frame, FrameData, Linearizer, Response};
+use crate::io::image::{ExrPrecision, LinearImage};
+use crate::scene::camera::View;
+use crate::scene::{AlbedoSource, Scene};
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::f32::consts::PI;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Texels whose inverse-rendering denominator is below this fraction of `Pa` are flagged: they
+/// receive almost no light, so their radiance says nothing about their albedo.
+pub const MIN_DENOMINATOR_REL: f32 = 0.02;
+/// Albedos above this are physically implausible and flagged.
+pub const MAX_ALBEDO: f32 = 1.0;
+/// Fraction of back-face hits above which a point counts as inside closed geometry.
+pub const INSIDE_FRACTION: f32 = 0.5;
+/// Version of the bake format; part of the cache key.
+const BAKE_FORMAT: u32 = 1;
+/// Node value of sky texels.
+pub const SKY: u32 = u32::MAX;
+
+/// `[bake]` settings in `scene.toml`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct BakeConfig {
+    /// Quality of the weighted-ambient map `c`.
+    pub ambient: TransportQuality,
+    /// Quality of the sun-bounce integral used by the albedo inversion.
+    pub bounce: TransportQuality,
+    /// Runtime relighting settings.
+    pub relight: RelightConfig,
+    /// Directions per probe of the irradiance-volume transfer.
+    pub probe_directions: usize,
+}
+
+impl Default for BakeConfig {
+    fn default() -> Self {
+        Self {
+            ambient: TransportQuality { paths: 256, max_bounces: 4 },
+            bounce: TransportQuality { paths: 128, max_bounces: 3 },
+            relight: RelightConfig::default(),
+            probe_directions: 1024,
+        }
+    }
+}
+
+impl BakeConfig {
+    /// Checks ranges; `Err((field, message))`.
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        if self.ambient.paths == 0 {
+            return Err(("ambient.paths", "must be positive".into()));
+        }
+        if self.bounce.paths == 0 {
+            return Err(("bounce.paths", "must be positive".into()));
+        }
+        if self.probe_directions < 16 {
+            return Err(("probe_directions", "must be at least 16".into()));
+        }
+        self.relight.validate().map_err(|(f, m)| (f, m))
+    }
+}
+
+/// Errors of the bake.
+#[derive(Debug, thiserror::Error)]
+pub enum BakeError {
+    /// The scene has no `[envmap]` section.
+    #[error("{path}: the scene has no [envmap] section; the bake needs its capture centre and time")]
+    NoEnvMap {
+        /// The manifest.
+        path: PathBuf,
+    },
+    /// The capture centre lies inside closed proxy geometry.
+    #[error("{path}: field `envmap.capture_center`: {centre:?} is inside the proxy geometry ({percent:.0}% of the rays from it hit back faces)")]
+    CentreInside {
+        /// The manifest.
+        path: PathBuf,
+        /// The centre.
+        centre: [f64; 3],
+        /// Back-face hit percentage.
+        percent: f32,
+    },
+    /// The environment map cannot give the lighting at capture.
+    #[error(
+        "{path}: the estimator could not separate sun and sky on the environment map at capture (status {status:?}); \
+         set `albedo = \"gltf\"` in [envmap] to take the albedo from the proxy instead"
+    )]
+    CaptureLighting {
+        /// The environment map.
+        path: PathBuf,
+        /// The estimator's status.
+        status: Status,
+    },
+    /// A baked file is missing or unreadable.
+    #[error(transparent)]
+    Io(#[from] IoError),
+    /// `bake.json` could not be written or read.
+    #[error("{path}: {message}")]
+    Info {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+    /// The estimator failed.
+    #[error(transparent)]
+    Estimate(#[from] EstimateError),
+}
+
+/// Counts and measurements of a bake (`bake.json`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct BakeInfo {
+    /// Format version.
+    pub format: u32,
+    /// blake3 of all inputs (see [`cache_key`]).
+    pub key: String,
+    /// Map size.
+    pub width: u32,
+    /// Map size.
+    pub height: u32,
+    /// Capture centre.
+    pub centre: [f64; 3],
+    /// Albedo source.
+    pub albedo_source: AlbedoSource,
+    /// Texels that show the proxy.
+    pub surface_texels: usize,
+    /// Texels that show sky.
+    pub sky_texels: usize,
+    /// Non-finite or negative texels of the input map replaced by 0.
+    pub sanitized_texels: usize,
+    /// Albedo texels flagged and filled from neighbours.
+    pub filled_from_neighbours: usize,
+    /// Albedo texels flagged and set to their node's base colour (no valid neighbour).
+    pub filled_from_base_colour: usize,
+    /// Sun direction at capture, world.
+    pub capture_sun_dir: [f32; 3],
+    /// `Pd` at capture, from the estimator on the map.
+    pub capture_pd: [f64; 3],
+    /// `Pa` at capture.
+    pub capture_pa: [f64; 3],
+    /// The estimator's status on the map.
+    pub capture_status: Option<Status>,
+    /// Settings used.
+    pub config: Option<BakeConfig>,
+    /// Wall time per stage, ms.
+    pub timings_ms: Vec<(String, f64)>,
+}
+
+/// The baked maps, in memory. Vectors are row-major `width × height`.
+#[derive(Clone, Debug)]
+pub struct Baked {
+    /// Map width.
+    pub width: u32,
+    /// Map height.
+    pub height: u32,
+    /// Capture centre.
+    pub centre: Vec3,
+    /// Node index per texel, [`SKY`] for sky.
+    pub node: Vec<u32>,
+    /// Hit position per texel (zero for sky).
+    pub position: Vec<Vec3>,
+    /// Facing normal per texel (zero for sky).
+    pub normal: Vec<Vec3>,
+    /// Weighted-ambient factor per texel (zero for sky).
+    pub ambient: Vec<Vec3>,
+    /// Linear albedo per texel (zero for sky).
+    pub albedo: Vec<Vec3>,
+    /// Counts and settings.
+    pub info: BakeInfo,
+}
+
+/// Progress reports: `(stage, done, total)`.
+pub type Progress<'a> = &'a (dyn Fn(&str, u64, u64) + Sync);
+
+fn hash_file(h: &mut blake3::Hasher, path: &Path) -> Result<(), IoError> {
+    let bytes = std::fs::read(path).map_err(|source| IoError::File { path: path.to_owned(), source })?;
+    h.update(&(bytes.len() as u64).to_le_bytes());
+    h.update(&bytes);
+    Ok(())
+}
+
+/// The cache key of a scene's bake: blake3 over the environment map and proxy files and every
+/// setting the bake reads.
+pub fn cache_key(scene: &Scene) -> Result<String, BakeError> {
+    let mpath = scene.root.join(crate::scene::MANIFEST_FILE);
+    let env = scene.manifest.envmap.as_ref().ok_or(BakeError::NoEnvMap { path: mpath.clone() })?;
+    let mut h = blake3::Hasher::new();
+    h.update(&BAKE_FORMAT.to_le_bytes());
+    h.update(env!("CARGO_PKG_VERSION").as_bytes());
+    if let Some(f) = &env.file {
+        hash_file(&mut h, &scene.root.join(f))?;
+    }
+    hash_file(&mut h, &scene.root.join(&scene.manifest.proxy.file))?;
+    let settings = serde_json::json!({
+        "env": env, "bake": scene.bake, "place": scene.manifest.place,
+        "diffuse": scene.manifest.proxy.diffuse_nodes, "estimator": scene.estimator,
+    });
+    h.update(settings.to_string().as_bytes());
+    Ok(h.finalize().to_hex().to_string())
+}
+
+/// Runs the bake. `progress` is called from worker threads.
+pub fn bake(scene: &Scene, ray: std::sync::Arc<RayScene>, progress: Progress) -> Result<Baked, BakeError> {
+    let mpath = scene.root.join(crate::scene::MANIFEST_FILE);
+    let env = scene.manifest.envmap.as_ref().ok_or(BakeError::NoEnvMap { path: mpath.clone() })?;
+    let cfg = &scene.bake;
+    let mut info = BakeInfo { format: BAKE_FORMAT, key: cache_key(scene)?, config: Some(cfg.clone()), albedo_source: env.albedo, ..Default::default() };
+    let mut timer = std::time::Instant::now();
+    let mut lap = |info: &mut BakeInfo, name: &str| {
+        info.timings_ms.push((name.to_owned(), timer.elapsed().as_secs_f64() * 1e3));
+        timer = std::time::Instant::now();
+    };
+    let centre = DVec3::from(env.capture_center);
+    info.centre = env.capture_center;
+
+    // The captured map (sanitised) or just a size.
+    let captured: Option<(LinearImage, PathBuf)> = match &env.file {
+        Some(f) => {
+            let p = scene.root.join(f);
+            let mut img = LinearImage::read_exr(&p)?;
+            info.sanitized_texels = img.sanitize();
+            Some((img, p))
+        }
+        None => None,
+    };
+    let (w, h) = match (&captured, env.resolution) {
+        (Some((img, _)), _) => (img.width, img.height),
+        (None, Some([w, h])) => (w, h),
+        (None, None) => (256, 128),
+    };
+    info.width = w;
+    info.height = h;
+
+    // The centre must be outside closed geometry.
+    let probe_dirs = sphere_fibonacci(256);
+    if let Some(f) = ray.back_face_fraction(centre.as_vec3(), &probe_dirs)
+        && f > INSIDE_FRACTION
+    {
+        return Err(BakeError::CentreInside { path: mpath, centre: env.capture_center, percent: 100.0 * f });
+    }
+
+    // 1. Hit buffers.
+    let n = (w * h) as usize;
+    let view = View::Equirect { centre, width: w, height: h };
+    let hits: Vec<Option<crate::geometry::raycast::Hit>> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let (o, d) = view.ray(i as u32 % w, i as u32 / w)?;
+            ray.intersect(o.as_vec3(), d.as_vec3(), f32::MAX)
+        })
+        .collect();
+    let mesh = ray.mesh();
+    let node: Vec<u32> = hits.iter().map(|h| h.map_or(SKY, |h| mesh.tri_node[h.tri as usize])).collect();
+    let position: Vec<Vec3> = hits.iter().map(|h| h.map_or(Vec3::ZERO, |h| h.point)).collect();
+    let normal: Vec<Vec3> = hits.iter().map(|h| h.map_or(Vec3::ZERO, |h| h.normal)).collect();
+    let base: Vec<Vec3> = hits.iter().map(|h| h.map_or(Vec3::ZERO, |h| ray.albedo(&h))).collect();
+    info.surface_texels = node.iter().filter(|&&k| k != SKY).count();
+    info.sky_texels = n - info.surface_texels;
+    lap(&mut info, "hit buffers");
+
+    // 2. Weighted ambient.
+    let done = AtomicU64::new(0);
+    let ambient: Vec<Vec3> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let r = if node[i] == SKY { Vec3::ZERO } else { transport(&ray, position[i], normal[i], None, cfg.ambient, 0xa3b1_0000 + i as u64).c };
+            let k = done.fetch_add(1, Ordering::Relaxed) + 1;
+            if k % 1024 == 0 || k == n as u64 {
+                progress("weighted ambient", k, n as u64);
+            }
+            r
+        })
+        .collect();
+    lap(&mut info, "weighted ambient");
+
+    // 3–4. Albedo.
+    let albedo = match (&captured, env.albedo) {
+        (Some((img, path)), AlbedoSource::Inverse) => {
+            let time = crate::scene::parse_time(&mpath, "envmap.capture_time", &env.capture_time.to_string())
+                .map_err(|e| BakeError::Info { path: mpath.clone(), message: e.to_string() })?;
+            let mut est = Estimator::with_view(scene.estimator.clone(), scene.observer, scene.geo, view, ray.clone())?;
+            let frame = Frame { width: w, height: h, data: FrameData::Hdr(img.clone()) };
+            let e = est.estimate(0, &time, &frame, &Linearizer::new(&Response::Linear, 1.0, 1.0, None))?;
+            let (Some(pd), Some(pa)) = (e.pd, e.pa) else {
+                return Err(BakeError::CaptureLighting { path: path.clone(), status: e.status });
+            };
+            let l = Vec3::from(e.sun.dir_world);
+            info.capture_sun_dir = e.sun.dir_world;
+            info.capture_pd = pd;
+            info.capture_pa = pa;
+            info.capture_status = Some(e.status);
+            lap(&mut info, "lighting at capture");
+            let (pd, pa) = (Vec3::new(pd[0] as f32, pd[1] as f32, pd[2] as f32), Vec3::new(pa[0] as f32, pa[1] as f32, pa[2] as f32));
+            let sun_up = e.sun.above_horizon && pd.max_element() > 0.0;
+            let done = AtomicU64::new(0);
+            let inverted: Vec<(Vec3, bool)> = (0..n)
+                .into_par_iter()
+                .map(|i| {
+                    if node[i] == SKY {
+                        return (Vec3::ZERO, true);
+                    }
+                    let (p, nn) = (position[i], normal[i]);
+                    let (direct, bounce) = if sun_up {
+                        let cos = nn.dot(l).max(0.0);
+                        let s = cos > 0.0 && ray.sees_direction(p, nn, l);
+                        let b = transport(&ray, p, nn, Some(l), cfg.bounce, 0xb0c0_0000 + i as u64).b;
+                        (if s { cos } else { 0.0 }, b)
+                    } else {
+                        (0.0, Vec3::ZERO)
+                    };
+                    let k = done.fetch_add(1, Ordering::Relaxed) + 1;
+                    if k % 1024 == 0 || k == n as u64 {
+                        progress("albedo inversion", k, n as u64);
+                    }
+                    let denom = ambient[i] * pa + (Vec3::splat(direct) + bounce) * pd;
+                    let rho = Vec3::from(img.data[i]) * PI / denom;
+                    let ok = denom.cmpge(pa * MIN_DENOMINATOR_REL).all() && rho.is_finite() && rho.cmpge(Vec3::ZERO).all() && rho.cmple(Vec3::splat(MAX_ALBEDO)).all();
+                    (if ok { rho } else { Vec3::ZERO }, ok)
+                })
+                .collect();
+            let (mut rho, valid): (Vec<Vec3>, Vec<bool>) = inverted.into_iter().unzip();
+            let (from_neighbours, from_base) = fill_flagged(&mut rho, &valid, &node, &base, w, h);
+            info.filled_from_neighbours = from_neighbours;
+            info.filled_from_base_colour = from_base;
+            lap(&mut info, "albedo inversion");
+            rho
+        }
+        _ => {
+            info.albedo_source = AlbedoSource::Gltf;
+            base.clone()
+        }
+    };
+    Ok(Baked { width: w, height: h, centre: centre.as_vec3(), node, position, normal, ambient, albedo, info })
+}
+
+/// Fills flagged texels from valid 8-neighbours of the same node (repeated averaging, wrapping in
+/// x), then from the base colour. Returns the two counts.
+fn fill_flagged(rho: &mut [Vec3], valid: &[bool], node: &[u32], base: &[Vec3], w: u32, h: u32) -> (usize, usize) {
+    let (w, h) = (w as i64, h as i64);
+    let mut ok = valid.to_vec();
+    let flagged = ok.iter().zip(node).filter(|(v, k)| !**v && **k != SKY).count();
+    loop {
+        let mut changes = Vec::new();
+        for i in 0..(w * h) as usize {
+            if ok[i] || node[i] == SKY {
+                continue;
+            }
+            let (x, y) = (i as i64 % w, i as i64 / w);
+            let (mut sum, mut cnt) = (Vec3::ZERO, 0);
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    let (nx, ny) = ((x + dx).rem_euclid(w), y + dy);
+                    if ny < 0 || ny >= h || (dx == 0 && dy == 0) {
+                        continue;
+                    }
+                    let j = (ny * w + nx) as usize;
+                    if ok[j] && node[j] == node[i] {
+                        sum += rho[j];
+                        cnt += 1;
+                    }
+                }
+            }
+            if cnt > 0 {
+                changes.push((i, sum / cnt as f32));
+            }
+        }
+        if changes.is_empty() {
+            break;
+        }
+        for (i, v) in changes {
+            rho[i] = v;
+            ok[i] = true;
+        }
+    }
+    let mut from_base = 0;
+    for i in 0..rho.len() {
+        if !ok[i] && node[i] != SKY {
+            rho[i] = base[i];
+            from_base += 1;
+        }
+    }
+    (flagged - from_base, from_base)
+}
+
+const FILES: [&str; 5] = ["albedo.exr", "normal.exr", "ambient.exr", "geometry.exr", "bake.json"];
+
+impl Baked {
+    /// Writes the maps, previews and `bake.json` into `dir` (created).
+    pub fn save(&self, dir: &Path) -> Result<(), BakeError> {
+        std::fs::create_dir_all(dir).map_err(|source| IoError::File { path: dir.to_owned(), source })?;
+        let img = |v: &[Vec3]| LinearImage { width: self.width, height: self.height, data: v.iter().map(|p| p.to_array()).collect() };
+        img(&self.albedo).write_exr(&dir.join("albedo.exr"), ExrPrecision::Float)?;
+        img(&self.normal).write_exr(&dir.join("normal.exr"), ExrPrecision::Float)?;
+        img(&self.ambient).write_exr(&dir.join("ambient.exr"), ExrPrecision::Float)?;
+        let ids: Vec<f32> = self.node.iter().map(|&k| if k == SKY { 0.0 } else { (k + 1) as f32 }).collect();
+        img(&self.position).write_exr_with_alpha(&ids, &dir.join("geometry.exr"))?;
+        img(&self.albedo).write_png_srgb(&dir.join("albedo.png"), 1.0)?;
+        img(&self.ambient).write_png_srgb(&dir.join("ambient.png"), 1.0)?;
+        let shown: Vec<Vec3> = self.normal.iter().map(|n| if *n == Vec3::ZERO { Vec3::ZERO } else { *n * 0.5 + 0.5 }).collect();
+        // The normal preview stores n·½ + ½ directly as sRGB-encoded colour, as normal maps do.
+        let enc: Vec<Vec3> = shown.iter().map(|v| v.map(crate::io::image::linear_from_srgb)).collect();
+        img(&enc).write_png_srgb(&dir.join("normal.png"), 1.0)?;
+        let p = dir.join("bake.json");
+        let text = serde_json::to_string_pretty(&self.info).map_err(|e| BakeError::Info { path: p.clone(), message: e.to_string() })?;
+        std::fs::write(&p, text).map_err(|source| IoError::File { path: p.clone(), source })?;
+        Ok(())
+    }
+
+    /// Loads a bake from `dir`; `Ok(None)` when `bake.json` is absent or from another format.
+    pub fn load(dir: &Path) -> Result<Option<Baked>, BakeError> {
+        let p = dir.join("bake.json");
+        let Ok(text) = std::fs::read_to_string(&p) else { return Ok(None) };
+        let Ok(info) = serde_json::from_str::<BakeInfo>(&text) else { return Ok(None) };
+        if info.format != BAKE_FORMAT || FILES.iter().any(|f| !dir.join(f).exists()) {
+            return Ok(None);
+        }
+        let vec3 = |img: LinearImage| -> Vec<Vec3> { img.data.into_iter().map(Vec3::from).collect() };
+        let albedo = vec3(LinearImage::read_exr(&dir.join("albedo.exr"))?);
+        let normal = vec3(LinearImage::read_exr(&dir.join("normal.exr"))?);
+        let ambient = vec3(LinearImage::read_exr(&dir.join("ambient.exr"))?);
+        let (geo, ids) = LinearImage::read_exr_with_alpha(&dir.join("geometry.exr"))?;
+        let n = (info.width * info.height) as usize;
+        if [albedo.len(), normal.len(), ambient.len(), geo.data.len()].iter().any(|&k| k != n) {
+            return Err(BakeError::Info { path: dir.to_owned(), message: format!("baked maps are not all {}×{}", info.width, info.height) });
+        }
+        let node = ids.iter().map(|&a| if a < 0.5 { SKY } else { (a - 1.0).round() as u32 }).collect();
+        Ok(Some(Baked {
+            width: info.width,
+            height: info.height,
+            centre: DVec3::from(info.centre).as_vec3(),
+            node,
+            position: vec3(geo),
+            normal,
+            ambient,
+            albedo,
+            info,
+        }))
+    }
+}
+
+/// The scene's bake folder.
+pub fn bake_dir(scene: &Scene) -> PathBuf {
+    scene.root.join("baked")
+}
+
+/// Loads the scene's bake when its inputs are unchanged, otherwise bakes and saves. Returns the
+/// maps and whether they came from the cache.
+pub fn bake_cached(scene: &Scene, ray: std::sync::Arc<RayScene>, force: bool, progress: Progress) -> Result<(Baked, bool), BakeError> {
+    let dir = bake_dir(scene);
+    let key = cache_key(scene)?;
+    if !force && let Some(b) = Baked::load(&dir)? && b.info.key == key {
+        return Ok((b, true));
+    }
+    let b = bake(scene, ray, progress)?;
+    b.save(&dir)?;
+    Ok((b, false))
+}

@@ -1,0 +1,260 @@
+//! Runtime relighting of the environment map (Jensen §4.2).
+//!
+//! # How it works
+//! Given `Lighting { l, Pd, Pa }`, every surface texel gets
+//! `P = ρ/π · (c·Pa + (s·max(n·l,0) + b)·Pd)` and every sky texel the sky's radiance `Pa/π` (a
+//! uniform upper-hemisphere sky of horizontal irradiance `Pa`); the sun itself is left out, so the
+//! map holds ambient light only and the compositor shades the sun directly.
+//!
+//! The map is stored as three channel planes (structure of arrays) and relit as
+//! `P[c][i] = A[c][i]·Pa[c] + D[c][i]·Pd[c] + S[i]·Pa[c]`, with `A = ρ·c/π` fixed, `S = 1/π` on sky
+//! texels, and `D = ρ·(s·max(n·l,0) + b)/π` rebuilt only when the sun has moved more than
+//! `sun_rebuild_deg` since the last build (default 0.5°: the sun moves 0.25° per minute, and at the
+//! bundled map's 1.4° texels a half-degree shift moves shadow edges by a third of a texel). The
+//! per-texel sun visibility `s` is a shadow ray against the proxy (the binary shadow map of the
+//! paper) and `b` the sun bounce of [`crate::geometry::ambient`]. The relight loop is two
+//! multiply-adds per channel and texel over contiguous slices, split into chunks across threads
+//! with rayon.
+
+use super::bake::{Baked, SKY};
+use crate::geometry::ambient::{TransportQuality, transport};
+use crate::geometry::raycast::RayScene;
+use crate::io::image::LinearImage;
+use glam::Vec3;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::f32::consts::FRAC_1_PI;
+use std::sync::Arc;
+
+/// Texels per parallel chunk of the relight loop.
+const CHUNK: usize = 8192;
+
+/// Runtime relighting settings (`[bake.relight]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RelightConfig {
+    /// Rebuild sun visibility and bounce when the sun has moved more than this, degrees.
+    pub sun_rebuild_deg: f64,
+    /// Include sun light bounced between proxy surfaces in the relit map.
+    pub sun_bounce: bool,
+    /// Quality of that bounce integral per texel.
+    pub bounce: TransportQuality,
+}
+
+impl Default for RelightConfig {
+    fn default() -> Self {
+        Self { sun_rebuild_deg: 0.5, sun_bounce: true, bounce: TransportQuality { paths: 64, max_bounces: 3 } }
+    }
+}
+
+impl RelightConfig {
+    /// Checks ranges; `Err((field, message))`.
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        if !(self.sun_rebuild_deg.is_finite() && self.sun_rebuild_deg >= 0.0) {
+            return Err(("relight.sun_rebuild_deg", "must be a non-negative number".into()));
+        }
+        if self.sun_bounce && self.bounce.paths == 0 {
+            return Err(("relight.bounce.paths", "must be positive when sun_bounce is on".into()));
+        }
+        Ok(())
+    }
+}
+
+/// The lighting of one moment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lighting {
+    /// Unit direction toward the sun, world frame.
+    pub sun_dir: Vec3,
+    /// Whether the sun is above the horizon (no direct light otherwise).
+    pub sun_up: bool,
+    /// Sun irradiance on a surface facing the sun (RGB).
+    pub pd: Vec3,
+    /// Sky irradiance on an unoccluded horizontal surface (RGB).
+    pub pa: Vec3,
+}
+
+/// A relit map as three channel planes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RelitMap {
+    /// Width.
+    pub width: u32,
+    /// Height.
+    pub height: u32,
+    /// Radiance per channel and texel.
+    pub rgb: [Vec<f32>; 3],
+}
+
+impl RelitMap {
+    /// A black map.
+    pub fn new(width: u32, height: u32) -> Self {
+        let n = (width * height) as usize;
+        Self { width, height, rgb: [vec![0.0; n], vec![0.0; n], vec![0.0; n]] }
+    }
+
+    /// Radiance of texel `i`.
+    #[inline]
+    pub fn get(&self, i: usize) -> Vec3 {
+        Vec3::new(self.rgb[0][i], self.rgb[1][i], self.rgb[2][i])
+    }
+
+    /// As an interleaved image (for files).
+    pub fn to_image(&self) -> LinearImage {
+        LinearImage { width: self.width, height: self.height, data: (0..self.rgb[0].len()).map(|i| self.get(i).to_array()).collect() }
+    }
+}
+
+/// The sun-dependent planes.
+#[derive(Clone, Debug)]
+struct SunPlanes {
+    dir: Vec3,
+    direct: [Vec<f32>; 3],
+    lit_texels: usize,
+}
+
+/// Relights a baked environment map.
+pub struct Relighter {
+    width: u32,
+    height: u32,
+    surface: Vec<u32>,
+    position: Vec<Vec3>,
+    normal: Vec<Vec3>,
+    albedo: Vec<Vec3>,
+    ambient: [Vec<f32>; 3],
+    sky: Vec<f32>,
+    sun: Option<SunPlanes>,
+    config: RelightConfig,
+    ray: Arc<RayScene>,
+}
+
+/// What [`Relighter::update_sun`] did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SunUpdate {
+    /// True when the sun planes were rebuilt.
+    pub rebuilt: bool,
+    /// Rebuild time, ms (0 when not rebuilt).
+    pub build_ms: f64,
+    /// Surface texels that see the sun.
+    pub lit_texels: usize,
+}
+
+impl Relighter {
+    /// Prepares the fixed planes of a bake.
+    pub fn new(baked: &Baked, ray: Arc<RayScene>, config: RelightConfig) -> Self {
+        let n = baked.node.len();
+        let surface: Vec<u32> = (0..n as u32).filter(|&i| baked.node[i as usize] != SKY).collect();
+        let ambient: [Vec<f32>; 3] = std::array::from_fn(|c| {
+            (0..n).map(|i| if baked.node[i] == SKY { 0.0 } else { baked.albedo[i][c] * baked.ambient[i][c] * FRAC_1_PI }).collect()
+        });
+        let sky = baked.node.iter().map(|&k| if k == SKY { FRAC_1_PI } else { 0.0 }).collect();
+        Self {
+            width: baked.width,
+            height: baked.height,
+            surface,
+            position: baked.position.clone(),
+            normal: baked.normal.clone(),
+            albedo: baked.albedo.clone(),
+            ambient,
+            sky,
+            sun: None,
+            config,
+            ray,
+        }
+    }
+
+    /// Map size.
+    pub fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+
+    /// The fixed ambient plane `ρ·c/π` per channel (zero on sky).
+    pub fn ambient_plane(&self) -> &[Vec<f32>; 3] {
+        &self.ambient
+    }
+
+    /// The sky plane (`1/π` on sky texels, zero elsewhere).
+    pub fn sky_plane(&self) -> &[f32] {
+        &self.sky
+    }
+
+    /// The direct plane `ρ·(s·cos + b)/π` for the current sun, if built.
+    pub fn direct_plane(&self) -> Option<&[Vec<f32>; 3]> {
+        self.sun.as_ref().map(|s| &s.direct)
+    }
+
+    /// Rebuilds the sun planes when the sun moved more than the threshold (or on first use).
+    pub fn update_sun(&mut self, dir: Vec3) -> SunUpdate {
+        if let Some(s) = &self.sun {
+            let moved = s.dir.dot(dir).clamp(-1.0, 1.0).acos().to_degrees() as f64;
+            if moved <= self.config.sun_rebuild_deg {
+                return SunUpdate { rebuilt: false, build_ms: 0.0, lit_texels: s.lit_texels };
+            }
+        }
+        let t0 = std::time::Instant::now();
+        let n = self.sky.len();
+        let cfg = &self.config;
+        let vals: Vec<(u32, Vec3, bool)> = self
+            .surface
+            .par_iter()
+            .map(|&i| {
+                let i = i as usize;
+                let (p, nn) = (self.position[i], self.normal[i]);
+                let cos = nn.dot(dir).max(0.0);
+                let s = cos > 0.0 && self.ray.sees_direction(p, nn, dir);
+                let b = if cfg.sun_bounce { transport(&self.ray, p, nn, Some(dir), cfg.bounce, 0x5e1f_0000 + i as u64).b } else { Vec3::ZERO };
+                let d = self.albedo[i] * (Vec3::splat(if s { cos } else { 0.0 }) + b) * FRAC_1_PI;
+                (i as u32, d, s)
+            })
+            .collect();
+        let mut direct: [Vec<f32>; 3] = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        let mut lit = 0;
+        for (i, d, s) in vals {
+            for c in 0..3 {
+                direct[c][i as usize] = d[c];
+            }
+            lit += s as usize;
+        }
+        let build_ms = t0.elapsed().as_secs_f64() * 1e3;
+        self.sun = Some(SunPlanes { dir, direct, lit_texels: lit });
+        SunUpdate { rebuilt: true, build_ms, lit_texels: lit }
+    }
+
+    /// Relights into `out` (resized as needed). Without a built sun (or with the sun down), the
+    /// direct term is left out.
+    pub fn relight_into(&self, lighting: &Lighting, out: &mut RelitMap) {
+        let n = self.sky.len();
+        if out.rgb[0].len() != n {
+            *out = RelitMap::new(self.width, self.height);
+        }
+        let direct = self.sun.as_ref().filter(|_| lighting.sun_up).map(|s| &s.direct);
+        for c in 0..3 {
+            let (pa, pd) = (lighting.pa[c], if direct.is_some() { lighting.pd[c] } else { 0.0 });
+            let amb = &self.ambient[c];
+            let dir_plane = direct.map(|d| &d[c]);
+            out.rgb[c].par_chunks_mut(CHUNK).enumerate().for_each(|(k, dst)| {
+                let s = k * CHUNK;
+                let e = s + dst.len();
+                let (a, sky) = (&amb[s..e], &self.sky[s..e]);
+                match dir_plane {
+                    Some(d) => {
+                        let d = &d[s..e];
+                        for j in 0..dst.len() {
+                            dst[j] = a[j] * pa + d[j] * pd + sky[j] * pa;
+                        }
+                    }
+                    None => {
+                        for j in 0..dst.len() {
+                            dst[j] = (a[j] + sky[j]) * pa;
+                        }
+                    }
+                }
+            });
+        }
+    }
+
+    /// Relights into a new map.
+    pub fn relight(&self, lighting: &Lighting) -> RelitMap {
+        let mut out = RelitMap::new(self.width, self.height);
+        self.relight_into(lighting, &mut out);
+        out
+    }
+}
