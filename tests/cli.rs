@@ -86,3 +86,42 @@ fn estimate_writes_one_json_line_per_frame() {
     assert!(!ok && err.contains("scenes/nowhere"), "{err}");
     assert!(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/courtyard/scene.toml").exists());
 }
+
+#[test]
+fn bake_relight_and_irradiance_commands() {
+    // A scratch copy so parallel tests never share a bake folder.
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/courtyard");
+    let dst = std::env::temp_dir().join(format!("heliar-cli-bake-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dst);
+    std::fs::create_dir_all(dst.join("calib")).unwrap();
+    for f in ["scene.toml", "proxy.glb", "calib/camera.toml", "env.exr", "truth.csv"] {
+        std::fs::copy(src.join(f), dst.join(f)).unwrap();
+    }
+    let m = std::fs::read_to_string(dst.join("scene.toml")).unwrap();
+    std::fs::write(dst.join("scene.toml"), &m[..m.find("[[sequences]]").unwrap()]).unwrap();
+    let d = dst.to_str().unwrap();
+    let (ok, _, err) = heliar(&["bake", d]);
+    assert!(ok, "{err}");
+    assert!(err.contains("baked 256×128"), "{err}");
+    let (ok, _, err) = heliar(&["bake", d]);
+    assert!(ok && err.contains("up to date"), "{err}");
+    let out = dst.join("relit.exr");
+    let (ok, json, err) = heliar(&["relight", d, "--pd", "1,1,1", "--pa", "0.5,0.5,0.5", "--time", "2024-06-21T15:30:00+02:00", "-o", out.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert!(v["sunlit_texels"].as_u64().unwrap() > 1000);
+    let img = heliar::io::image::LinearImage::read_exr(&out).unwrap();
+    // Zenith texels are sky: Pa/π.
+    assert!((img.get(0, 0)[0] - 0.5 / std::f32::consts::PI).abs() < 1e-5);
+    // Irradiance on an upward normal at the top of the grid, in the open, under a sky-only light:
+    // at most Pa (buildings hide some sky) and well above half of it.
+    let (ok, json, err) = heliar(&["irradiance", d, "--at", "2,2.9,3", "--normal", "0,1,0", "--pd", "0,0,0", "--pa", "1,1,1"]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let e = v["irradiance"][0].as_f64().unwrap();
+    assert!(e > 0.6 && e <= 1.01, "{v}");
+    assert_eq!(v["path"], "linear");
+    let (ok, _, err) = heliar(&["irradiance", d, "--at", "2,x,3", "--normal", "0,1,0"]);
+    assert!(!ok && err.contains("--at"), "{err}");
+    std::fs::remove_dir_all(&dst).ok();
+}

@@ -13,7 +13,8 @@
 //!    rendering the paper suggests.
 //! 3. **Lighting at capture.** The estimator runs on the environment map itself, as an equirect
 //!    view from the capture centre at the capture time, and gives `Pd`, `Pa` and the sun direction
-//!    `l` ([`crate::estimate::Estimator::with_view`]).
+//!    `l` ([`crate::estimate::Estimator::with_view`]). A manifest that knows them
+//!    (`capture_pd`, `capture_pa`) skips this.
 //! 4. **Albedo map, by inverse rendering.** `ρ = π·L / (c·Pa + (s·max(n·l,0) + b)·Pd)` per channel,
 //!    with `s` the texel's sun visibility and `b` its sun bounce at capture (the estimator's model,
 //!    Jensen §4.2 plus the bounce term). Texels whose denominator is below
@@ -173,7 +174,8 @@ pub struct BakeInfo {
     pub capture_pd: [f64; 3],
     /// `Pa` at capture.
     pub capture_pa: [f64; 3],
-    /// The estimator's status on the map.
+    /// The estimator's status on the map (`None` when the manifest gave the lighting or the
+    /// albedo came from glTF).
     pub capture_status: Option<Status>,
     /// Settings used.
     pub config: Option<BakeConfig>,
@@ -236,6 +238,12 @@ pub fn cache_key(scene: &Scene) -> Result<String, BakeError> {
 
 /// Runs the bake. `progress` is called from worker threads.
 pub fn bake(scene: &Scene, ray: std::sync::Arc<RayScene>, progress: Progress) -> Result<Baked, BakeError> {
+    bake_with_map(scene, ray, None, progress)
+}
+
+/// Runs the bake with `map` in place of the scene's environment map file (for resolution
+/// sweeps); `None` reads the file.
+pub fn bake_with_map(scene: &Scene, ray: std::sync::Arc<RayScene>, map: Option<LinearImage>, progress: Progress) -> Result<Baked, BakeError> {
     let mpath = scene.root.join(crate::scene::MANIFEST_FILE);
     let env = scene.manifest.envmap.as_ref().ok_or(BakeError::NoEnvMap { path: mpath.clone() })?;
     let cfg = &scene.bake;
@@ -249,14 +257,18 @@ pub fn bake(scene: &Scene, ray: std::sync::Arc<RayScene>, progress: Progress) ->
     info.centre = env.capture_center;
 
     // The captured map (sanitised) or just a size.
-    let captured: Option<(LinearImage, PathBuf)> = match &env.file {
-        Some(f) => {
+    let captured: Option<(LinearImage, PathBuf)> = match (&env.file, map) {
+        (Some(f), Some(mut img)) => {
+            info.sanitized_texels = img.sanitize();
+            Some((img, scene.root.join(f)))
+        }
+        (Some(f), None) => {
             let p = scene.root.join(f);
             let mut img = LinearImage::read_exr(&p)?;
             info.sanitized_texels = img.sanitize();
             Some((img, p))
         }
-        None => None,
+        (None, _) => None,
     };
     let (w, h) = match (&captured, env.resolution) {
         (Some((img, _)), _) => (img.width, img.height),
@@ -313,20 +325,29 @@ pub fn bake(scene: &Scene, ray: std::sync::Arc<RayScene>, progress: Progress) ->
         (Some((img, path)), AlbedoSource::Inverse) => {
             let time = crate::scene::parse_time(&mpath, "envmap.capture_time", &env.capture_time.to_string())
                 .map_err(|e| BakeError::Info { path: mpath.clone(), message: e.to_string() })?;
-            let mut est = Estimator::with_view(scene.estimator.clone(), scene.observer, scene.geo, view, ray.clone())?;
-            let frame = Frame { width: w, height: h, data: FrameData::Hdr(img.clone()) };
-            let e = est.estimate(0, &time, &frame, &Linearizer::new(&Response::Linear, 1.0, 1.0, None))?;
-            let (Some(pd), Some(pa)) = (e.pd, e.pa) else {
-                return Err(BakeError::CaptureLighting { path: path.clone(), status: e.status });
+            let sun_pos = crate::sun::sun_position(&scene.observer, &time).map_err(EstimateError::from)?;
+            let (pd, pa, l, sun_above) = match (env.capture_pd, env.capture_pa) {
+                (Some(pd), Some(pa)) => {
+                    info.capture_status = None;
+                    (pd, pa, scene.geo.sun_dir_in_world(&sun_pos), sun_pos.above_horizon())
+                }
+                _ => {
+                    let mut est = Estimator::with_view(scene.estimator.clone(), scene.observer, scene.geo, view, ray.clone())?;
+                    let frame = Frame { width: w, height: h, data: FrameData::Hdr(img.clone()) };
+                    let e = est.estimate(0, &time, &frame, &Linearizer::new(&Response::Linear, 1.0, 1.0, None))?;
+                    let (Some(pd), Some(pa)) = (e.pd, e.pa) else {
+                        return Err(BakeError::CaptureLighting { path: path.clone(), status: e.status });
+                    };
+                    info.capture_status = Some(e.status);
+                    (pd, pa, Vec3::from(e.sun.dir_world), e.sun.above_horizon)
+                }
             };
-            let l = Vec3::from(e.sun.dir_world);
-            info.capture_sun_dir = e.sun.dir_world;
+            info.capture_sun_dir = l.to_array();
             info.capture_pd = pd;
             info.capture_pa = pa;
-            info.capture_status = Some(e.status);
             lap(&mut info, "lighting at capture");
             let (pd, pa) = (Vec3::new(pd[0] as f32, pd[1] as f32, pd[2] as f32), Vec3::new(pa[0] as f32, pa[1] as f32, pa[2] as f32));
-            let sun_up = e.sun.above_horizon && pd.max_element() > 0.0;
+            let sun_up = sun_above && pd.max_element() > 0.0;
             let done = AtomicU64::new(0);
             let inverted: Vec<(Vec3, bool)> = (0..n)
                 .into_par_iter()

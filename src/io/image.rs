@@ -157,6 +157,29 @@ impl LinearImage {
             .map_err(|source| IoError::Png { path: path.to_owned(), source })
     }
 
+    /// Resamples to `width × height` by area averaging (when shrinking by an integer factor) or
+    /// nearest texel (otherwise). Used to sweep map resolutions.
+    pub fn resized(&self, width: u32, height: u32) -> LinearImage {
+        if self.width % width == 0 && self.height % height == 0 {
+            let (fx, fy) = (self.width / width, self.height / height);
+            return LinearImage::from_fn(width, height, |x, y| {
+                let mut acc = [0.0f32; 3];
+                for j in 0..fy {
+                    for i in 0..fx {
+                        let p = self.get(x * fx + i, y * fy + j);
+                        for c in 0..3 {
+                            acc[c] += p[c];
+                        }
+                    }
+                }
+                acc.map(|v| v / (fx * fy) as f32)
+            });
+        }
+        LinearImage::from_fn(width, height, |x, y| {
+            self.get(((x as u64 * self.width as u64) / width as u64) as u32, ((y as u64 * self.height as u64) / height as u64) as u32)
+        })
+    }
+
     /// Counts and replaces non-finite and negative pixels by zero; returns how many were replaced.
     pub fn sanitize(&mut self) -> usize {
         let mut n = 0;

@@ -147,6 +147,10 @@ pub struct EnvMapSpec {
     pub albedo: AlbedoSource,
     /// Size of the baked maps `[width, height]` when there is no file (default `[256, 128]`).
     pub resolution: Option<[u32; 2]>,
+    /// `Pd` at capture when it is known (measured); otherwise the estimator finds it on the map.
+    pub capture_pd: Option<[f64; 3]>,
+    /// `Pa` at capture when it is known; give both or neither.
+    pub capture_pa: Option<[f64; 3]>,
 }
 
 /// Source of the albedo environment map.

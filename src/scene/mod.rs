@@ -405,6 +405,17 @@ impl Scene {
             }
             finite3(m, "envmap.capture_center", env.capture_center)?;
             parse_time(m, "envmap.capture_time", &env.capture_time.to_string())?;
+            match (env.capture_pd, env.capture_pa) {
+                (Some(pd), Some(pa)) => {
+                    for (f, v) in [("envmap.capture_pd", pd), ("envmap.capture_pa", pa)] {
+                        if v.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
+                            return Err(invalid(m, f, "must be three finite non-negative numbers"));
+                        }
+                    }
+                }
+                (None, None) => {}
+                _ => return Err(invalid(m, "envmap.capture_pd/capture_pa", "give both or neither")),
+            }
         }
         if let Some(g) = &manifest.irradiance {
             let (lo, hi) = (finite3(m, "irradiance.min", g.min)?, finite3(m, "irradiance.max", g.max)?);

@@ -139,7 +139,7 @@ fn resolve_lighting(scene: &Scene, ray: Arc<RayScene>, baked: &Baked, a: &Lighti
         (Some(pd), Some(pa)) => Ok((Lighting { sun_dir: dir, sun_up: up, pd: parse3(pd, "--pd")?, pa: parse3(pa, "--pa")? }, "given".into())),
         _ => {
             let i = &baked.info;
-            if i.capture_status.is_none() {
+            if i.albedo_source == heliar::scene::AlbedoSource::Gltf {
                 bail!("no lighting given and the bake has none at capture (albedo from glTF): pass --frame N or --pd/--pa");
             }
             let f = |v: [f64; 3]| Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32);

@@ -18,6 +18,8 @@ pub struct BenchArgs {
 enum BenchWhat {
     /// The estimator on a sequence with known truth.
     Estimate(EstimateSweep),
+    /// The irradiance volume against brute-force irradiance.
+    Irradiance(crate::bench_irradiance::IrradianceSweep),
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -100,7 +102,10 @@ fn run_config(
 }
 
 pub fn run(a: BenchArgs) -> Result<()> {
-    let BenchWhat::Estimate(s) = a.what;
+    let s = match a.what {
+        BenchWhat::Estimate(s) => s,
+        BenchWhat::Irradiance(s) => return crate::bench_irradiance::run(s),
+    };
     let (scene, ray) = load_scene(&s.scene)?;
     let seq = pick_sequence(&scene, s.sequence.as_deref())?.clone();
     if seq.truth.is_none() {

@@ -2,6 +2,7 @@
 
 mod bake;
 mod bench;
+mod bench_irradiance;
 mod common;
 mod estimate;
 mod sun;
