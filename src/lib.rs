@@ -55,6 +55,8 @@
 //!
 //! Proxy surfaces are two-sided: a surface seen from either side has its normal facing the viewer.
 
+#[cfg(feature = "opencv")]
+pub mod calib;
 pub mod envmap;
 pub mod estimate;
 pub mod geometry;

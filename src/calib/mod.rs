@@ -1,0 +1,77 @@
+//! Calibration with OpenCV (feature `opencv`): what the calibration tool (`calib/`) needs to turn
+//! photographs of a place into a scene folder.
+//!
+//! - [`chessboard`]: intrinsics and distortion from chessboard views (OpenCV calib3d): the
+//!   Brown–Conrady pinhole model of the scene camera, or the Kannala–Brandt fisheye model, with the
+//!   RMS reprojection error.
+//! - [`pose`]: the camera pose against the proxy from clicked 2D–3D pairs (`solvePnP`).
+//! - [`hdr`]: HDR images from bracketed exposures (Debevec & Malik 1997 response recovery and
+//!   merge, OpenCV photo), two fisheye shots stitched into an equirect map, and removal of the lens
+//!   frame's reflection by seamless cloning (Cyberworlds §IV).
+
+pub mod chessboard;
+pub mod hdr;
+pub mod pose;
+
+use opencv::core::{Mat, Vec3b, Vec3f};
+use opencv::prelude::*;
+
+/// Errors of the calibration steps.
+#[derive(Debug, thiserror::Error)]
+pub enum CalibError {
+    /// OpenCV reported an error.
+    #[error("OpenCV: {0}")]
+    OpenCv(#[from] opencv::Error),
+    /// The input is unusable; the message says what and where.
+    #[error("{0}")]
+    Input(String),
+}
+
+/// An 8-bit RGB image, row-major.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rgb8 {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// `3 × width × height` bytes, R, G, B.
+    pub data: Vec<u8>,
+}
+
+impl Rgb8 {
+    /// Reads a PNG/JPEG (anything the `image` crate decodes) as RGB.
+    pub fn open(path: &std::path::Path) -> Result<Self, CalibError> {
+        let img = image::open(path).map_err(|e| CalibError::Input(format!("{}: {e}", path.display())))?.to_rgb8();
+        Ok(Self { width: img.width(), height: img.height(), data: img.into_raw() })
+    }
+
+    /// As an OpenCV BGR matrix (copied).
+    pub fn to_bgr_mat(&self) -> Result<Mat, CalibError> {
+        let px: Vec<Vec3b> = self.data.chunks_exact(3).map(|c| Vec3b::from([c[2], c[1], c[0]])).collect();
+        Ok(Mat::new_rows_cols_with_data(self.height as i32, self.width as i32, &px)?.try_clone()?)
+    }
+
+    /// Luma (Rec. 601 weights, as OpenCV's BGR2GRAY) as an OpenCV 8-bit matrix.
+    pub fn to_gray_mat(&self) -> Result<Mat, CalibError> {
+        let g: Vec<u8> = self
+            .data
+            .chunks_exact(3)
+            .map(|c| (0.299 * c[0] as f32 + 0.587 * c[1] as f32 + 0.114 * c[2] as f32).round().clamp(0.0, 255.0) as u8)
+            .collect();
+        Ok(Mat::new_rows_cols_with_data(self.height as i32, self.width as i32, &g)?.try_clone()?)
+    }
+}
+
+/// A 3-channel float OpenCV matrix (BGR order) as a linear RGB image.
+pub fn linear_image_from_bgr_f32(m: &Mat) -> Result<crate::io::image::LinearImage, CalibError> {
+    let (w, h) = (m.cols() as u32, m.rows() as u32);
+    let m = if m.is_continuous() { m.clone() } else { m.try_clone()? };
+    let px: &[Vec3f] = m.data_typed()?;
+    Ok(crate::io::image::LinearImage { width: w, height: h, data: px.iter().map(|p| [p[2], p[1], p[0]]).collect() })
+}
+
+/// A linear RGB image as a 3-channel float OpenCV matrix in BGR order.
+pub fn bgr_f32_from_linear_image(img: &crate::io::image::LinearImage) -> Result<Mat, CalibError> {
+    let px: Vec<Vec3f> = img.data.iter().map(|p| Vec3f::from([p[2], p[1], p[0]])).collect();
+    Ok(Mat::new_rows_cols_with_data(img.height as i32, img.width as i32, &px)?.try_clone()?)
+}
