@@ -2,9 +2,12 @@
 //!
 //! - [`image`]: linear RGB images and their EXR/PNG files.
 //! - [`frames`]: decoded camera frames (LDR codes or HDR radiance) and per-pixel linearisation.
+//! - `video` (feature `opencv`): video files and cameras through OpenCV's FFMPEG backend.
 
 pub mod frames;
 pub mod image;
+#[cfg(feature = "opencv")]
+pub mod video;
 
 use std::path::PathBuf;
 
@@ -40,6 +43,14 @@ pub enum IoError {
     UnsupportedFormat {
         /// The file.
         path: PathBuf,
+    },
+    /// A video file or camera could not be opened, decoded or encoded.
+    #[error("{path}: {message}")]
+    Video {
+        /// The file or camera.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
     },
     /// The image does not have the size the camera calibration says.
     #[error("{path}: image is {got_w}×{got_h} but the camera calibration says {want_w}×{want_h}")]
