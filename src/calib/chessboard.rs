@@ -73,6 +73,8 @@ pub struct PinholeCalibration {
     pub rms_px: f64,
     /// Views used.
     pub views: usize,
+    /// Fraction of the image covered by corners (see [`coverage`]).
+    pub coverage: f64,
 }
 
 /// Result of a Kannala–Brandt fisheye calibration.
@@ -111,8 +113,26 @@ fn mat_f64(m: &Mat) -> Result<Vec<f64>, CalibError> {
     Ok(out)
 }
 
-/// Pinhole + Brown–Conrady calibration from the corner sets of several views.
-pub fn calibrate_pinhole(views: &[Vector<Point2f>], board: &Board, width: u32, height: u32) -> Result<PinholeCalibration, CalibError> {
+/// Fraction of the image (a 10 × 10 grid of cells) in which at least one corner was seen. Lens
+/// distortion is only determined where there are corners; below about 0.6 the outer image is
+/// extrapolated.
+pub fn coverage(views: &[Vector<Point2f>], width: u32, height: u32) -> f64 {
+    let mut cells = [[false; 10]; 10];
+    for v in views {
+        for p in v.iter() {
+            let (i, j) = ((p.x / width as f32 * 10.0) as usize, (p.y / height as f32 * 10.0) as usize);
+            if i < 10 && j < 10 {
+                cells[j][i] = true;
+            }
+        }
+    }
+    cells.iter().flatten().filter(|&&c| c).count() as f64 / 100.0
+}
+
+/// Pinhole + Brown–Conrady calibration from the corner sets of several views. `fit_k3` frees the
+/// sixth-order radial term; keep it fixed at 0 (OpenCV's advice) unless the lens is very wide and
+/// the views cover the image corners, or the polynomial overfits and diverges at the edges.
+pub fn calibrate_pinhole(views: &[Vector<Point2f>], board: &Board, width: u32, height: u32, fit_k3: bool) -> Result<PinholeCalibration, CalibError> {
     check_views(views.len())?;
     let mut obj = Vector::<Vector<Point3f>>::new();
     let mut img = Vector::<Vector<Point2f>>::new();
@@ -124,11 +144,12 @@ pub fn calibrate_pinhole(views: &[Vector<Point2f>], board: &Board, width: u32, h
     let mut d = Mat::default();
     let (mut rv, mut tv) = (Vector::<Mat>::new(), Vector::<Mat>::new());
     let crit = TermCriteria::new(TermCriteria_Type::COUNT as i32 + TermCriteria_Type::EPS as i32, 100, 1e-10)?;
-    let rms = calib3d::calibrate_camera(&obj, &img, Size::new(width as i32, height as i32), &mut k, &mut d, &mut rv, &mut tv, 0, crit)?;
+    let flags = if fit_k3 { 0 } else { calib3d::CALIB_FIX_K3 };
+    let rms = calib3d::calibrate_camera(&obj, &img, Size::new(width as i32, height as i32), &mut k, &mut d, &mut rv, &mut tv, flags, crit)?;
     let k = mat_f64(&k)?;
     let d = mat_f64(&d)?;
     let dist = std::array::from_fn(|i| d.get(i).copied().unwrap_or(0.0));
-    Ok(PinholeCalibration { fx: k[0], fy: k[4], cx: k[2], cy: k[5], distortion: dist, rms_px: rms, views: views.len() })
+    Ok(PinholeCalibration { fx: k[0], fy: k[4], cx: k[2], cy: k[5], distortion: dist, rms_px: rms, views: views.len(), coverage: coverage(views, width, height) })
 }
 
 /// Kannala–Brandt fisheye calibration (OpenCV's `fisheye::calibrate`).
@@ -217,24 +238,46 @@ mod tests {
         let board = Board { cols: 9, rows: 6, square_m: 0.03 };
         let centre = DVec3::new(-0.15, -0.1, 0.0);
         let mut views = Vec::new();
-        for (i, (ax, ay, dist)) in [(0.0, 0.0, 0.55), (0.35, 0.0, 0.6), (-0.35, 0.1, 0.6), (0.0, 0.4, 0.5), (0.1, -0.4, 0.65), (0.3, 0.3, 0.7), (-0.25, -0.3, 0.5)]
-            .iter()
-            .enumerate()
+        for (i, (ax, ay, dist, ox, oy)) in [
+            (0.0, 0.0, 0.55, 0.0, 0.0),
+            (0.35, 0.0, 0.6, 0.0, 0.0),
+            (-0.35, 0.1, 0.6, 0.0, 0.0),
+            (0.0, 0.4, 0.5, 0.0, 0.0),
+            (0.1, -0.4, 0.65, 0.0, 0.0),
+            (0.3, 0.3, 0.7, 0.0, 0.0),
+            (-0.25, -0.3, 0.5, 0.0, 0.0),
+            // Boards near the four image corners, so that the distortion is measured there.
+            (0.2, 0.2, 0.6, 0.22, 0.16),
+            (-0.2, 0.2, 0.6, -0.22, 0.16),
+            (0.2, -0.2, 0.6, 0.22, -0.16),
+            (-0.2, -0.2, 0.6, -0.22, -0.16),
+        ]
+        .iter()
+        .enumerate()
         {
-            let rot = DMat3::from_rotation_x(*ax) * DMat3::from_rotation_y(*ay) * DMat3::from_rotation_z(0.1 * i as f64);
-            let pose = Pose { rotation: rot, translation: DVec3::new(0.0, 0.0, *dist) + rot * centre };
+            let (ax, ay, dist, ox, oy) = (*ax, *ay, *dist, *ox, *oy);
+            let rot = DMat3::from_rotation_x(ax) * DMat3::from_rotation_y(ay) * DMat3::from_rotation_z(0.1 * i as f64);
+            let pose = Pose { rotation: rot, translation: DVec3::new(ox, oy, dist) + rot * centre };
             let img = render_board(&cam, &board, &pose, 4);
             if let Some(c) = detect_corners(&img, &board).unwrap() {
                 views.push(c);
             }
         }
         assert!(views.len() >= 6, "found the board in {} views", views.len());
-        let c = calibrate_pinhole(&views, &board, 640, 480).unwrap();
+        let c = calibrate_pinhole(&views, &board, 640, 480, false).unwrap();
         // The acceptance: focal within 0.5%, principal point within 2 px.
         assert!((c.fx / truth.fx - 1.0).abs() < 0.005 && (c.fy / truth.fy - 1.0).abs() < 0.005, "{c:?}");
         assert!((c.cx - truth.cx).abs() < 2.0 && (c.cy - truth.cy).abs() < 2.0, "{c:?}");
         assert!(c.rms_px < 0.3, "{c:?}");
+        // The distortion is right where it matters: at the image corner the calibrated model maps
+        // the pixel's ray back to the same pixel under the true model within half a pixel.
+        let calibrated = c.intrinsics(640, 480);
+        for uv in [DVec2::new(5.0, 5.0), DVec2::new(634.0, 474.0), DVec2::new(320.0, 5.0)] {
+            let ray = calibrated.ray(uv).unwrap();
+            let back = truth.project(ray).unwrap();
+            assert!((back - uv).length() < 0.5, "{uv} -> {back}");
+        }
         // Too few views is a clear error.
-        assert!(calibrate_pinhole(&views[..2], &board, 640, 480).unwrap_err().to_string().contains("at least 3"));
+        assert!(calibrate_pinhole(&views[..2], &board, 640, 480, false).unwrap_err().to_string().contains("at least 3"));
     }
 }

@@ -1,0 +1,117 @@
+//! Edits of scene folders that never leave a half-valid scene.
+//!
+//! A new scene is assembled in a temporary sibling folder, loaded and validated there, and only
+//! then renamed into place. An edit of an existing scene writes the changed files into a
+//! temporary copy of the scene's small files (frame folders are linked, not copied), validates
+//! that copy, and then replaces each changed file by an atomic rename.
+
+use anyhow::{Context, Result, bail};
+use heliar::scene::Scene;
+use std::path::{Path, PathBuf};
+
+/// A temporary sibling of `dir`.
+fn temp_sibling(dir: &Path, tag: &str) -> PathBuf {
+    let name = dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into());
+    dir.with_file_name(format!(".{name}.{tag}-{}", std::process::id()))
+}
+
+fn copy_tree_linking_big(src: &Path, dst: &Path, link_dirs: &[PathBuf]) -> Result<()> {
+    std::fs::create_dir_all(dst).with_context(|| format!("creating {}", dst.display()))?;
+    for entry in std::fs::read_dir(src).with_context(|| format!("reading {}", src.display()))? {
+        let entry = entry?;
+        let p = entry.path();
+        let q = dst.join(entry.file_name());
+        if entry.file_type()?.is_dir() {
+            if p.file_name().is_some_and(|n| n == "baked") {
+                continue;
+            }
+            if link_dirs.iter().any(|d| d == &p) {
+                #[cfg(unix)]
+                std::os::unix::fs::symlink(std::fs::canonicalize(&p)?, &q).with_context(|| format!("linking {}", q.display()))?;
+                continue;
+            }
+            copy_tree_linking_big(&p, &q, link_dirs)?;
+        } else {
+            std::fs::copy(&p, &q).with_context(|| format!("copying {}", p.display()))?;
+        }
+    }
+    Ok(())
+}
+
+/// Writes `bytes` to `path` atomically (temporary file in the same folder, then rename).
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let tmp = path.with_extension(format!("tmp-{}", std::process::id()));
+    std::fs::write(&tmp, bytes).with_context(|| format!("writing {}", tmp.display()))?;
+    std::fs::rename(&tmp, path).with_context(|| format!("replacing {}", path.display()))?;
+    Ok(())
+}
+
+/// Applies `changes` (path relative to the scene → new contents) to the scene at `dir` after
+/// checking that the changed scene loads.
+pub fn edit_scene(dir: &Path, changes: &[(PathBuf, Vec<u8>)]) -> Result<Scene> {
+    let scene = Scene::load(dir).with_context(|| format!("loading {}", dir.display()))?;
+    let frame_dirs: Vec<PathBuf> = scene.manifest.sequences.iter().map(|s| dir.join(&s.dir)).collect();
+    let tmp = temp_sibling(dir, "edit");
+    let _ = std::fs::remove_dir_all(&tmp);
+    let result = (|| -> Result<Scene> {
+        copy_tree_linking_big(dir, &tmp, &frame_dirs)?;
+        for (rel, bytes) in changes {
+            let p = tmp.join(rel);
+            if let Some(parent) = p.parent() {
+                std::fs::create_dir_all(parent)?;
+            }
+            std::fs::write(&p, bytes).with_context(|| format!("writing {}", p.display()))?;
+        }
+        Scene::load(&tmp).context("the edited scene does not load; nothing was changed")
+    })();
+    let _ = std::fs::remove_dir_all(&tmp);
+    result?;
+    for (rel, bytes) in changes {
+        let p = dir.join(rel);
+        if let Some(parent) = p.parent() {
+            std::fs::create_dir_all(parent)?;
+        }
+        write_atomic(&p, bytes)?;
+    }
+    Scene::load(dir).with_context(|| format!("reloading {}", dir.display()))
+}
+
+/// Creates the scene folder `out` from `files` (relative path → contents, or a source file to
+/// copy) after validating it in a temporary sibling; `out` must not exist.
+pub fn create_scene(out: &Path, files: &[(PathBuf, FileSource)]) -> Result<Scene> {
+    if out.exists() {
+        bail!("{}: already exists; choose a new folder (heliar-calib never overwrites a scene)", out.display());
+    }
+    let tmp = temp_sibling(out, "new");
+    let _ = std::fs::remove_dir_all(&tmp);
+    let result = (|| -> Result<()> {
+        for (rel, src) in files {
+            let p = tmp.join(rel);
+            if let Some(parent) = p.parent() {
+                std::fs::create_dir_all(parent)?;
+            }
+            match src {
+                FileSource::Bytes(b) => std::fs::write(&p, b).with_context(|| format!("writing {}", p.display()))?,
+                FileSource::Copy(from) => {
+                    std::fs::copy(from, &p).with_context(|| format!("copying {}", from.display()))?;
+                }
+            }
+        }
+        Scene::load(&tmp).context("the new scene does not load; nothing was written")?;
+        Ok(())
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_dir_all(&tmp);
+        return Err(e);
+    }
+    std::fs::rename(&tmp, out).with_context(|| format!("renaming into {}", out.display()))?;
+    Scene::load(out).with_context(|| format!("loading {}", out.display()))
+}
+
+/// Where a new file's contents come from.
+pub enum FileSource {
+    /// These bytes.
+    Bytes(Vec<u8>),
+    /// A copy of this file.
+    Copy(PathBuf),
+}
