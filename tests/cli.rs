@@ -1,4 +1,6 @@
-//! The `heliar` command line: `sun` (single and batch) and `estimate`.
+//! The `heliar` command line: `sun` (single and batch), `estimate`, `bake`, `relight`, `irradiance`.
+
+mod common;
 
 use std::path::Path;
 use std::process::Command;
@@ -89,16 +91,7 @@ fn estimate_writes_one_json_line_per_frame() {
 
 #[test]
 fn bake_relight_and_irradiance_commands() {
-    // A scratch copy so parallel tests never share a bake folder.
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/courtyard");
-    let dst = std::env::temp_dir().join(format!("heliar-cli-bake-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dst);
-    std::fs::create_dir_all(dst.join("calib")).unwrap();
-    for f in ["scene.toml", "proxy.glb", "calib/camera.toml", "env.exr", "truth.csv"] {
-        std::fs::copy(src.join(f), dst.join(f)).unwrap();
-    }
-    let m = std::fs::read_to_string(dst.join("scene.toml")).unwrap();
-    std::fs::write(dst.join("scene.toml"), &m[..m.find("[[sequences]]").unwrap()]).unwrap();
+    let dst = common::scratch_courtyard("cli-bake");
     let d = dst.to_str().unwrap();
     let (ok, _, err) = heliar(&["bake", d]);
     assert!(ok, "{err}");

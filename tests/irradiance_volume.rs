@@ -1,6 +1,8 @@
 //! Bake, relighting and the irradiance volume (Jensen §3.3, §3.4, §4) against closed forms, brute
 //! force and the bundled scene's capture.
 
+mod common;
+
 use glam::{UVec3, Vec3};
 use heliar::envmap::bake::{Baked, BakeInfo, SKY, bake, bake_cached};
 use heliar::envmap::relight::{Lighting, RelightConfig, Relighter};
@@ -11,7 +13,7 @@ use heliar::io::image::{ExrPrecision, LinearImage};
 use heliar::irradiance::transfer::{LinearBasis, ProbeTransfer, brute_force_irradiance};
 use heliar::scene::Scene;
 use rand::{Rng, SeedableRng, rngs::SmallRng};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::{Arc, OnceLock};
 
 fn courtyard() -> &'static (Scene, Arc<RayScene>, Baked) {
@@ -215,24 +217,9 @@ fn volume_matches_brute_force_away_from_contact_zones() {
     }
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/courtyard");
-    let dst = std::env::temp_dir().join(format!("heliar-bake-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dst);
-    std::fs::create_dir_all(dst.join("calib")).unwrap();
-    for f in ["scene.toml", "proxy.glb", "calib/camera.toml", "env.exr", "truth.csv"] {
-        std::fs::copy(src.join(f), dst.join(f)).unwrap();
-    }
-    // Sequences are not needed here.
-    let m = std::fs::read_to_string(dst.join("scene.toml")).unwrap();
-    let cut = m.find("[[sequences]]").unwrap();
-    std::fs::write(dst.join("scene.toml"), &m[..cut]).unwrap();
-    dst
-}
-
 #[test]
 fn bake_cache_sanitising_and_bad_centre() {
-    let d = scratch("cache");
+    let d = common::scratch_courtyard("bake-cache");
     // NaN, Inf and negative texels in the captured map are replaced and counted.
     let p = d.join("env.exr");
     let mut env = LinearImage::read_exr(&p).unwrap();

@@ -129,17 +129,19 @@ pub fn coverage(views: &[Vector<Point2f>], width: u32, height: u32) -> f64 {
     cells.iter().flatten().filter(|&&c| c).count() as f64 / 100.0
 }
 
+/// The board's corners and the detected corners of every view, as OpenCV wants them.
+fn point_sets(views: &[Vector<Point2f>], board: &Board) -> Result<(Vector<Vector<Point3f>>, Vector<Vector<Point2f>>), CalibError> {
+    check_views(views.len())?;
+    let obj = views.iter().map(|_| board.object_points()).collect();
+    let img = views.iter().cloned().collect();
+    Ok((obj, img))
+}
+
 /// Pinhole + Brown–Conrady calibration from the corner sets of several views. `fit_k3` frees the
 /// sixth-order radial term; keep it fixed at 0 (OpenCV's advice) unless the lens is very wide and
 /// the views cover the image corners, or the polynomial overfits and diverges at the edges.
 pub fn calibrate_pinhole(views: &[Vector<Point2f>], board: &Board, width: u32, height: u32, fit_k3: bool) -> Result<PinholeCalibration, CalibError> {
-    check_views(views.len())?;
-    let mut obj = Vector::<Vector<Point3f>>::new();
-    let mut img = Vector::<Vector<Point2f>>::new();
-    for v in views {
-        obj.push(board.object_points());
-        img.push(v.clone());
-    }
+    let (obj, img) = point_sets(views, board)?;
     let mut k = Mat::default();
     let mut d = Mat::default();
     let (mut rv, mut tv) = (Vector::<Mat>::new(), Vector::<Mat>::new());
@@ -154,13 +156,7 @@ pub fn calibrate_pinhole(views: &[Vector<Point2f>], board: &Board, width: u32, h
 
 /// Kannala–Brandt fisheye calibration (OpenCV's `fisheye::calibrate`).
 pub fn calibrate_fisheye(views: &[Vector<Point2f>], board: &Board, width: u32, height: u32) -> Result<FisheyeCalibration, CalibError> {
-    check_views(views.len())?;
-    let mut obj = Vector::<Vector<Point3f>>::new();
-    let mut img = Vector::<Vector<Point2f>>::new();
-    for v in views {
-        obj.push(board.object_points());
-        img.push(v.clone());
-    }
+    let (obj, img) = point_sets(views, board)?;
     let mut k = Mat::default();
     let mut d = Mat::default();
     let (mut rv, mut tv) = (Vector::<Mat>::new(), Vector::<Mat>::new());

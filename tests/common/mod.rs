@@ -168,3 +168,19 @@ pub fn estimator(world: &World, config: EstimatorConfig) -> Estimator {
 pub fn rel_err(est: [f64; 3], truth: [f32; 3]) -> f64 {
     (0..3).map(|c| (est[c] - truth[c] as f64).abs() / (truth[c] as f64).max(1e-30)).fold(0.0, f64::max)
 }
+
+/// A copy of the bundled courtyard's small files (no frames, no sequences) in a fresh temporary
+/// folder, so tests that write (bakes, edits) never share a folder.
+pub fn scratch_courtyard(name: &str) -> std::path::PathBuf {
+    let src = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/courtyard");
+    let dst = std::env::temp_dir().join(format!("heliar-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dst);
+    std::fs::create_dir_all(dst.join("calib")).expect("temp dir");
+    for f in ["scene.toml", "proxy.glb", "calib/camera.toml", "env.exr", "truth.csv"] {
+        std::fs::copy(src.join(f), dst.join(f)).expect("copy");
+    }
+    let m = std::fs::read_to_string(dst.join("scene.toml")).expect("manifest");
+    let cut = m.find("[[sequences]]").unwrap_or(m.len());
+    std::fs::write(dst.join("scene.toml"), &m[..cut]).expect("manifest");
+    dst
+}
