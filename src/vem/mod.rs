@@ -35,6 +35,7 @@ pub mod cluster;
 pub mod fisheye;
 pub mod glossy;
 pub mod input;
+pub mod metrics;
 pub mod pattern;
 pub mod photometric;
 pub mod polar;
