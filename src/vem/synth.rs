@@ -4,7 +4,7 @@
 //! splatted exactly (their discs are far smaller than a pixel or texel):
 //! - [`outdoor`]: a clear-sky gradient with a circumsolar glow, a sun moving along an arc (a
 //!   time-lapse: 0.4° per frame) and soft clouds drifting across it, one of which covers the sun
-//!   for a while;
+//!   from about frame 6 to 14;
 //! - [`indoor_lamp`]: a dim room with a window and a ceiling lamp whose output flickers at
 //!   115 Hz (a PWM dimmer), which a 21 Hz capture aliases to 10 Hz: the flicker Havran's
 //!   temporal filter is for (§3.3, "the first source of flickering").
@@ -130,11 +130,12 @@ pub fn outdoor(k: usize, rate_hz: f64) -> OutdoorSky {
     // Clouds drift in azimuth (a negative rate about +Y is clockwise seen from above, like the sun).
     let drift = |start: Vec3, vel_deg: f32| glam::Quat::from_axis_angle(Vec3::Y, (vel_deg * t).to_radians()) * start;
     let _ = rate_hz; // motion is per frame; the rate only labels time
-    // A cloud that reaches the sun around frame 12 and leaves it by frame 26.
+    // A cloud 10° of azimuth ahead of the sun, 1°/frame faster: it covers the sun from about
+    // frame 6 to 14 and has left it by frame 17.
     let sun0 = Vec3::new(35f32.to_radians().cos() * 200f32.to_radians().sin(), 35f32.to_radians().sin(), -35f32.to_radians().cos() * 200f32.to_radians().cos());
-    let c0 = (glam::Quat::from_axis_angle(Vec3::Y, 14f32.to_radians()) * sun0).normalize();
+    let c0 = (glam::Quat::from_axis_angle(Vec3::Y, 10f32.to_radians()) * sun0).normalize();
     let clouds = vec![
-        Cloud { centre: drift(c0, -1.1), radius: 0.16, opacity: 0.97, rgb: [0.9, 0.9, 0.95] },
+        Cloud { centre: drift(c0, -1.4), radius: 0.1, opacity: 0.97, rgb: [0.9, 0.9, 0.95] },
         Cloud { centre: drift(Vec3::new(0.5, 0.6, 0.4).normalize(), 0.8), radius: 0.3, opacity: 0.8, rgb: [1.2, 1.2, 1.25] },
         Cloud { centre: drift(Vec3::new(-0.6, 0.3, 0.3).normalize(), 0.5), radius: 0.25, opacity: 0.9, rgb: [0.7, 0.7, 0.75] },
     ];
@@ -266,7 +267,62 @@ mod tests {
     #[test]
     fn the_cloud_covers_the_sun_in_the_middle_of_the_sequence() {
         let e = |k| outdoor(k, RATE_HZ).suns().first().map_or(0.0, |s| s.1[1]);
-        assert!(e(0) > 25.0 && e(40) > 25.0, "{} {}", e(0), e(40));
-        assert!((10..30).any(|k| e(k) < 3.0), "{:?}", (0..40).map(e).collect::<Vec<_>>());
+        let all: Vec<f32> = (0..24).map(e).collect();
+        assert!(all[..4].iter().chain(&all[17..]).all(|&x| x > 25.0), "{all:?}");
+        assert!(all[6..15].iter().all(|&x| x < 3.0), "{all:?}");
     }
+}
+
+/// Brightens (`factor > 1`) or darkens the texels of `map` within `radius` of `centre`.
+pub fn scale_cap(map: &mut PolarMap, centre: Vec3, radius: f32, factor: f32) {
+    let c = radius.cos();
+    for j in 0..map.height {
+        for i in 0..map.width {
+            if map.texel_dir(i, j).dot(centre) >= c {
+                let p = &mut map.data[(j * map.width + i) as usize];
+                *p = p.map(|v| v * factor);
+            }
+        }
+    }
+}
+
+/// Pairs of polar maps (`width × height`) that differ by a small local change, for the coherence
+/// sweep: a 6° patch of sky 10% brighter, a faint 3° cloud appearing, the sun moving by 0.25°, two
+/// consecutive frames of [`outdoor`], and the brighter patch on a sky without sun.
+pub fn local_changes(width: u32, height: u32) -> Vec<(&'static str, PolarMap, PolarMap)> {
+    let sky = outdoor(0, RATE_HZ);
+    let base = render_polar(&sky, width, height, 2);
+    // A patch of clear sky well away from the sun (azimuth ≈ 63°, elevation 37°).
+    let patch = Vec3::new(0.6, 0.5, 0.3).normalize();
+    let mut bright = base.clone();
+    scale_cap(&mut bright, patch, 6f32.to_radians(), 1.1);
+    let mut clouded = sky.clone();
+    clouded.clouds.push(Cloud { centre: patch, radius: 3f32.to_radians(), opacity: 0.5, rgb: [1.0; 3] });
+    let mut moved = sky.clone();
+    moved.sun_dir = glam::Quat::from_axis_angle(Vec3::Y, -0.25f32.to_radians()) * moved.sun_dir;
+    let no_sun = OutdoorSky { sun_irradiance: [0.0; 3], ..sky.clone() };
+    let a = render_polar(&no_sun, width, height, 2);
+    let mut b = a.clone();
+    scale_cap(&mut b, patch, 6f32.to_radians(), 1.1);
+    vec![
+        ("patch_10pct", base.clone(), bright),
+        ("small_cloud", base.clone(), render_polar(&clouded, width, height, 2)),
+        ("sun_0.25deg", base.clone(), render_polar(&moved, width, height, 2)),
+        ("next_frame", base, render_polar(&outdoor(1, RATE_HZ), width, height, 2)),
+        ("patch_no_sun", a, b),
+    ]
+}
+
+/// Test maps for the error sweep: a sunny sky, the same sky with the sun behind a cloud, and the
+/// indoor room.
+pub fn error_maps(width: u32, height: u32) -> Vec<(&'static str, PolarMap)> {
+    let cloudy = (0..24).min_by(|&a, &b| {
+        let e = |k| outdoor(k, RATE_HZ).suns().first().map_or(0.0, |s| s.1[1]);
+        e(a).total_cmp(&e(b))
+    });
+    vec![
+        ("sunny", render_polar(&outdoor(0, RATE_HZ), width, height, 2)),
+        ("sun_behind_cloud", render_polar(&outdoor(cloudy.unwrap_or(20), RATE_HZ), width, height, 2)),
+        ("indoor", render_polar(&indoor_lamp(0, RATE_HZ), width, height, 2)),
+    ]
 }

@@ -18,6 +18,8 @@ pub struct BenchArgs {
 enum BenchWhat {
     /// The estimator on a sequence with known truth.
     Estimate(EstimateSweep),
+    /// VEM lights: irradiance error against time, and temporal coherence.
+    Vem(crate::bench_vem::VemSweep),
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -100,7 +102,10 @@ fn run_config(
 }
 
 pub fn run(a: BenchArgs) -> Result<()> {
-    let BenchWhat::Estimate(s) = a.what;
+    let s = match a.what {
+        BenchWhat::Estimate(s) => s,
+        BenchWhat::Vem(s) => return crate::bench_vem::run(s),
+    };
     let (scene, ray) = load_scene(&s.scene)?;
     let seq = pick_sequence(&scene, s.sequence.as_deref())?.clone();
     if seq.truth.is_none() {

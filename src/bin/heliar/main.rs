@@ -1,9 +1,11 @@
 //! The `heliar` command.
 
 mod bench;
+mod bench_vem;
 mod common;
 mod estimate;
 mod sun;
+mod vem;
 
 use clap::{Parser, Subcommand};
 
@@ -22,6 +24,8 @@ enum Command {
     Estimate(estimate::EstimateArgs),
     /// Error-against-run-time sweeps.
     Bench(bench::BenchArgs),
+    /// Directional lights from captured HDR video environment maps (JSON lines).
+    Vem(vem::VemArgs),
 }
 
 fn main() {
@@ -30,6 +34,7 @@ fn main() {
         Command::Sun(a) => sun::run(a),
         Command::Estimate(a) => estimate::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Vem(a) => vem::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
