@@ -226,7 +226,7 @@ impl VemConfig {
 pub struct FrameSummary {
     /// Whether the frame had light.
     pub status: Status,
-    /// Texels that were NaN, infinite or negative (set to black).
+    /// Texels that were NaN, infinite or negative (taken as black).
     pub sanitized_texels: usize,
     /// The frame's power `Σ L·ΔΩ` per channel (before filtering).
     pub power_rgb: [f64; 3],
@@ -298,11 +298,10 @@ impl Decomposer {
         Ok(())
     }
 
-    /// Processes one frame. NaN, infinite and negative texels of `map` are set to black and
-    /// counted.
-    pub fn process(&mut self, map: &mut PolarMap) -> FrameSummary {
-        let sanitized = map.sanitize();
-        self.dist.rebuild(map);
+    /// Processes one frame. Texels that are NaN, infinite or negative in any channel count as
+    /// black (and are counted).
+    pub fn process(&mut self, map: &PolarMap) -> FrameSummary {
+        let sanitized = self.dist.rebuild(map);
         let n = self.cfg.glossy_lights.unwrap_or(0).max(self.cfg.lights);
         let (status, step) = if self.dist.is_empty() {
             (Status::Dark, self.filter.step_dark(&mut self.filtered))

@@ -245,15 +245,27 @@ impl RegionSet {
         out.lx.extend(lights.iter().map(|l| l.dir.x));
         out.ly.extend(lights.iter().map(|l| l.dir.y));
         out.lz.extend(lights.iter().map(|l| l.dir.z));
+        // Branch-free compaction: write every index, advance only past those inside (a branch
+        // per light and region would mispredict about half the time).
+        let n = lights.len();
+        out.scratch.clear();
+        out.scratch.resize(n + 1, 0);
+        out.flags.clear();
+        out.flags.resize(n, 0);
         for r in 0..self.centres.len() {
             let (x, y, z) = (self.cx[r], self.cy[r], self.cz[r]);
             let offset = out.ids.len() as u32;
-            for k in 0..out.lx.len() {
-                if x * out.lx[k] + y * out.ly[k] + z * out.lz[k] >= self.cos_list {
-                    out.ids.push(k as u32);
-                }
+            // Membership first (a vectorised loop), then the compaction.
+            for (((f, lx), ly), lz) in out.flags.iter_mut().zip(&out.lx).zip(&out.ly).zip(&out.lz) {
+                *f = u32::from(x * lx + y * ly + z * lz >= self.cos_list);
             }
-            out.ranges.push(GpuRange { offset, count: out.ids.len() as u32 - offset });
+            let mut count = 0usize;
+            for (k, &f) in out.flags.iter().enumerate() {
+                out.scratch[count] = k as u32;
+                count += f as usize;
+            }
+            out.ids.extend_from_slice(&out.scratch[..count]);
+            out.ranges.push(GpuRange { offset, count: count as u32 });
         }
     }
 
@@ -277,6 +289,8 @@ pub struct RegionLists {
     lx: Vec<f32>,
     ly: Vec<f32>,
     lz: Vec<f32>,
+    scratch: Vec<u32>,
+    flags: Vec<u32>,
 }
 
 impl RegionLists {

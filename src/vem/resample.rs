@@ -105,6 +105,8 @@ impl Resampler {
         let (sw, sh) = (source_width, source_height);
         let wraps = projection.wraps();
         let mut compact = vec![u32::MAX; (sw as usize) * (sh as usize)];
+        // Per source pixel: 0 not checked yet, 1 inside the field of view, 2 outside.
+        let mut sees = vec![0u8; (sw as usize) * (sh as usize)];
         let mut pixels = Vec::new();
         let mut offsets = Vec::with_capacity((polar_width * polar_height + 1) as usize);
         let mut entries = Vec::new();
@@ -150,9 +152,17 @@ impl Resampler {
                             if wraps {
                                 c = c.rem_euclid(sw as i64);
                                 r = r.clamp(0, sh as i64 - 1);
-                            } else if c < 0 || r < 0 || c >= sw as i64 || r >= sh as i64 || !projection.sees(c as u32, r as u32) {
-                                // Outside the image or the lens's field of view: no data.
+                            } else if c < 0 || r < 0 || c >= sw as i64 || r >= sh as i64 {
                                 continue;
+                            } else {
+                                // Pixels outside the lens's field of view hold no data.
+                                let seen = &mut sees[(r as u32 * sw + c as u32) as usize];
+                                if *seen == 0 {
+                                    *seen = if projection.sees(c as u32, r as u32) { 1 } else { 2 };
+                                }
+                                if *seen == 2 {
+                                    continue;
+                                }
                             }
                             taps.push(((r as u32) * sw + c as u32, w * sub_w));
                         }

@@ -9,7 +9,10 @@ use heliar::vem::metrics::{irradiance_error, motion, random_normals, reference_i
 use heliar::vem::pattern::Pattern;
 use heliar::vem::polar::{IrradianceReference, PolarMap};
 use heliar::vem::sampling::{PolarDistribution, SamplerKind};
-use heliar::vem::{lights_of_distribution, lights_of_map, synth};
+use heliar::vem::cluster::{DEFAULT_CF, cluster_lights, cluster_radius};
+use heliar::vem::regions::{RegionLists, RegionSet};
+use heliar::vem::temporal::{FirDesign, LightFilter};
+use heliar::vem::{Decomposer, VemConfig, lights_of_distribution, lights_of_map, synth};
 use std::path::{Path, PathBuf};
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -18,7 +21,9 @@ enum What {
     Error,
     /// Angular motion of the lights under small local changes of the map.
     Coherence,
-    /// Both.
+    /// Time per frame of the whole pipeline and its parts, wall clock and CPU time of the thread.
+    Speed,
+    /// Error, coherence and speed.
     All,
 }
 
@@ -198,6 +203,72 @@ fn coherence_sweep(s: &VemSweep, pairs: &[(String, PolarMap, PolarMap)]) -> Resu
     Ok(())
 }
 
+/// CPU time of this thread in nanoseconds (Linux `/proc/thread-self/schedstat`), `None` elsewhere.
+fn thread_cpu_ns() -> Option<u64> {
+    std::fs::read_to_string("/proc/thread-self/schedstat").ok()?.split_whitespace().next()?.parse().ok()
+}
+
+/// Runs `f` `n` times; returns (wall, CPU) microseconds per call (CPU `NaN` if unavailable).
+fn time_per_call(n: usize, mut f: impl FnMut(usize)) -> (f64, f64) {
+    for i in 0..n / 10 + 1 {
+        f(i); // warm-up
+    }
+    let (t, c) = (std::time::Instant::now(), thread_cpu_ns());
+    for i in 0..n {
+        f(i);
+    }
+    let wall = t.elapsed().as_secs_f64() * 1e6 / n as f64;
+    let cpu = match (c, thread_cpu_ns()) {
+        (Some(a), Some(b)) => (b - a) as f64 / 1e3 / n as f64,
+        _ => f64::NAN,
+    };
+    (wall, cpu)
+}
+
+fn speed(s: &VemSweep, maps: &[(String, PolarMap)]) -> Result<()> {
+    let n = s.repeats.max(1) * 100;
+    let mut t = Table::new(&["stage (360×90, one core)", "wall_us", "cpu_us"]);
+    let mut row = |name: &str, (w, c): (f64, f64)| t.push(vec![name.into(), format!("{w:.1}"), format!("{c:.1}")]);
+    for kind in [SamplerKind::Havran, SamplerKind::Standard] {
+        let mut dec = Decomposer::new(VemConfig { lights: 300, sampler: kind, clusters: Some(72), ..VemConfig::default() })?;
+        row(&format!("whole frame, {}: CDFs + 300 lights + FIR + clustering (Q = 72) + 200 region lists", kind.name()), time_per_call(n, |i| {
+            std::hint::black_box(dec.process(&maps[i % maps.len()].1));
+        }));
+    }
+    let m = &maps[0].1;
+    let mut dist = PolarDistribution::default();
+    row("CDFs", time_per_call(n, |_| {
+        std::hint::black_box(dist.rebuild(m));
+    }));
+    dist.rebuild(m);
+    let mut samples_per_ms = vec![];
+    for kind in [SamplerKind::Havran, SamplerKind::Standard] {
+        let r = time_per_call(n, |_| {
+            std::hint::black_box(lights_of_distribution(&dist, m, kind, Pattern::RelaxedHalton, 1024));
+        });
+        samples_per_ms.push((kind, 1024.0 / (r.1 / 1e3), 1024.0 / (r.0 / 1e3)));
+        row(&format!("1024 lights, {}", kind.name()), r);
+    }
+    let lights = lights_of_map(m, SamplerKind::Havran, Pattern::RelaxedHalton, 300);
+    let raw: Vec<_> = lights.iter().map(|l| (l.dir, [1.0f32; 3])).collect();
+    let mut filter = LightFilter::new(&FirDesign::paper());
+    let mut out = Vec::new();
+    row("FIR, 300 lights", time_per_call(n, |_| {
+        std::hint::black_box(filter.step(10.0, &raw, &mut out));
+    }));
+    let mut clusters = Vec::new();
+    row("clustering 300 → at most 72", time_per_call(n, |_| cluster_lights(&lights, 72, cluster_radius(72, DEFAULT_CF), &mut clusters)));
+    let regions = RegionSet::lambertian(200, 32);
+    let mut lists = RegionLists::default();
+    row("region lists, 300 lights × 200 regions", time_per_call(n, |_| regions.build_lists(&lights, &mut lists)));
+    println!("time per call, mean over {n} calls: wall clock and CPU time of the thread (the CPU time is what one idle core would take)");
+    print!("{t}");
+    for (kind, cpu, wall) in samples_per_ms {
+        println!("sample rate, {}: {cpu:.0} samples/ms of CPU time ({wall:.0} per wall-clock ms)", kind.name());
+    }
+    Ok(())
+}
+
 pub fn run(s: VemSweep) -> Result<()> {
     let maps: Vec<(String, PolarMap)> = match &s.input {
         Some(p) => load_maps(p, s.calib.as_deref())?,
@@ -205,6 +276,9 @@ pub fn run(s: VemSweep) -> Result<()> {
     };
     if matches!(s.what, What::Error | What::All) {
         error_sweep(&s, &maps)?;
+    }
+    if matches!(s.what, What::Speed | What::All) {
+        speed(&s, &maps)?;
     }
     if matches!(s.what, What::Coherence | What::All) {
         let pairs: Vec<(String, PolarMap, PolarMap)> = match &s.input {

@@ -143,7 +143,7 @@ pub fn run(a: VemArgs) -> Result<()> {
         let stats = input.load(i, &mut map)?;
         let decode_ms = t.elapsed().as_secs_f64() * 1e3;
         let t = std::time::Instant::now();
-        let summary = dec.process(&mut map);
+        let summary = dec.process(&map);
         let decompose_ms = t.elapsed().as_secs_f64() * 1e3;
         *statuses.entry(summary.status).or_default() += 1;
         let ts = i as f64 / a.rate_hz;

@@ -150,12 +150,23 @@ impl PolarDistribution {
         }
     }
 
+    /// The blended conditional CDF as a function of the knot (slices fetched once).
+    #[inline]
+    fn blended_cdf(&self, j: u32, blend: Option<(u32, f32)>) -> impl Fn(usize) -> f32 + '_ {
+        let a = self.cdf(j);
+        let (b, t) = match blend {
+            Some((n, t)) => (self.cdf(n), t),
+            None => (a, 0.0),
+        };
+        move |k| a[k] + t * (b[k] - a[k])
+    }
+
     /// Havran's transform of `u ∈ [0,1]²`; `None` for a black map.
     pub fn sample_havran(&self, u: Vec2, blend: RingBlend) -> Option<SampleRecord> {
         let (s_c, v) = disc_polar_from_square(u);
         let (j, tau) = self.invert_marginal(s_c as f64)?;
         let b = self.ring_blend(j, tau, blend);
-        let (col, frac) = invert_cdf(|k| self.blended_knot(j, b, k), self.width() as usize, v);
+        let (col, frac) = invert_cdf(self.blended_cdf(j, b), self.width() as usize, v);
         let (s0, ds) = self.ring_s(j);
         let cos_theta = (1.0 - (s0 + tau * ds)).clamp(0.0, 1.0) as f32;
         let x = col as f32 + frac;

@@ -104,9 +104,10 @@ impl PolarDistribution {
         d
     }
 
-    /// Rebuilds the CDFs for a new frame, reusing the buffers. Texels that are not finite and
-    /// non-negative count as black (callers sanitise and count them first).
-    pub fn rebuild(&mut self, map: &PolarMap) {
+    /// Rebuilds the CDFs for a new frame, reusing the buffers, and returns how many texels were
+    /// not finite and non-negative in every channel: those count as black (they are not
+    /// changed in `map`, and no light reads them).
+    pub fn rebuild(&mut self, map: &PolarMap) -> usize {
         let (w, h) = (map.width as usize, map.height as usize);
         self.width = map.width;
         self.height = map.height;
@@ -114,7 +115,6 @@ impl PolarDistribution {
         self.ring_mass.resize(h, 0.0);
         self.marginal.clear();
         self.marginal.resize(h + 1, 0.0);
-        self.conditional.clear();
         self.conditional.resize(h * (w + 1), 0.0);
         self.cond_source.clear();
         self.cond_source.extend(0..h as u32);
@@ -125,32 +125,64 @@ impl PolarDistribution {
         self.ring_s.extend((0..=h).map(|j| 1.0 - (j as f64 * dtheta).cos()));
         self.total_rgb = [0.0; 3];
         let mut total = 0.0f64;
+        let mut invalid = 0usize;
         for j in 0..h {
             let dw = map.row_solid_angle(j as u32) as f64;
             let row = &map.data[j * w..(j + 1) * w];
             let cdf = &mut self.conditional[j * (w + 1)..(j + 1) * (w + 1)];
-            let mut sum = 0.0f64;
+            cdf[0] = 0.0;
+            // Luminance, then the row's RGB sums and smallest value in twelve independent
+            // lanes (four texels × three channels): both loops vectorise. Finite sums and no
+            // negative value mean every texel is valid; otherwise the slow path checks each.
+            for (c, p) in cdf[1..].iter_mut().zip(row) {
+                *c = luminance(*p);
+            }
+            let flat = row.as_flattened();
+            let (mut sum, mut min) = ([0.0f32; 12], [0.0f32; 12]);
+            let chunks = flat.chunks_exact(12);
+            let rest = chunks.remainder();
+            for ch in chunks {
+                for k in 0..12 {
+                    sum[k] += ch[k];
+                    min[k] = if ch[k] < min[k] { ch[k] } else { min[k] };
+                }
+            }
+            for (k, v) in rest.iter().enumerate() {
+                sum[k] += v;
+                min[k] = if *v < min[k] { *v } else { min[k] };
+            }
             let mut rgb = [0.0f64; 3];
-            for (i, p) in row.iter().enumerate() {
-                let y = luminance(*p);
-                if y > 0.0 && y.is_finite() {
-                    sum += y as f64;
-                    for c in 0..3 {
-                        rgb[c] += p[c] as f64;
+            for k in 0..12 {
+                rgb[k % 3] += sum[k] as f64;
+            }
+            let row_ok = rgb.iter().all(|v| v.is_finite()) && min.iter().all(|&m| m >= 0.0);
+            if !row_ok {
+                rgb = [0.0; 3];
+                for (c, p) in cdf[1..].iter_mut().zip(row) {
+                    if is_valid(p) {
+                        for k in 0..3 {
+                            rgb[k] += p[k] as f64;
+                        }
+                    } else {
+                        *c = 0.0;
+                        invalid += 1;
                     }
                 }
-                cdf[i + 1] = sum as f32;
             }
-            if sum > 0.0 {
-                let inv = (1.0 / sum) as f32;
+            prefix_sum(&mut cdf[1..]);
+            let sum = cdf[w];
+            if sum > 0.0 && sum.is_finite() {
+                let inv = 1.0 / sum;
                 cdf.iter_mut().for_each(|c| *c *= inv);
                 cdf[w] = 1.0;
-            }
-            self.ring_sum[j] = sum as f32;
-            self.ring_mass[j] = sum * dw;
-            total += sum * dw;
-            for c in 0..3 {
-                self.total_rgb[c] += rgb[c] * dw;
+                self.ring_sum[j] = sum;
+                self.ring_mass[j] = sum as f64 * dw;
+                total += sum as f64 * dw;
+                for c in 0..3 {
+                    self.total_rgb[c] += rgb[c] * dw;
+                }
+            } else {
+                cdf.fill(0.0);
             }
         }
         self.total = total;
@@ -179,6 +211,7 @@ impl PolarDistribution {
                 }
             }
         }
+        invalid
     }
 
     /// Polar map width.
@@ -281,7 +314,10 @@ impl PolarDistribution {
     /// mix of the two texels in proportion to their share of the sampling density.
     pub fn light_rgb(&self, map: &PolarMap, rec: &SampleRecord) -> [f32; 3] {
         let w = self.width;
-        let texel = |ring: u32| map.data[(self.cond_source[ring as usize] * w + rec.col) as usize];
+        let texel = |ring: u32| {
+            let p = map.data[(self.cond_source[ring as usize] * w + rec.col) as usize];
+            if is_valid(&p) { p } else { [0.0; 3] }
+        };
         let (a, sa) = (texel(rec.ring), self.ring_sum[rec.ring as usize]);
         let (num, den) = match rec.blend {
             None => (a, luminance(a)),
@@ -297,6 +333,53 @@ impl PolarDistribution {
             [1.0; 3] // a texel of zero width in the CDF cannot be drawn; neutral colour if it is
         }
     }
+}
+
+/// Whether a texel is finite and non-negative in every channel.
+#[inline]
+pub fn is_valid(p: &[f32; 3]) -> bool {
+    // Non-short-circuit `&`: no branches. NaN fails both comparisons.
+    (p[0] >= 0.0) & (p[1] >= 0.0) & (p[2] >= 0.0) & (p[0] < f32::INFINITY) & (p[1] < f32::INFINITY) & (p[2] < f32::INFINITY)
+}
+
+/// In-place inclusive prefix sum, as four running sums over quarters of the slice (independent
+/// dependency chains, so about four times the throughput of one) plus the quarters' offsets.
+fn prefix_sum(x: &mut [f32]) {
+    let b = x.len() / 4;
+    if b == 0 {
+        let mut a = 0.0;
+        for v in x.iter_mut() {
+            a += *v;
+            *v = a;
+        }
+        return;
+    }
+    let (q0, rest) = x.split_at_mut(b);
+    let (q1, rest) = rest.split_at_mut(b);
+    let (q2, q3) = rest.split_at_mut(b);
+    let (q3, tail) = q3.split_at_mut(b);
+    let mut a = [0.0f32; 4];
+    for (((v0, v1), v2), v3) in q0.iter_mut().zip(q1.iter_mut()).zip(q2.iter_mut()).zip(q3.iter_mut()) {
+        a[0] += *v0;
+        *v0 = a[0];
+        a[1] += *v1;
+        *v1 = a[1];
+        a[2] += *v2;
+        *v2 = a[2];
+        a[3] += *v3;
+        *v3 = a[3];
+    }
+    for v in tail.iter_mut() {
+        a[3] += *v;
+        *v = a[3];
+    }
+    // Offsets: each quarter gets the total of the quarters before it.
+    let o1 = a[0];
+    let o2 = o1 + a[1];
+    let o3 = o2 + a[2];
+    q1.iter_mut().for_each(|v| *v += o1);
+    q2.iter_mut().for_each(|v| *v += o2);
+    q3.iter_mut().chain(tail.iter_mut()).for_each(|v| *v += o3);
 }
 
 /// The inverse of the piecewise-linear CDF `cdf` (`n + 1` knots from 0 to 1) at `v ∈ [0, 1)`:
@@ -331,6 +414,20 @@ mod tests {
         assert!(black.is_empty() && black.integral() == 0.0);
         assert!(black.sample(SamplerKind::Havran, Vec2::splat(0.3)).is_none());
         assert!(black.sample(SamplerKind::Standard, Vec2::splat(0.3)).is_none());
+    }
+
+    #[test]
+    fn blocked_prefix_sum_matches_the_sequential_one() {
+        for n in [0usize, 1, 3, 4, 5, 90, 361] {
+            let v: Vec<f32> = (0..n).map(|i| (i % 7) as f32 * 0.5).collect();
+            let mut p = v.clone();
+            prefix_sum(&mut p);
+            let mut acc = 0.0;
+            for (a, b) in v.iter().zip(&p) {
+                acc += a;
+                assert!((acc - b).abs() < 1e-4, "n={n}");
+            }
+        }
     }
 
     #[test]
