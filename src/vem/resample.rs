@@ -95,7 +95,9 @@ pub struct Resampler {
     /// `(index into pixels, weight)`.
     entries: Vec<(u32, f32)>,
     uncovered: usize,
-    scratch: Vec<([f32; 3], PixelState)>,
+    /// Per frame: linear values of the referenced pixels and whether they are usable.
+    scratch: Vec<[f32; 3]>,
+    valid: Vec<bool>,
 }
 
 impl Resampler {
@@ -192,7 +194,7 @@ impl Resampler {
                 offsets.push(entries.len() as u32);
             }
         }
-        Self { polar_width, polar_height, source_width, source_height, pixels, offsets, entries, uncovered, scratch: Vec::new() }
+        Self { polar_width, polar_height, source_width, source_height, pixels, offsets, entries, uncovered, scratch: Vec::new(), valid: Vec::new() }
     }
 
     /// Number of polar texels outside the source's field of view.
@@ -214,25 +216,38 @@ impl Resampler {
     pub fn resample(&mut self, frame: &Frame, lin: &Linearizer, out: &mut PolarMap) -> ResampleStats {
         let mut stats = ResampleStats { uncovered_texels: self.uncovered, ..Default::default() };
         self.scratch.clear();
+        self.valid.clear();
         for &p in &self.pixels {
             let (v, s) = lin.radiance(frame, p as usize);
-            let s = if s != PixelState::Invalid && v.iter().any(|c| !(c.is_finite() && *c >= 0.0)) { PixelState::Invalid } else { s };
-            match s {
-                PixelState::Invalid => stats.invalid_pixels += 1,
-                PixelState::Clipped => stats.clipped_pixels += 1,
-                PixelState::Ok => {}
-            }
-            self.scratch.push((v, s));
+            let ok = s != PixelState::Invalid && super::sampling::is_valid(&v);
+            stats.invalid_pixels += usize::from(!ok);
+            stats.clipped_pixels += usize::from(ok && s == PixelState::Clipped);
+            self.scratch.push(v);
+            self.valid.push(ok);
         }
         if out.width != self.polar_width || out.height != self.polar_height {
             *out = PolarMap::new(self.polar_width, self.polar_height);
+        }
+        if stats.invalid_pixels == 0 {
+            // Every tap usable: the weights of a texel already sum to 1.
+            for (t, o) in out.data.iter_mut().enumerate() {
+                let mut acc = [0.0f32; 3];
+                for &(k, w) in &self.entries[self.offsets[t] as usize..self.offsets[t + 1] as usize] {
+                    let v = self.scratch[k as usize];
+                    acc[0] += w * v[0];
+                    acc[1] += w * v[1];
+                    acc[2] += w * v[2];
+                }
+                *o = acc;
+            }
+            return stats;
         }
         for (t, o) in out.data.iter_mut().enumerate() {
             let (a, b) = (self.offsets[t] as usize, self.offsets[t + 1] as usize);
             let (mut acc, mut wsum) = ([0.0f32; 3], 0.0f32);
             for &(k, w) in &self.entries[a..b] {
-                let (v, s) = self.scratch[k as usize];
-                if s != PixelState::Invalid {
+                if self.valid[k as usize] {
+                    let v = self.scratch[k as usize];
                     for c in 0..3 {
                         acc[c] += w * v[c];
                     }

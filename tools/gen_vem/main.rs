@@ -37,7 +37,7 @@ struct Cli {
     #[arg(long, value_enum, default_value = "all")]
     sequence: Which,
     /// Fisheye image size (square), pixels.
-    #[arg(long, default_value_t = 96)]
+    #[arg(long, default_value_t = 80)]
     size: u32,
     /// Frames per sequence.
     #[arg(long, default_value_t = 24)]

@@ -18,7 +18,7 @@ pub struct BenchArgs {
 enum BenchWhat {
     /// The estimator on a sequence with known truth.
     Estimate(EstimateSweep),
-    /// VEM lights: irradiance error against time, and temporal coherence.
+    /// VEM lights: irradiance error against time, temporal coherence and speed.
     Vem(crate::bench_vem::VemSweep),
 }
 

@@ -261,7 +261,16 @@ fn speed(s: &VemSweep, maps: &[(String, PolarMap)]) -> Result<()> {
     let regions = RegionSet::lambertian(200, 32);
     let mut lists = RegionLists::default();
     row("region lists, 300 lights × 200 regions", time_per_call(n, |_| regions.build_lists(&lights, &mut lists)));
-    println!("time per call, mean over {n} calls: wall clock and CPU time of the thread (the CPU time is what one idle core would take)");
+    let cam = heliar::vem::fisheye::FisheyeCamera::equidistant_up(512, 180.0);
+    let img = synth::render_fisheye(&synth::outdoor(0, synth::RATE_HZ), &cam, 1);
+    let frame = heliar::io::frames::Frame { width: 512, height: 512, data: heliar::io::frames::FrameData::Hdr(img) };
+    let lin = heliar::io::frames::Linearizer::new(&heliar::io::frames::Response::Linear, 1.0, 1.0, None);
+    let mut rs = heliar::vem::resample::Resampler::new(&heliar::vem::resample::Projection::Fisheye(cam), 512, 512, 360, 90);
+    let mut polar = PolarMap::new(360, 90);
+    row(&format!("fisheye 512² → polar map ({} weights)", rs.entries()), time_per_call(n / 10 + 1, |_| {
+        std::hint::black_box(rs.resample(&frame, &lin, &mut polar));
+    }));
+    println!("time per call, mean over {n} calls (resampling: {}): wall clock and CPU time of the thread (the CPU time is what one idle core would take)", n / 10 + 1);
     print!("{t}");
     for (kind, cpu, wall) in samples_per_ms {
         println!("sample rate, {}: {cpu:.0} samples/ms of CPU time ({wall:.0} per wall-clock ms)", kind.name());
