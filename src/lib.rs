@@ -65,3 +65,4 @@ pub mod irradiance;
 pub mod report;
 pub mod scene;
 pub mod sun;
+pub mod vem;

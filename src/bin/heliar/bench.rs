@@ -20,6 +20,8 @@ enum BenchWhat {
     Estimate(EstimateSweep),
     /// The irradiance volume against brute-force irradiance.
     Irradiance(crate::bench_irradiance::IrradianceSweep),
+    /// VEM lights: irradiance error against time, temporal coherence and speed.
+    Vem(crate::bench_vem::VemSweep),
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -105,6 +107,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
     let s = match a.what {
         BenchWhat::Estimate(s) => s,
         BenchWhat::Irradiance(s) => return crate::bench_irradiance::run(s),
+        BenchWhat::Vem(s) => return crate::bench_vem::run(s),
     };
     let (scene, ray) = load_scene(&s.scene)?;
     let seq = pick_sequence(&scene, s.sequence.as_deref())?.clone();

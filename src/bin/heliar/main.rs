@@ -3,9 +3,11 @@
 mod bake;
 mod bench;
 mod bench_irradiance;
+mod bench_vem;
 mod common;
 mod estimate;
 mod sun;
+mod vem;
 
 use clap::{Parser, Subcommand};
 
@@ -30,6 +32,8 @@ enum Command {
     Relight(bake::RelightArgs),
     /// Irradiance from the irradiance volume at a point and normal, as JSON.
     Irradiance(bake::IrradianceArgs),
+    /// Directional lights from captured HDR video environment maps (JSON lines).
+    Vem(vem::VemArgs),
 }
 
 fn main() {
@@ -41,6 +45,7 @@ fn main() {
         Command::Bake(a) => bake::run_bake(a),
         Command::Relight(a) => bake::run_relight(a),
         Command::Irradiance(a) => bake::run_irradiance(a),
+        Command::Vem(a) => vem::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

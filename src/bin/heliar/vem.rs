@@ -1,0 +1,193 @@
+//! `heliar vem`: captured HDR video environment maps → directional lights, one JSON line per frame.
+//!
+//! Compositing (`--scene`) needs the GPU compositor and is not here yet.
+
+use crate::common::frame_bar;
+use anyhow::{Context, Result, bail};
+use clap::{Args, ValueEnum};
+use heliar::report::{JsonLines, Series, Table, line_plot_svg, median};
+use heliar::vem::cluster::Cluster;
+use heliar::vem::input::VemInput;
+use heliar::vem::pattern::Pattern;
+use heliar::vem::polar::PolarMap;
+use heliar::vem::resample::ResampleStats;
+use heliar::vem::sampling::SamplerKind;
+use heliar::vem::{Decomposer, FrameSummary, Light, Status, VemConfig};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+/// The inverse transform, as named on the command line.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum SamplerArg {
+    /// Havran's continuous transform (default).
+    Havran,
+    /// Havran's transform interpolating between ring centres (the paper's description).
+    HavranCentres,
+    /// The standard marginal/conditional inversion (pbrt).
+    Standard,
+}
+
+impl From<SamplerArg> for SamplerKind {
+    fn from(s: SamplerArg) -> Self {
+        match s {
+            SamplerArg::Havran => SamplerKind::Havran,
+            SamplerArg::HavranCentres => SamplerKind::HavranCentres,
+            SamplerArg::Standard => SamplerKind::Standard,
+        }
+    }
+}
+
+#[derive(Args)]
+pub struct VemArgs {
+    /// Folder of frames (.exr/.png, sorted by name) or one frame file.
+    #[arg(long)]
+    input: PathBuf,
+    /// Fisheye calibration (a scene's calib/fisheye.toml). Without it, 2:1 frames are equirect
+    /// and 4:1 frames polar maps, in the world frame.
+    #[arg(long)]
+    calib: Option<PathBuf>,
+    /// Number of lights.
+    #[arg(long)]
+    lights: usize,
+    /// JSON-lines output file (default: stdout).
+    #[arg(long, short)]
+    output: Option<PathBuf>,
+    /// Capture rate in Hz (designs the temporal filter; the paper's taps at 21).
+    #[arg(long, default_value_t = 21.0)]
+    rate_hz: f64,
+    /// Inverse transform.
+    #[arg(long, value_enum, default_value = "havran")]
+    sampler: SamplerArg,
+    /// Use plain Halton samples instead of the relaxed ones.
+    #[arg(long)]
+    no_relax: bool,
+    /// Also cluster the lights into at most this many (Havran §4.3).
+    #[arg(long)]
+    clusters: Option<usize>,
+    /// Polar map size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "360x90")]
+    polar: String,
+    /// Largest fraction of NaN/Inf/negative pixels accepted in a frame.
+    #[arg(long, default_value_t = heliar::vem::input::DEFAULT_MAX_INVALID_FRACTION)]
+    max_invalid_fraction: f64,
+    /// Also write an SVG plot of the frame power, raw and filtered.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+}
+
+#[derive(Serialize)]
+struct Record<'a> {
+    frame: usize,
+    file: String,
+    #[serde(flatten)]
+    summary: FrameSummary,
+    #[serde(flatten)]
+    input: ResampleStats,
+    delay_frames: usize,
+    lights: &'a [Light],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    clusters: Option<&'a [Cluster]>,
+    region_list_fraction: f64,
+    decode_ms: f64,
+    decompose_ms: f64,
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32)> {
+    let (w, h) = s.split_once(['x', 'X']).with_context(|| format!("--polar {s}: expected WIDTHxHEIGHT, e.g. 360x90"))?;
+    Ok((w.trim().parse().with_context(|| format!("--polar {s}: bad width"))?, h.trim().parse().with_context(|| format!("--polar {s}: bad height"))?))
+}
+
+pub fn run(a: VemArgs) -> Result<()> {
+    let (pw, ph) = parse_size(&a.polar)?;
+    let cfg = VemConfig {
+        polar_width: pw,
+        polar_height: ph,
+        lights: a.lights,
+        sampler: a.sampler.into(),
+        pattern: if a.no_relax { Pattern::Halton } else { Pattern::RelaxedHalton },
+        rate_hz: a.rate_hz,
+        clusters: a.clusters,
+        ..VemConfig::default()
+    };
+    if !(0.0..=1.0).contains(&a.max_invalid_fraction) {
+        bail!("--max-invalid-fraction {} must be in [0, 1]", a.max_invalid_fraction);
+    }
+    let mut input = VemInput::open(&a.input, a.calib.as_deref(), pw, ph)?;
+    input.max_invalid_fraction = a.max_invalid_fraction;
+    if let Some(c) = &input.calib
+        && let Some((lr, Some(rep))) = &c.log_response
+    {
+        eprintln!(
+            "log response c = {:.4} + {:.4}·ln Y from {} patches: max error {:.1}% (check patches: {})",
+            lr.a,
+            lr.b,
+            rep.fit_patches,
+            100.0 * rep.fit_max_rel_error,
+            rep.check_max_rel_error.map_or("none".into(), |e| format!("{:.1}%", 100.0 * e))
+        );
+    }
+    let mut dec = Decomposer::new(cfg)?;
+    let delay = dec.filter_design().delay_frames();
+    let mut out = match &a.output {
+        Some(p) => JsonLines::create(p).with_context(|| format!("creating {}", p.display()))?,
+        None => JsonLines::stdout(),
+    };
+    let pb = frame_bar(input.len(), "vem");
+    let mut map = PolarMap::new(pw, ph);
+    let (mut decode, mut decompose) = (vec![], vec![]);
+    let mut statuses: BTreeMap<Status, usize> = BTreeMap::new();
+    let (mut raw_pts, mut filt_pts) = (vec![], vec![]);
+    for i in 0..input.len() {
+        let t = std::time::Instant::now();
+        let stats = input.load(i, &mut map)?;
+        let decode_ms = t.elapsed().as_secs_f64() * 1e3;
+        let t = std::time::Instant::now();
+        let summary = dec.process(&map);
+        let decompose_ms = t.elapsed().as_secs_f64() * 1e3;
+        *statuses.entry(summary.status).or_default() += 1;
+        let ts = i as f64 / a.rate_hz;
+        raw_pts.push((ts, summary.power));
+        filt_pts.push((ts, summary.filtered_power));
+        decode.push(decode_ms);
+        decompose.push(decompose_ms);
+        let (_, lists) = dec.region_lists();
+        out.write(&Record {
+            frame: i,
+            file: input.files[i].display().to_string(),
+            summary,
+            input: stats,
+            delay_frames: delay,
+            lights: dec.lights(),
+            clusters: a.clusters.map(|_| dec.clusters()),
+            region_list_fraction: lists.mean_fraction(),
+            decode_ms,
+            decompose_ms,
+        })?;
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    let mut t = Table::new(&["quantity", "value"]);
+    t.push(vec!["frames".into(), input.len().to_string()]);
+    for (s, n) in &statuses {
+        t.push(vec![format!("status {}", serde_json::to_value(s)?.as_str().unwrap_or("?")), n.to_string()]);
+    }
+    t.push(vec!["lights".into(), a.lights.to_string()]);
+    t.push(vec!["filter delay".into(), format!("{delay} frames ({:.3} s)", delay as f64 / a.rate_hz)]);
+    t.push(vec!["median decode + resample per frame".into(), format!("{:.3} ms", median(&decode))]);
+    t.push(vec!["median decomposition per frame".into(), format!("{:.3} ms", median(&decompose))]);
+    eprint!("{t}");
+    if let Some(p) = out.path() {
+        eprintln!("wrote {}", p.display());
+    }
+    if let Some(path) = &a.plot {
+        let series = vec![
+            Series { name: "frame power".into(), points: raw_pts, reference: true },
+            Series { name: format!("filtered ({delay}-frame delay)"), points: filt_pts, reference: false },
+        ];
+        line_plot_svg(path, "VEM power (luminance), raw and FIR-filtered", "time (s)", "power (scaled radiance × sr)", &series, false, false)
+            .with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,112 @@
+//! The `heliar vem` and `heliar bench vem` commands and the `gen-vem` generator.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn run(exe: &str, args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(exe).args(args).current_dir(env!("CARGO_MANIFEST_DIR")).output().unwrap();
+    (out.status.success(), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
+}
+
+fn heliar(args: &[&str]) -> (bool, String, String) {
+    run(env!("CARGO_BIN_EXE_heliar"), args)
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("heliar-vemcli-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+#[test]
+fn generated_sequence_to_json_lines() {
+    let dir = temp_dir("gen");
+    let (ok, _, err) = run(env!("CARGO_BIN_EXE_gen-vem"), &["--out", s(&dir), "--size", "64", "--frames", "10"]);
+    assert!(ok, "{err}");
+    for seq in ["outdoor", "lamp"] {
+        let d = dir.join(seq);
+        assert!(d.join("calib/fisheye.toml").is_file() && d.join("truth.csv").is_file());
+        assert_eq!(std::fs::read_dir(d.join("frames")).unwrap().count(), 10);
+    }
+    let out = dir.join("lights.jsonl");
+    let d = dir.join("outdoor");
+    let (ok, _, err) = heliar(&[
+        "vem", "--input", s(&d.join("frames")), "--calib", s(&d.join("calib/fisheye.toml")), "--lights", "24", "--clusters", "6",
+        "--output", s(&out),
+    ]);
+    assert!(ok, "{err}");
+    assert!(err.contains("median decomposition per frame"), "{err}");
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(!text.contains("null"), "no NaN anywhere");
+    let truth: Vec<f64> = std::fs::read_to_string(d.join("truth.csv")).unwrap().lines().skip(1).map(|l| l.split(',').nth(5).unwrap().parse().unwrap()).collect();
+    let lines: Vec<serde_json::Value> = text.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(lines.len(), 10);
+    for (i, v) in lines.iter().enumerate() {
+        assert_eq!(v["frame"], i);
+        assert_eq!(v["status"], "ok");
+        assert_eq!(v["delay_frames"], 4);
+        let lights = v["lights"].as_array().unwrap();
+        assert_eq!(lights.len(), 24);
+        for (k, l) in lights.iter().enumerate() {
+            assert_eq!(l["index"], k);
+            let d: Vec<f64> = l["dir"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+            assert!((d.iter().map(|x| x * x).sum::<f64>() - 1.0).abs() < 1e-5 && d[1] >= -1e-6);
+            assert!(l["rgb"].as_array().unwrap().iter().all(|c| c.as_f64().unwrap() >= 0.0));
+        }
+        assert!(v["clusters"].as_array().unwrap().len() <= 6);
+        // The frame's power against the generator's truth (64-pixel fisheye): within 2%.
+        let p = v["power"].as_f64().unwrap();
+        assert!((p - truth[i]).abs() < 0.02 * truth[i], "frame {i}: {p} vs {}", truth[i]);
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn black_frames_report_dark_and_bad_input_names_the_file() {
+    let dir = temp_dir("dark");
+    let frames = dir.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    for i in 0..3 {
+        heliar::io::image::LinearImage::new(360, 90).write_exr(&frames.join(format!("{i}.exr")), heliar::io::image::ExrPrecision::Half).unwrap();
+    }
+    let (ok, out, err) = heliar(&["vem", "--input", s(&frames), "--lights", "8"]);
+    assert!(ok, "{err}");
+    for l in out.lines() {
+        let v: serde_json::Value = serde_json::from_str(l).unwrap();
+        assert_eq!(v["status"], "dark");
+        assert_eq!(v["lights"].as_array().unwrap().len(), 0);
+        assert_eq!(v["filtered_power"], 0.0);
+    }
+    assert!(!out.contains("null"));
+    // A calibration with a bad field, and a frame of the wrong size.
+    let calib = dir.join("fisheye.toml");
+    std::fs::write(&calib, "width = 64\nheight = 64\nfx = -1.0\nfy = 20.0\ncx = 32\ncy = 32\n[orientation]\nrvec_camera_from_world = [0.0, 0.0, 0.0]\n").unwrap();
+    let (ok, _, err) = heliar(&["vem", "--input", s(&frames), "--calib", s(&calib), "--lights", "8"]);
+    assert!(!ok && err.contains("fisheye.toml") && err.contains("fx"), "{err}");
+    std::fs::write(&calib, "width = 64\nheight = 64\nfx = 20.0\nfy = 20.0\ncx = 32\ncy = 32\n[orientation]\nrvec_camera_from_world = [0.0, 0.0, 0.0]\n").unwrap();
+    let (ok, _, err) = heliar(&["vem", "--input", s(&frames), "--calib", s(&calib), "--lights", "8"]);
+    assert!(!ok && err.contains("0.exr") && err.contains("64×64"), "{err}");
+    let (ok, _, err) = heliar(&["vem", "--input", s(&frames), "--lights", "0"]);
+    assert!(!ok && err.contains("lights"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn bench_vem_writes_tables_and_plots() {
+    let dir = temp_dir("bench");
+    let prefix = dir.join("b");
+    let (ok, out, err) = heliar(&["bench", "vem", "--repeats", "1", "--normals", "16", "--out", s(&prefix)]);
+    assert!(ok, "{err}");
+    assert!(out.contains("irradiance error") && out.contains("temporal coherence"), "{out}");
+    let csv = std::fs::read_to_string(dir.join("b_error.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 10);
+    assert!(csv.starts_with("lights,havran_err_pct"));
+    assert!(dir.join("b_error.svg").is_file() && dir.join("b_coherence.svg").is_file());
+    let coh = std::fs::read_to_string(dir.join("b_coherence.csv")).unwrap();
+    assert_eq!(coh.lines().count(), 1 + 4 * 5 * 5);
+    std::fs::remove_dir_all(&dir).ok();
+}
