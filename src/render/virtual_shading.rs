@@ -1,0 +1,99 @@
+//! Pass 4 (`shaders/virtual_shading.wgsl`): the virtual objects, shaded, into the canvas layer
+//! (Jensen §3.2 step 4 with the ambient of §3.3).
+//!
+//! Two pipelines share the shader: one for samples whose stencil says "virtual surface, no
+//! shadow" (sun term on), one for every other virtual-surface sample (sun term off, the
+//! `sun_visible` override). Both test depth `GreaterEqual` against the prepass with the same
+//! invariant position computation, so each visible sample is shaded once and real geometry in
+//! front hides the object. The layer is premultiplied linear radiance, alpha 1 where covered.
+
+use super::RenderError;
+use super::camera::uniform_entry;
+use super::gpu::LAYER_FORMAT;
+use super::mesh::VirtualVertex;
+use super::shaders;
+use super::stencil::{VIRTUAL_SURFACE, test};
+
+/// The two shading pipelines and their frame layout (group 0).
+pub struct VirtualShading {
+    /// Sun visible.
+    pub lit: wgpu::RenderPipeline,
+    /// In some shadow.
+    pub shadowed: wgpu::RenderPipeline,
+    /// Group 0: camera, lighting, probe header, coefficients, validity.
+    pub frame_layout: wgpu::BindGroupLayout,
+}
+
+fn storage_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { read_only: true }, has_dynamic_offset: false, min_binding_size: None },
+        count: None,
+    }
+}
+
+impl VirtualShading {
+    /// Builds the pipelines.
+    pub fn new(device: &wgpu::Device, material_layout: &wgpu::BindGroupLayout, depth_format: wgpu::TextureFormat, samples: u32) -> Result<Self, RenderError> {
+        let module = shaders::module(device, "virtual_shading.wgsl")?;
+        let frame_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("shading frame"),
+            entries: &[
+                uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT),
+                uniform_entry(1, wgpu::ShaderStages::FRAGMENT),
+                uniform_entry(2, wgpu::ShaderStages::FRAGMENT),
+                storage_entry(3),
+                storage_entry(4),
+            ],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("virtual shading"),
+            bind_group_layouts: &[Some(&frame_layout), Some(material_layout)],
+            immediate_size: 0,
+        });
+        let attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2];
+        let make = |label: &str, sun_visible: bool, compare: wgpu::CompareFunction| {
+            let constants = [("sun_visible", if sun_visible { 1.0 } else { 0.0 })];
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &[Some(wgpu::VertexBufferLayout {
+                        array_stride: std::mem::size_of::<VirtualVertex>() as u64,
+                        step_mode: wgpu::VertexStepMode::Vertex,
+                        attributes: &attrs,
+                    })],
+                },
+                primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: depth_format,
+                    depth_write_enabled: Some(false),
+                    depth_compare: Some(wgpu::CompareFunction::GreaterEqual),
+                    stencil: wgpu::StencilState { front: test(compare), back: test(compare), read_mask: 0xff, write_mask: 0 },
+                    bias: Default::default(),
+                }),
+                multisample: wgpu::MultisampleState { count: samples, ..Default::default() },
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some("fs_main"),
+                    compilation_options: wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
+                    targets: &[Some(wgpu::ColorTargetState { format: LAYER_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL })],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        Ok(Self {
+            lit: make("virtual shading lit", true, wgpu::CompareFunction::Equal),
+            shadowed: make("virtual shading shadowed", false, wgpu::CompareFunction::NotEqual),
+            frame_layout,
+        })
+    }
+
+    /// Stencil reference of both pipelines.
+    pub const REFERENCE: u32 = VIRTUAL_SURFACE;
+}

@@ -1,0 +1,6 @@
+//! GPU compositor tests, headless on whatever adapter wgpu finds (Mesa's lavapipe through Vulkan,
+//! or llvmpipe through GL). Every comparison is against an independent CPU reference, never
+//! against the compositor itself.
+
+mod shadows;
+mod support;
