@@ -2,5 +2,7 @@
 //! or llvmpipe through GL). Every comparison is against an independent CPU reference, never
 //! against the compositor itself.
 
+mod shading;
 mod shadows;
+mod skip;
 mod support;

@@ -191,3 +191,40 @@ pub fn edges<T: PartialEq + Copy>(w: u32, h: u32, f: &[T]) -> Vec<bool> {
         })
         .collect()
 }
+
+/// The glTF 2.0 metallic–roughness BRDF (specification, Appendix B), written again on the CPU:
+/// `f(v, l)·max(n·l, 0)` for unit vectors.
+pub fn brdf_cos(base: Vec3, metallic: f32, roughness: f32, n: Vec3, v: Vec3, l: Vec3) -> Vec3 {
+    let nl = n.dot(l);
+    if nl <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let nv = n.dot(v).max(1e-4);
+    let h = (l + v).normalize();
+    let (nh, vh) = (n.dot(h).max(0.0), v.dot(h).max(0.0));
+    let alpha = (roughness * roughness).max(0.002);
+    let a2 = alpha * alpha;
+    let f0 = Vec3::splat(0.04).lerp(base, metallic);
+    let fresnel = f0 + (Vec3::ONE - f0) * (1.0 - vh).powi(5);
+    let c_diff = base.lerp(Vec3::ZERO, metallic);
+    let diffuse = (Vec3::ONE - fresnel) * c_diff / std::f32::consts::PI;
+    let t = nh * nh * (a2 - 1.0) + 1.0;
+    let d = a2 / (std::f32::consts::PI * t * t);
+    let vis = 0.5 / (nl * (nv * nv * (1.0 - a2) + a2).sqrt() + nv * (nl * nl * (1.0 - a2) + a2).sqrt());
+    (diffuse + fresnel * d * vis) * nl
+}
+
+/// Ambient radiance from irradiance `e_n` (normal) and `e_r` (mirror direction), with Karis'
+/// fit of the specular albedo, as documented in `shaders/common/brdf.wgsl`.
+pub fn ambient_radiance(base: Vec3, metallic: f32, roughness: f32, nv: f32, e_n: Vec3, e_r: Vec3) -> Vec3 {
+    let nv = nv.max(1e-4);
+    let c0 = [-1.0f32, -0.0275, -0.572, 0.022];
+    let c1 = [1.0f32, 0.0425, 1.04, -0.04];
+    let r: Vec<f32> = (0..4).map(|i| roughness * c0[i] + c1[i]).collect();
+    let a004 = (r[0] * r[0]).min((-9.28 * nv).exp2()) * r[0] + r[1];
+    let (a, b) = (-1.04 * a004 + r[2], 1.04 * a004 + r[3]);
+    let f0 = Vec3::splat(0.04).lerp(base, metallic);
+    let spec = f0 * a + Vec3::splat(b);
+    let c_diff = base.lerp(Vec3::ZERO, metallic);
+    c_diff / std::f32::consts::PI * e_n * (Vec3::ONE - spec) + spec * e_r / std::f32::consts::PI
+}
