@@ -1,5 +1,6 @@
 //! The `heliar` command.
 
+mod augment;
 mod bench;
 mod common;
 mod estimate;
@@ -22,6 +23,8 @@ enum Command {
     Estimate(estimate::EstimateArgs),
     /// Error-against-run-time sweeps.
     Bench(bench::BenchArgs),
+    /// Composite the scene's virtual objects into a frame sequence (estimate → relight → composite).
+    Augment(augment::AugmentArgs),
 }
 
 fn main() {
@@ -30,6 +33,7 @@ fn main() {
         Command::Sun(a) => sun::run(a),
         Command::Estimate(a) => estimate::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Augment(a) => augment::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

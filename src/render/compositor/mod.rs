@@ -24,7 +24,7 @@ mod encode;
 mod resources;
 mod volumes;
 
-pub use resources::{Layer, Resources, Tex, read_texture};
+pub use resources::{Layer, Resources, Tex, read_buffer_bytes, read_texture};
 pub use volumes::{BuildStats, Builder, Volumes};
 
 use super::RenderError;

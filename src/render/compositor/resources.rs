@@ -190,3 +190,18 @@ pub fn read_buffer(gpu: &Gpu, buffer: &wgpu::Buffer, row: u32, padded: u32, heig
     buffer.unmap();
     Ok(out)
 }
+
+/// Copies the first `size` bytes of `buffer` (which needs `COPY_SRC`) to the CPU.
+pub fn read_buffer_bytes(gpu: &Gpu, buffer: &wgpu::Buffer, size: u64) -> Result<Vec<u8>, RenderError> {
+    let size = size.max(4).next_multiple_of(4);
+    let staging = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut enc = gpu.device.create_command_encoder(&Default::default());
+    enc.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+    gpu.queue.submit([enc.finish()]);
+    read_buffer(gpu, &staging, size as u32, size as u32, 1)
+}
