@@ -2,6 +2,7 @@
 //! or llvmpipe through GL). Every comparison is against an independent CPU reference, never
 //! against the compositor itself.
 
+mod courtyard;
 mod robust;
 mod shading;
 mod shadows;
