@@ -1,7 +1,8 @@
 // Pass 4: the virtual objects, shaded (Jensen §3.2 step 4 and §3.3): the glTF metallic-roughness
 // response to the sun, times its visibility (the pipeline for samples a shadow volume covers
 // has `sun_visible = false`), plus ambient light from the irradiance-probe grid evaluated per
-// pixel. Depth-tested for equality against the prepass, so the real proxy hides them. Output
+// pixel, times the objects' own ambient occlusion. Depth-tested for equality against the
+// prepass, so the real proxy hides them. Output
 // is premultiplied linear radiance with alpha 1. Paired with src/render/virtual_shading.rs.
 
 #include "common/camera.wgsl"
@@ -23,6 +24,9 @@ struct Material {
 @group(0) @binding(3) var<storage, read> probe_coeffs: array<vec4<f32>>;
 // 1 for a valid probe, 0 for one inside real geometry.
 @group(0) @binding(4) var<storage, read> probe_valid: array<u32>;
+// Per canvas pixel: the fraction of the hemisphere the virtual objects leave open (their own
+// ambient occlusion, which the probes cannot know).
+@group(0) @binding(5) var ambient_occlusion: texture_2d<f32>;
 
 @group(1) @binding(0) var<uniform> material: Material;
 @group(1) @binding(1) var base_color_texture: texture_2d<f32>;
@@ -95,6 +99,17 @@ fn probe_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     return max(e / wsum, vec3<f32>(0.0));
 }
 
+// Ambient occlusion `visibility` raised to account for light the occluding parts reflect, for a
+// surface of `albedo` surrounded by similar ones: Jimenez et al. 2016, "Practical real-time
+// strategies for accurate indirect occlusion", cubic fit of the multi-bounce visibility.
+fn multi_bounce_ao(visibility: f32, albedo: vec3<f32>) -> vec3<f32> {
+    let a = 2.0404 * albedo - vec3<f32>(0.3324);
+    let b = -4.7951 * albedo + vec3<f32>(0.6417);
+    let c = 2.7552 * albedo + vec3<f32>(0.6903);
+    let x = vec3<f32>(visibility);
+    return max(x, ((x * a + b) * x + c) * x);
+}
+
 @fragment
 fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
     var n = normalize(in.normal);
@@ -110,7 +125,8 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
     let s = Surface(base, material.params.x, material.params.y);
     let nv = dot(n, v);
     let r = reflect(-v, n);
-    var radiance = ambient_radiance(s, nv, probe_irradiance(in.world, n), probe_irradiance(in.world, r));
+    let ao = multi_bounce_ao(textureLoad(ambient_occlusion, vec2<i32>(floor(in.position.xy)), 0).r, base);
+    var radiance = ao * ambient_radiance(s, nv, probe_irradiance(in.world, n), probe_irradiance(in.world, r));
     if (sun_visible && lighting.sun_dir.w > 0.5) {
         radiance += lighting.pd.rgb * brdf_cos(s, n, v, lighting.sun_dir.xyz);
     }

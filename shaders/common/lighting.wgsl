@@ -13,7 +13,8 @@ struct Lighting {
     pd: vec4<f32>,
     // Pa (rgb).
     pa: vec4<f32>,
-    // x: darkening model (0 = normal-aware, 1 = constant ratio); y: 1 to add the sun bounce b*Pd;
+    // x: darkening model (0 = normal-aware, 1 = constant ratio, 2 = differential); y: 1 to add
+    // the sun bounce b*Pd;
     // z: scale applied to the composite (1 for files, the exposure for a window); w: unused.
     params: vec4<f32>,
 }

@@ -9,8 +9,10 @@ use super::RenderError;
 use super::camera::uniform_entry;
 use super::shaders;
 
-/// Bindings of the composite pass, in `shaders/composite.wgsl` order.
-const TEXTURE_BINDINGS: u32 = 8;
+/// Texture bindings of the composite pass, in `shaders/composite.wgsl` order.
+const TEXTURE_BINDINGS: u32 = 10;
+/// The first of the bindings sampled bilinearly (the canvas layers).
+const FIRST_FILTERED: u32 = 8;
 
 /// The composite pipelines for one target format.
 pub struct Composite {
@@ -24,9 +26,9 @@ pub struct Composite {
 pub fn layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let mut entries: Vec<wgpu::BindGroupLayoutEntry> = (0..TEXTURE_BINDINGS)
         .map(|binding| {
-            // 0–5 are read with textureLoad (float formats that need not be filterable); 6–7 are
-            // sampled bilinearly.
-            let filterable = binding >= 6;
+            // The footage-sized inputs are read with textureLoad (float formats that need not be
+            // filterable); the canvas layers are sampled bilinearly.
+            let filterable = binding >= FIRST_FILTERED;
             wgpu::BindGroupLayoutEntry {
                 binding,
                 visibility: wgpu::ShaderStages::FRAGMENT,

@@ -24,16 +24,31 @@ pub struct LightingUniform {
     pub params: [f32; 4],
 }
 
-/// How a real pixel under a virtual shadow is darkened.
+/// How real pixels are darkened by the virtual objects.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Darkening {
-    /// `(c·Pa [+ b·Pd]) / (c·Pa + Pd·max(n·l,0) [+ b·Pd])` with the proxy's normal, weighted
-    /// ambient and bounce at the pixel.
-    #[default]
+    /// Where only a virtual shadow falls: `(c·Pa [+ b·Pd]) / (c·Pa + Pd·max(n·l,0) [+ b·Pd])`
+    /// with the proxy's normal, weighted ambient and bounce at the pixel.
     Normal,
-    /// Jensen's single ratio `Pa / (Pa + Pd)` for every pixel.
+    /// Jensen's single ratio `Pa / (Pa + Pd)` for every pixel under a virtual shadow.
     Constant,
+    /// The ratio of the model's radiance with and without the virtual objects: the normal-aware
+    /// shadow, plus the sky and bounce light the objects take from real surfaces near them
+    /// (contact shadows), with `c` and `b` computed both ways.
+    #[default]
+    Differential,
+}
+
+impl Darkening {
+    /// Value of `Lighting.params.x` in the shaders.
+    pub fn shader_code(self) -> f32 {
+        match self {
+            Darkening::Normal => 0.0,
+            Darkening::Constant => 1.0,
+            Darkening::Differential => 2.0,
+        }
+    }
 }
 
 /// The lighting a frame is composited with.

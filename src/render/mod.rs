@@ -31,6 +31,7 @@ pub mod frame;
 pub mod gpu;
 pub mod mesh;
 pub mod occluder;
+pub mod occlusion;
 pub mod output;
 pub mod probes;
 pub mod reach;

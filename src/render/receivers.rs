@@ -1,15 +1,18 @@
 //! What the footage shows at each pixel, as far as the real proxy knows: the surface point, its
-//! normal, albedo, weighted-ambient factor `c` and sun bounce `b`. The composite pass needs them
-//! to darken real pixels under a virtual shadow with the right ratio (Jensen §3.2 step 3 notes
-//! that the surface normal is needed; §4.1 defines `c`).
+//! normal, albedo, weighted-ambient factor `c` and sun bounce `b`, and the same two factors with
+//! the virtual objects standing in the scene (`c_v`, `b_v`). The composite pass needs them to
+//! darken real pixels under a virtual shadow with the right ratio (Jensen §3.2 step 3 notes that
+//! the surface normal is needed; §4.1 defines `c`), and, with the differential model, to darken
+//! the sky light and bounce the virtual objects take from real surfaces near them.
 //!
 //! # How it works
 //! One ray per footage pixel (through the lens model) against the proxy gives the point, the
 //! normal facing the camera and the albedo; this is cheap and done once per camera. `c` and `b`
 //! are path-traced integrals ([`crate::geometry::ambient::transport`], the same the estimator
 //! uses), too costly for every pixel, so they are computed only for the pixels a virtual shadow
-//! can reach (the caller passes them) and cached: `c` for good, `b` until the sun has moved
-//! more than the estimator's `sun_rebuild_deg`. Pixels not computed hold `c = 1`, `b = 0`.
+//! can reach or near the virtual objects (the caller passes them) and cached: `c` and `c_v` for
+//! good, `b`, `b_v` and the real sun visibility `s` until the sun has moved more than the
+//! estimator's `sun_rebuild_deg`. Pixels not computed hold `c = 1`, `b = 0` and no `c_v`.
 
 use crate::geometry::ambient::{TransportQuality, transport};
 use crate::geometry::raycast::RayScene;
@@ -30,10 +33,15 @@ pub struct Receivers {
     pub normal: Vec<[f32; 4]>,
     /// Diffuse albedo (texture layout).
     pub albedo: Vec<[f32; 4]>,
-    /// Weighted-ambient factor `c` (texture layout).
+    /// Weighted-ambient factor `c`, and in `w` the real sun visibility `s` as the sunlit fraction
+    /// of the pixel (texture layout).
     pub ambient: Vec<[f32; 4]>,
     /// Sun-bounce factor `b` for [`Receivers::bounce_sun`] (texture layout).
     pub bounce: Vec<[f32; 4]>,
+    /// `c_v`: `c` with the virtual objects in the scene; `w` = 1 where computed.
+    pub ambient_with: Vec<[f32; 4]>,
+    /// `b_v`: `b` with the virtual objects in the scene.
+    pub bounce_with: Vec<[f32; 4]>,
     /// Pixels whose `c` has been computed.
     have_ambient: Vec<bool>,
     /// Pixels whose `b` has been computed for `bounce_sun`.
@@ -42,6 +50,31 @@ pub struct Receivers {
     pub bounce_sun: Option<Vec3>,
     /// Seed of the integrals.
     seed: u64,
+    /// The camera (for sub-pixel rays).
+    camera: Camera,
+}
+
+/// Sub-pixel rays per axis for the sunlit fraction of a pixel (a pixel on a real shadow's edge is
+/// partly lit in the footage; the differential model darkens exactly that part).
+const LIT_SUBPIXELS: u32 = 4;
+
+/// The fraction of pixel `p` (footage grid) whose first proxy surface sees the sun `l`.
+fn lit_fraction(camera: &Camera, proxy: &RayScene, p: u32, l: Vec3) -> f32 {
+    let w = camera.intrinsics.width;
+    let (col, row) = ((p % w) as f64, (p / w) as f64);
+    let n = LIT_SUBPIXELS;
+    let mut lit = 0;
+    for k in 0..n * n {
+        let uv = glam::DVec2::new(col + ((k % n) as f64 + 0.5) / n as f64 - 0.5, row + ((k / n) as f64 + 0.5) / n as f64 - 0.5);
+        let Some((o, d)) = camera.ray_at(uv) else { continue };
+        if let Some(hit) = proxy.intersect(o.as_vec3(), d.as_vec3(), f32::MAX)
+            && hit.normal.dot(l) > 0.0
+            && proxy.sees_direction(hit.point, hit.normal, l)
+        {
+            lit += 1;
+        }
+    }
+    lit as f32 / (n * n) as f32
 }
 
 /// What one [`Receivers::ensure`] call computed.
@@ -74,20 +107,27 @@ impl Receivers {
             point: hits.iter().map(|h| h.map(|h| h.0)).collect(),
             normal: hits.iter().map(|h| h.map_or([0.0; 4], |h| [h.1.x, h.1.y, h.1.z, 1.0])).collect(),
             albedo: hits.iter().map(|h| h.map_or([0.0; 4], |h| [h.2.x, h.2.y, h.2.z, 1.0])).collect(),
-            ambient: vec![[1.0, 1.0, 1.0, 0.0]; n],
+            ambient: vec![[1.0, 1.0, 1.0, 1.0]; n],
             bounce: vec![[0.0; 4]; n],
+            ambient_with: vec![[1.0, 1.0, 1.0, 0.0]; n],
+            bounce_with: vec![[0.0; 4]; n],
             have_ambient: vec![false; n],
             have_bounce: vec![false; n],
             bounce_sun: None,
             seed,
+            camera: camera.clone(),
         }
     }
 
-    /// Makes sure `c` (and, with `sun` given, `b` for that sun) is known at `pixels`. The
-    /// cached `b` is dropped when the sun moved by more than `rebuild_deg`.
+    /// Makes sure `c` (and, with `sun` given, `b` and `s` for that sun) is known at `pixels`,
+    /// and, when `with` (the proxy and the virtual objects together) is given, `c_v` and `b_v`
+    /// too. The cached sun-dependent values are dropped when the sun moved by more than
+    /// `rebuild_deg`.
+    #[allow(clippy::too_many_arguments)]
     pub fn ensure(
         &mut self,
         proxy: &RayScene,
+        with: Option<&RayScene>,
         pixels: &[u32],
         sun: Option<Vec3>,
         ambient_quality: TransportQuality,
@@ -101,43 +141,69 @@ impl Receivers {
             if moved {
                 self.have_bounce.iter_mut().for_each(|b| *b = false);
                 self.bounce.iter_mut().for_each(|b| *b = [0.0; 4]);
+                self.bounce_with.iter_mut().for_each(|b| *b = [0.0; 4]);
                 self.bounce_sun = Some(l);
                 stats.bounce_reset = true;
             }
         }
         let bounce_sun = sun.and(self.bounce_sun);
+        let with_ready = |i: usize| with.is_none() || self.ambient_with[i][3] > 0.0;
         let todo: Vec<u32> = pixels
             .iter()
             .copied()
             .filter(|&p| {
                 let i = p as usize;
-                i < self.point.len() && self.point[i].is_some() && (!self.have_ambient[i] || (bounce_sun.is_some() && !self.have_bounce[i]))
+                i < self.point.len()
+                    && self.point[i].is_some()
+                    && (!self.have_ambient[i] || !with_ready(i) || (bounce_sun.is_some() && !self.have_bounce[i]))
             })
             .collect();
         let seed = self.seed;
-        let results: Vec<(u32, Vec3, Vec3)> = todo
+        type Row = (u32, Vec3, Vec3, f32, Option<(Vec3, Vec3)>);
+        let results: Vec<Row> = todo
             .par_iter()
             .filter_map(|&p| {
                 let i = p as usize;
                 let point = self.point[i]?;
                 let n = Vec3::new(self.normal[i][0], self.normal[i][1], self.normal[i][2]);
                 let q = if bounce_sun.is_some() { bounce_quality } else { ambient_quality };
-                let tr = transport(proxy, point, n, bounce_sun, q, seed ^ (p as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
-                Some((p, tr.c, tr.b))
+                let pixel_seed = seed ^ (p as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+                let tr = transport(proxy, point, n, bounce_sun, q, pixel_seed);
+                let lit = bounce_sun.map_or(0.0, |l| lit_fraction(&self.camera, proxy, p, l));
+                // Same seed with and without the objects: the difference is then mostly the
+                // objects', not Monte Carlo noise.
+                let tv = with.map(|w| {
+                    let t = transport(w, point, n, bounce_sun, q, pixel_seed);
+                    (t.c, t.b)
+                });
+                Some((p, tr.c, tr.b, lit, tv))
             })
             .collect();
-        for (p, c, b) in results {
+        for (p, c, b, lit, tv) in results {
             let i = p as usize;
-            self.ambient[i] = [c.x, c.y, c.z, 1.0];
+            self.ambient[i] = [c.x, c.y, c.z, lit];
             self.have_ambient[i] = true;
             if bounce_sun.is_some() {
                 self.bounce[i] = [b.x, b.y, b.z, 1.0];
                 self.have_bounce[i] = true;
             }
+            if let Some((cv, bv)) = tv {
+                self.ambient_with[i] = [cv.x, cv.y, cv.z, 1.0];
+                self.bounce_with[i] = [bv.x, bv.y, bv.z, 1.0];
+            }
         }
         stats.computed = todo.len();
         stats.ms = t.elapsed().as_secs_f64() * 1e3;
         stats
+    }
+
+    /// Pixels whose surface point lies within `radius_m` of one of the boxes `bounds`, where a
+    /// virtual object takes a noticeable part of the sky and bounce light.
+    pub fn near(&self, bounds: &[(Vec3, Vec3)], radius_m: f32) -> Vec<u32> {
+        (0..self.point.len() as u32)
+            .into_par_iter()
+            .filter(|&i| self.point[i as usize].is_some_and(|p| bounds.iter().any(|(lo, hi)| (p.clamp(*lo, *hi) - p).length() <= radius_m)))
+            .collect()
     }
 
     /// Pixels whose surface point lies in the region swept from the boxes `bounds` away from

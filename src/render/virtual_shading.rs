@@ -20,7 +20,7 @@ pub struct VirtualShading {
     pub lit: wgpu::RenderPipeline,
     /// In some shadow.
     pub shadowed: wgpu::RenderPipeline,
-    /// Group 0: camera, lighting, probe header, coefficients, validity.
+    /// Group 0: camera, lighting, probe header, coefficients, validity, ambient occlusion.
     pub frame_layout: wgpu::BindGroupLayout,
 }
 
@@ -45,6 +45,16 @@ impl VirtualShading {
                 uniform_entry(2, wgpu::ShaderStages::FRAGMENT),
                 storage_entry(3),
                 storage_entry(4),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 5,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
             ],
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

@@ -67,7 +67,8 @@ struct Args {
     #[arg(long, default_value_t = 256)]
     env_width: u32,
     /// Samples per pixel of the reference frames' sky basis (the sun basis uses half); 0 skips them.
-    #[arg(long, default_value_t = 1024)]
+    /// 4096 leaves ≈ 1.5% per-pixel noise on the statue (measured against 1024).
+    #[arg(long, default_value_t = 4096)]
     reference_spp: u32,
 }
 

@@ -23,9 +23,11 @@ pub enum Format {
     Exr,
 }
 
-/// Darkening model of real pixels under a virtual shadow.
+/// Darkening model of real pixels.
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum DarkeningArg {
+    /// Ratio of the model's radiance with and without the objects: shadow and contact shadows.
+    Differential,
     /// With the proxy's normal and weighted ambient c.
     Normal,
     /// Jensen's constant ratio Pa/(Pa+Pd).
@@ -64,8 +66,8 @@ pub struct AugmentArgs {
     /// Output format (default: the input's).
     #[arg(long, value_enum)]
     format: Option<Format>,
-    /// How real pixels under a virtual shadow are darkened.
-    #[arg(long, value_enum, default_value = "normal")]
+    /// How real pixels are darkened by the virtual objects.
+    #[arg(long, value_enum, default_value = "differential")]
     darkening: DarkeningArg,
     /// Leave the sun bounce b·Pd out of the darkening ratio.
     #[arg(long)]
@@ -183,6 +185,7 @@ pub fn run(a: AugmentArgs) -> Result<()> {
     let gpu = std::sync::Arc::new(Gpu::new(GpuOptions { samples: a.samples.max(1) })?);
     let mut config = CompositorConfig::for_scene(&scene);
     config.darkening = match a.darkening {
+        DarkeningArg::Differential => Darkening::Differential,
         DarkeningArg::Normal => Darkening::Normal,
         DarkeningArg::Constant => Darkening::Constant,
     };

@@ -90,14 +90,24 @@ impl Compositor {
         }
         report.volumes = stats;
 
-        // Per-pixel c and b where the virtual shadow can reach.
-        if sun_on && !reuse && self.config.darkening == Darkening::Normal {
-            let pixels = self.receivers.in_shadow_reach(&self.virtual_bounds, l, super::RECEIVER_GROW_PX);
-            let sun = self.config.sun_bounce.then_some(l);
+        // Per-pixel c and b where the virtual shadow can reach (and, for the differential
+        // model, c_v and b_v near the objects).
+        let differential = self.config.darkening == Darkening::Differential;
+        let needs_receivers = has_virtual && !reuse && (differential || (sun_on && self.config.darkening == Darkening::Normal));
+        if needs_receivers {
+            let mut pixels = if sun_on { self.receivers.in_shadow_reach(&self.virtual_bounds, l, super::RECEIVER_GROW_PX) } else { Vec::new() };
+            if differential {
+                let near = self.near_pixels.get_or_insert_with(|| self.receivers.near(&self.virtual_bounds, self.near_radius_m));
+                pixels.extend_from_slice(near);
+                pixels.sort_unstable();
+                pixels.dedup();
+            }
+            let with = if differential { self.with_ray.as_deref() } else { None };
             let s = self.receivers.ensure(
                 &self.proxy_ray,
+                with,
                 &pixels,
-                sun,
+                sun_on.then_some(l),
                 self.config.ambient_quality,
                 self.config.bounce_quality,
                 self.config.bounce_rebuild_deg,
@@ -106,8 +116,11 @@ impl Compositor {
             report.timings.receivers_ms = s.ms;
             if s.computed > 0 || s.bounce_reset {
                 let t = std::time::Instant::now();
-                self.res.ambient.write(&self.gpu.queue, &self.receivers.ambient);
-                self.res.bounce.write(&self.gpu.queue, &self.receivers.bounce);
+                let q = &self.gpu.queue;
+                self.res.ambient.write(q, &self.receivers.ambient);
+                self.res.bounce.write(q, &self.receivers.bounce);
+                self.res.ambient_with.write(q, &self.receivers.ambient_with);
+                self.res.bounce_with.write(q, &self.receivers.bounce_with);
                 report.timings.upload_ms += t.elapsed().as_secs_f64() * 1e3;
             }
         }
@@ -120,7 +133,7 @@ impl Compositor {
             pd: lighting.pd.extend(0.0).to_array(),
             pa: lighting.pa.extend(0.0).to_array(),
             params: [
-                if self.config.darkening == Darkening::Constant { 1.0 } else { 0.0 },
+                self.config.darkening.shader_code(),
                 if self.config.sun_bounce { 1.0 } else { 0.0 },
                 output_scale,
                 0.0,

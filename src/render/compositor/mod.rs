@@ -61,6 +61,12 @@ pub const REUSE_SUN_DEG: f64 = 0.05;
 /// Pixels added around the region a virtual shadow can reach when computing `c` and `b` (the
 /// bilinear warp reads one pixel beyond a mask edge).
 const RECEIVER_GROW_PX: u32 = 2;
+/// The differential model computes `c_v`, `b_v` on real surfaces within this many bounding-box
+/// half-diagonals of a virtual object (an object of that size then takes less than about 2% of
+/// the sky's cosine-weighted solid angle), and at least [`MIN_NEAR_RADIUS_M`].
+const NEAR_RADIUS_HALF_DIAGONALS: f32 = 2.5;
+/// Smallest radius of the differential model's region, metres.
+const MIN_NEAR_RADIUS_M: f32 = 1.0;
 
 /// Compositor settings.
 #[derive(Clone, Debug, PartialEq)]
@@ -87,6 +93,8 @@ pub struct CompositorConfig {
     pub bounce_quality: TransportQuality,
     /// Sun motion (degrees) after which `b` is recomputed.
     pub bounce_rebuild_deg: f64,
+    /// Rays per canvas pixel of the virtual objects' own ambient occlusion (0: none).
+    pub occlusion_rays: u32,
     /// Seed of the integrals.
     pub seed: u64,
 }
@@ -102,7 +110,7 @@ impl CompositorConfig {
     pub fn for_estimator(e: &EstimatorConfig) -> Self {
         Self {
             supersample: 1.0,
-            darkening: Darkening::Normal,
+            darkening: Darkening::default(),
             sun_bounce: e.sun_bounce,
             builder: Builder::Cpu,
             reuse_sun_deg: REUSE_SUN_DEG,
@@ -112,6 +120,7 @@ impl CompositorConfig {
             ambient_quality: e.ambient,
             bounce_quality: e.bounce,
             bounce_rebuild_deg: e.sun_rebuild_deg,
+            occlusion_rays: super::occlusion::AO_RAYS,
             seed: e.seed,
         }
     }
@@ -189,6 +198,12 @@ pub struct Compositor {
     stencil: Option<StencilState>,
     warnings: Vec<String>,
     frames: u64,
+    /// The proxy and the virtual objects in one BVH (for `c_v`, `b_v`).
+    with_ray: Option<Arc<RayScene>>,
+    /// Radius of the differential model's region around the objects.
+    near_radius_m: f32,
+    /// Pixels of that region (computed on first use).
+    near_pixels: Option<Vec<u32>>,
 }
 
 fn file_name(p: &std::path::Path) -> String {
@@ -213,6 +228,14 @@ impl Compositor {
         let mut warnings: Vec<String> = virtual_occ.iter().flat_map(|o| o.warnings()).collect();
         warnings.extend(proxy_occ.warnings());
         let virtual_bounds: Vec<(Vec3, Vec3)> = parts.objects.iter().filter_map(|(_, m)| m.bounds()).collect();
+        let near_radius_m = virtual_bounds.iter().map(|(lo, hi)| (*hi - *lo).length() / 2.0 * NEAR_RADIUS_HALF_DIAGONALS).fold(MIN_NEAR_RADIUS_M, f32::max);
+        let with_ray = (!parts.objects.is_empty()).then(|| {
+            let mut m = parts.proxy.clone();
+            for (_, o) in parts.objects {
+                m.append(o);
+            }
+            Arc::new(RayScene::new(m))
+        });
         let volumes = Volumes::new(&gpu, virtual_occ, proxy_occ, config.builder)?;
         let d = &gpu.device;
         let res = Resources::new(&gpu, (canvas.width, canvas.height), (canvas.out_width, canvas.out_height));
@@ -248,12 +271,25 @@ impl Compositor {
         let mut composites = HashMap::new();
         composites.insert(gpu.output_format, Composite::new(d, &composite_layout, gpu.output_format, Some(MASK_FORMAT))?);
         let probes = GpuProbes::new(d, &gpu.queue, &ProbeGrid::filled(Vec3::ZERO, Vec3::ZERO, 1.0, [[0.0; 3]; 9]));
-        let shading_bg = Self::shading_bind_group(d, &shading, &camera_buf, &lighting_buf, &probes);
+        let occlusion = match (config.occlusion_rays, parts.objects.is_empty()) {
+            (0, _) | (_, true) => vec![1.0f32; (canvas.width * canvas.height) as usize],
+            (rays, false) => {
+                let mut m = Mesh::default();
+                for (_, o) in parts.objects {
+                    m.append(o);
+                }
+                super::occlusion::virtual_occlusion(&canvas, &RayScene::new(m), rays, config.seed)
+            }
+        };
+        res.occlusion.write(&gpu.queue, &occlusion);
+        let shading_bg = Self::shading_bind_group(d, &shading, &camera_buf, &lighting_buf, &probes, &res.occlusion.view);
         res.warp.write(&gpu.queue, &canvas.warp);
         res.normal.write(&gpu.queue, &receivers.normal);
         res.albedo.write(&gpu.queue, &receivers.albedo);
         res.ambient.write(&gpu.queue, &receivers.ambient);
         res.bounce.write(&gpu.queue, &receivers.bounce);
+        res.ambient_with.write(&gpu.queue, &receivers.ambient_with);
+        res.bounce_with.write(&gpu.queue, &receivers.bounce_with);
         Ok(Self {
             gpu,
             config,
@@ -281,10 +317,20 @@ impl Compositor {
             stencil: None,
             warnings,
             frames: 0,
+            with_ray,
+            near_radius_m,
+            near_pixels: None,
         })
     }
 
-    fn shading_bind_group(d: &wgpu::Device, shading: &VirtualShading, camera: &wgpu::Buffer, lighting: &wgpu::Buffer, probes: &GpuProbes) -> wgpu::BindGroup {
+    fn shading_bind_group(
+        d: &wgpu::Device,
+        shading: &VirtualShading,
+        camera: &wgpu::Buffer,
+        lighting: &wgpu::Buffer,
+        probes: &GpuProbes,
+        occlusion: &wgpu::TextureView,
+    ) -> wgpu::BindGroup {
         d.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("shading frame"),
             layout: &shading.frame_layout,
@@ -294,6 +340,7 @@ impl Compositor {
                 wgpu::BindGroupEntry { binding: 2, resource: probes.header.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 3, resource: probes.coeffs.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 4, resource: probes.valid.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::TextureView(occlusion) },
             ],
         })
     }
@@ -341,7 +388,7 @@ impl Compositor {
             self.probes.write(&self.gpu.queue, grid);
         } else {
             self.probes = GpuProbes::new(&self.gpu.device, &self.gpu.queue, grid);
-            self.shading_bg = Self::shading_bind_group(&self.gpu.device, &self.shading, &self.camera_buf, &self.lighting_buf, &self.probes);
+            self.shading_bg = Self::shading_bind_group(&self.gpu.device, &self.shading, &self.camera_buf, &self.lighting_buf, &self.probes, &self.res.occlusion.view);
         }
     }
 

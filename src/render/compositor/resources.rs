@@ -99,12 +99,18 @@ pub struct Resources {
     pub bounce: Tex,
     /// Proxy albedo.
     pub albedo: Tex,
+    /// `c_v`.
+    pub ambient_with: Tex,
+    /// `b_v`.
+    pub bounce_with: Tex,
     /// Lens warp (`Rg32Float`).
     pub warp: Tex,
     /// Offscreen output (`Rgba32Float`).
     pub output: Tex,
     /// Warped masks (debug, `Rgba8Unorm`).
     pub output_masks: Tex,
+    /// Virtual objects' own ambient occlusion per canvas pixel (`R32Float`).
+    pub occlusion: Tex,
     /// Sampler of the canvas layers.
     pub sampler: wgpu::Sampler,
 }
@@ -125,9 +131,12 @@ impl Resources {
             ambient: Tex::new(d, "proxy c", out, f32x4, 1, input),
             bounce: Tex::new(d, "proxy b", out, f32x4, 1, input),
             albedo: Tex::new(d, "proxy albedo", out, f32x4, 1, input),
+            ambient_with: Tex::new(d, "proxy c with objects", out, f32x4, 1, input),
+            bounce_with: Tex::new(d, "proxy b with objects", out, f32x4, 1, input),
             warp: Tex::new(d, "lens warp", out, wgpu::TextureFormat::Rg32Float, 1, input),
             output: Tex::new(d, "output", out, gpu.output_format, 1, target),
             output_masks: Tex::new(d, "output masks", out, MASK_FORMAT, 1, target),
+            occlusion: Tex::new(d, "virtual occlusion", canvas, wgpu::TextureFormat::R32Float, 1, input),
             sampler: d.create_sampler(&wgpu::SamplerDescriptor {
                 label: Some("canvas"),
                 mag_filter: wgpu::FilterMode::Linear,
@@ -139,11 +148,23 @@ impl Resources {
 
     /// The composite bind group.
     pub fn composite_bind_group(&self, device: &wgpu::Device, layout: &wgpu::BindGroupLayout, lighting: &wgpu::Buffer) -> wgpu::BindGroup {
-        let views = [&self.video, &self.normal, &self.ambient, &self.bounce, &self.albedo, &self.warp, &self.layer.resolved, &self.masks.resolved];
+        let views = [
+            &self.video,
+            &self.normal,
+            &self.ambient,
+            &self.bounce,
+            &self.albedo,
+            &self.ambient_with,
+            &self.bounce_with,
+            &self.warp,
+            &self.layer.resolved,
+            &self.masks.resolved,
+        ];
         let mut entries: Vec<wgpu::BindGroupEntry> =
             views.iter().enumerate().map(|(i, t)| wgpu::BindGroupEntry { binding: i as u32, resource: wgpu::BindingResource::TextureView(&t.view) }).collect();
-        entries.push(wgpu::BindGroupEntry { binding: 8, resource: wgpu::BindingResource::Sampler(&self.sampler) });
-        entries.push(wgpu::BindGroupEntry { binding: 9, resource: lighting.as_entire_binding() });
+        let n = views.len() as u32;
+        entries.push(wgpu::BindGroupEntry { binding: n, resource: wgpu::BindingResource::Sampler(&self.sampler) });
+        entries.push(wgpu::BindGroupEntry { binding: n + 1, resource: lighting.as_entire_binding() });
         device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("composite"), layout, entries: &entries })
     }
 }
