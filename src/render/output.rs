@@ -63,13 +63,21 @@ pub fn code_from_linear(response: &Response, x: f32, channel: usize) -> f32 {
 }
 
 /// Writes `image` (scene radiance) to `path`. `input` is the decoded footage frame and `video`
-/// its linearisation: pixels where `image` equals `video` keep the input's codes (LDR) or values
-/// (HDR).
-pub fn write_frame(path: &Path, kind: OutputKind, image: &LinearImage, video: &VideoFrame, input: &Frame, photometry: &Photometry) -> Result<(), IoError> {
+/// its linearisation: pixels where `image` equals `video` (within the relative `precision` of
+/// the GPU output) keep the input's codes (LDR) or values (HDR).
+pub fn write_frame(
+    path: &Path,
+    kind: OutputKind,
+    image: &LinearImage,
+    precision: f32,
+    video: &VideoFrame,
+    input: &Frame,
+    photometry: &Photometry,
+) -> Result<(), IoError> {
     let (w, h) = (image.width, image.height);
     let same = |i: usize| {
         let (o, v) = (image.data[i], video.rgba[i]);
-        o[0].to_bits() == v[0].to_bits() && o[1].to_bits() == v[1].to_bits() && o[2].to_bits() == v[2].to_bits()
+        (0..3).all(|c| (o[c] - v[c]).abs() <= precision * v[c].abs())
     };
     match kind {
         OutputKind::Exr => {

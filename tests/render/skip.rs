@@ -52,7 +52,8 @@ fn no_sun_means_no_volumes_and_no_sun_term() {
         let masks = frame.masks.unwrap();
         for (i, px) in frame.image.data.iter().enumerate() {
             if masks[i][3] == 0 {
-                assert!(*px == [v.rgba[i][0], v.rgba[i][1], v.rgba[i][2]], "pixel {i} changed without sun");
+                let same = (0..3).all(|c| (px[c] - v.rgba[i][c]).abs() <= frame.precision * v.rgba[i][c]);
+                assert!(same, "pixel {i} changed without sun: {px:?} vs {:?}", v.rgba[i]);
             }
         }
     }
@@ -114,6 +115,7 @@ fn no_virtual_objects_pass_the_footage_through() {
     let v = video(160, 120);
     let (frame, r) = comp.render(&v, &lighting(courtyard_sun(), 3.0)).unwrap();
     assert!(r.skip_reason(pass::DEPTH_PREPASS).is_some_and(|s| s.contains("no virtual objects")), "{r:?}");
-    let changed = frame.image.data.iter().zip(&v.rgba).filter(|(a, b)| **a != [b[0], b[1], b[2]]).count();
+    // Bit for bit with a 32-bit float output; within half-float rounding on GL.
+    let changed = frame.image.data.iter().zip(&v.rgba).filter(|(a, b)| (0..3).any(|c| (a[c] - b[c]).abs() > frame.precision * b[c])).count();
     assert_eq!(changed, 0);
 }

@@ -240,7 +240,7 @@ pub fn run(a: AugmentArgs) -> Result<()> {
         let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| format!("frame_{i:03}"));
         let out_path = a.output.join(format!("{stem}.{}", kind.extension()));
         let t = std::time::Instant::now();
-        write_frame(&out_path, kind, &rendered.image, &video, &frame, &input.photometry)?;
+        write_frame(&out_path, kind, &rendered.image, rendered.precision, &video, &frame, &input.photometry)?;
         let encode_ms = t.elapsed().as_secs_f64() * 1e3;
         thumbs.push(Rgb8::from_radiance(&rendered.image, &input.photometry).shrink_to(320));
         out.write(&Record {

@@ -68,6 +68,10 @@ const NEAR_RADIUS_HALF_DIAGONALS: f32 = 2.5;
 /// Smallest radius of the differential model's region, metres.
 const MIN_NEAR_RADIUS_M: f32 = 1.0;
 
+/// Relative error of a value stored as a half float (11 significant bits; conversion may
+/// truncate, so one unit in the last place).
+pub const HALF_PRECISION: f32 = 1.0 / 1024.0;
+
 /// Compositor settings.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CompositorConfig {
@@ -134,6 +138,10 @@ pub struct RenderedFrame {
     /// Warped masks per pixel (`r` virtual shadow on real, `g` real shadow, `b` virtual surface
     /// without sun, `a` virtual surface), when debug masks are on.
     pub masks: Option<Vec<[u8; 4]>>,
+    /// Relative precision of `image`: 0 for a 32-bit float output, 2⁻¹⁰ for a half-float one
+    /// (GL cannot render to 32-bit float). Pixels the composite left alone equal the footage
+    /// within it.
+    pub precision: f32,
 }
 
 /// What the compositor draws: the camera, the real proxy and the virtual objects (world
@@ -416,7 +424,8 @@ impl Compositor {
         };
         report.timings.readback_ms = t.elapsed().as_secs_f64() * 1e3;
         report.ran.push(pass::READBACK);
-        Ok((RenderedFrame { image, masks }, report))
+        let precision = if self.gpu.output_texel_bytes() == 16 { 0.0 } else { HALF_PRECISION };
+        Ok((RenderedFrame { image, masks, precision }, report))
     }
 
     /// Composites one frame into `view` (a window's surface texture of `format`), with the
