@@ -1,6 +1,7 @@
 // Pass 4: the virtual objects, shaded (Jensen §3.2 step 4 and §3.3): the glTF metallic-roughness
-// response to the sun, times its visibility (the pipeline for samples a shadow volume covers
-// has `sun_visible = false`), plus ambient light from the irradiance-probe grid evaluated per
+// response to the sun, times its visibility (the fraction of the pixel's virtual-surface samples
+// that no shadow volume covers, from the shadow-mask pass), plus ambient light from the
+// irradiance-probe grid evaluated per
 // pixel, times the objects' own ambient occlusion. Depth-tested for equality against the
 // prepass, so the real proxy hides them. Output
 // is premultiplied linear radiance with alpha 1. Paired with src/render/virtual_shading.rs.
@@ -27,13 +28,13 @@ struct Material {
 // Per canvas pixel: the fraction of the hemisphere the virtual objects leave open (their own
 // ambient occlusion, which the probes cannot know).
 @group(0) @binding(5) var ambient_occlusion: texture_2d<f32>;
+// The resolved shadow masks (shadow_mask.wgsl): b = coverage of virtual-surface samples in some
+// shadow, a = coverage of virtual-surface samples.
+@group(0) @binding(6) var shadow_masks: texture_2d<f32>;
 
 @group(1) @binding(0) var<uniform> material: Material;
 @group(1) @binding(1) var base_color_texture: texture_2d<f32>;
 @group(1) @binding(2) var base_color_sampler: sampler;
-
-// Set per pipeline: false for samples inside a shadow volume.
-override sun_visible: bool = true;
 
 struct VertexIn {
     @location(0) position: vec3<f32>,
@@ -125,10 +126,13 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
     let s = Surface(base, material.params.x, material.params.y);
     let nv = dot(n, v);
     let r = reflect(-v, n);
-    let ao = multi_bounce_ao(textureLoad(ambient_occlusion, vec2<i32>(floor(in.position.xy)), 0).r, base);
+    let px = vec2<i32>(floor(in.position.xy));
+    let ao = multi_bounce_ao(textureLoad(ambient_occlusion, px, 0).r, base);
     var radiance = ao * ambient_radiance(s, nv, probe_irradiance(in.world, n), probe_irradiance(in.world, r));
-    if (sun_visible && lighting.sun_dir.w > 0.5) {
-        radiance += lighting.pd.rgb * brdf_cos(s, n, v, lighting.sun_dir.xyz);
+    if (lighting.sun_dir.w > 0.5) {
+        let m = textureLoad(shadow_masks, px, 0);
+        let visible = 1.0 - clamp(m.b / max(m.a, 1e-3), 0.0, 1.0);
+        radiance += visible * lighting.pd.rgb * brdf_cos(s, n, v, lighting.sun_dir.xyz);
     }
     return vec4<f32>(radiance, 1.0);
 }

@@ -12,8 +12,10 @@ use super::stencil::VIRTUAL_SURFACE;
 pub struct DepthPrepass {
     /// Real proxy: positions only (12-byte stride).
     pub proxy: wgpu::RenderPipeline,
-    /// Virtual objects: the shading vertex buffer, position attribute only.
+    /// Virtual objects, open meshes (two-sided): the shading vertex buffer, position only.
     pub virtual_: wgpu::RenderPipeline,
+    /// Virtual objects, closed meshes (back faces culled).
+    pub virtual_closed: wgpu::RenderPipeline,
 }
 
 impl DepthPrepass {
@@ -31,7 +33,7 @@ impl DepthPrepass {
             bind_group_layouts: &[Some(camera_layout)],
             immediate_size: 0,
         });
-        let make = |label: &str, stride: u64, stencil: wgpu::StencilState| {
+        let make = |label: &str, stride: u64, stencil: wgpu::StencilState, cull_mode: Option<wgpu::Face>| {
             let attrs = [wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x3, offset: 0, shader_location: 0 }];
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(label),
@@ -42,8 +44,8 @@ impl DepthPrepass {
                     compilation_options: Default::default(),
                     buffers: &[Some(wgpu::VertexBufferLayout { array_stride: stride, step_mode: wgpu::VertexStepMode::Vertex, attributes: &attrs })],
                 },
-                // Proxy surfaces are two-sided; virtual objects may be open meshes.
-                primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+                // Proxy surfaces are two-sided; closed virtual meshes never show a back face.
+                primitive: wgpu::PrimitiveState { cull_mode, ..Default::default() },
                 depth_stencil: Some(wgpu::DepthStencilState {
                     format: depth_format,
                     depth_write_enabled: Some(true),
@@ -63,13 +65,11 @@ impl DepthPrepass {
             depth_fail_op: wgpu::StencilOperation::Keep,
             pass_op: wgpu::StencilOperation::Replace,
         };
+        let bit = wgpu::StencilState { front: set_bit, back: set_bit, read_mask: 0, write_mask: VIRTUAL_SURFACE };
         Ok(Self {
-            proxy: make("depth prepass proxy", 12, wgpu::StencilState::default()),
-            virtual_: make(
-                "depth prepass virtual",
-                virtual_stride,
-                wgpu::StencilState { front: set_bit, back: set_bit, read_mask: 0, write_mask: VIRTUAL_SURFACE },
-            ),
+            proxy: make("depth prepass proxy", 12, wgpu::StencilState::default(), None),
+            virtual_: make("depth prepass virtual", virtual_stride, bit.clone(), None),
+            virtual_closed: make("depth prepass virtual closed", virtual_stride, bit, Some(wgpu::Face::Back)),
         })
     }
 }

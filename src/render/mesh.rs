@@ -66,6 +66,8 @@ pub struct MaterialDraw {
     pub bind_group: wgpu::BindGroup,
     /// The uniform it holds (for the CPU reference and reports).
     pub uniform: MaterialUniform,
+    /// Its triangles belong to closed surfaces (drawn with back faces culled).
+    pub closed: bool,
 }
 
 /// The virtual objects' buffers and materials.
@@ -145,8 +147,10 @@ fn texture_rgba8(mesh: &Mesh, t: u32) -> Option<(u32, u32, Vec<u8>)> {
 }
 
 impl VirtualBuffers {
-    /// Uploads the objects (world coordinates) and builds one bind group per material.
-    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, layout: &wgpu::BindGroupLayout, objects: &[&Mesh]) -> Result<Self, RenderError> {
+    /// Uploads the objects (world coordinates) and builds one bind group per material and
+    /// closedness. `closed[k][t]` says whether triangle `t` of object `k` is part of a closed
+    /// surface (missing entries: not).
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, layout: &wgpu::BindGroupLayout, objects: &[&Mesh], closed: &[Vec<bool>]) -> Result<Self, RenderError> {
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("base colour"),
             address_mode_u: wgpu::AddressMode::Repeat,
@@ -174,8 +178,9 @@ impl VirtualBuffers {
         };
         let white = make_texture(1, 1, &[255; 4]).create_view(&Default::default());
         let mut vertices: Vec<VirtualVertex> = Vec::new();
-        let mut runs: Vec<(MaterialUniform, Option<wgpu::TextureView>, Vec<u32>)> = Vec::new();
-        for mesh in objects {
+        // Per material: its uniform, texture, and indices of closed and of open triangles.
+        let mut runs: Vec<(MaterialUniform, Option<wgpu::TextureView>, [Vec<u32>; 2])> = Vec::new();
+        for (k, mesh) in objects.iter().enumerate() {
             let (verts, tris) = object_vertices(mesh);
             let base = vertices.len() as u32;
             vertices.extend(verts);
@@ -186,23 +191,22 @@ impl VirtualBuffers {
                     base_color: mat.base_color,
                     params: [mat.metallic.clamp(0.0, 1.0), mat.roughness.clamp(0.0, 1.0), if view.is_some() { 1.0 } else { 0.0 }, 0.0],
                 };
-                runs.push((uniform, view, Vec::new()));
+                runs.push((uniform, view, [Vec::new(), Vec::new()]));
             }
             for (t, tri) in tris.iter().enumerate() {
                 let m = mesh.tri_material.get(t).copied().unwrap_or(0) as usize;
+                let is_closed = closed.get(k).and_then(|c| c.get(t)).copied().unwrap_or(false);
                 if let Some(run) = runs.get_mut(first_run + m) {
-                    run.2.extend(tri.iter().map(|i| i + base));
+                    run.2[usize::from(!is_closed)].extend(tri.iter().map(|i| i + base));
                 }
             }
         }
         let mut indices: Vec<u32> = Vec::new();
         let mut draws = Vec::new();
-        for (uniform, view, idx) in runs {
-            if idx.is_empty() {
+        for (uniform, view, groups) in runs {
+            if groups.iter().all(Vec::is_empty) {
                 continue;
             }
-            let start = indices.len() as u32;
-            indices.extend(idx);
             let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("material"),
                 contents: bytemuck::bytes_of(&uniform),
@@ -217,7 +221,14 @@ impl VirtualBuffers {
                     wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&sampler) },
                 ],
             });
-            draws.push(MaterialDraw { indices: start..indices.len() as u32, bind_group, uniform });
+            for (g, idx) in groups.into_iter().enumerate() {
+                if idx.is_empty() {
+                    continue;
+                }
+                let start = indices.len() as u32;
+                indices.extend(idx);
+                draws.push(MaterialDraw { indices: start..indices.len() as u32, bind_group: bind_group.clone(), uniform, closed: g == 0 });
+            }
         }
         let vertex_bytes: &[u8] = if vertices.is_empty() { &[0u8; 32] } else { bytemuck::cast_slice(&vertices) };
         let index_bytes: &[u8] = if indices.is_empty() { &[0u8; 12] } else { bytemuck::cast_slice(&indices) };

@@ -234,6 +234,17 @@ impl Occluder {
         out
     }
 
+    /// For each triangle of the input mesh (`n` of them): part of a closed component.
+    pub fn closed_triangles(&self, n: usize) -> Vec<bool> {
+        let mut out = vec![false; n];
+        for f in 0..self.closed_faces {
+            if let Some(c) = out.get_mut(self.source[f] as usize) {
+                *c = true;
+            }
+        }
+        out
+    }
+
     /// Faces of open components (per-triangle volumes).
     pub fn open_faces(&self) -> Range<usize> {
         self.closed_faces..self.faces.len()

@@ -1,9 +1,10 @@
 //! Pass 5 (`shaders/shadow_mask.wgsl`): stencil classes into a coverage mask on the canvas.
 //!
-//! `r` (always drawn): virtual shadow on a real surface where no real shadow is, the samples the
-//! composite darkens. `g` real shadow, `b` a virtual surface without sun, `a` a virtual surface:
-//! drawn only when debug masks are asked for (tests compare them with ray-traced references).
-//! The MSAA resolve turns per-sample classes into per-pixel coverage.
+//! `r`: virtual shadow on a real surface where no real shadow is, the samples the composite
+//! darkens; `b`: a virtual surface in some shadow, and `a`: a virtual surface, whose ratio is the
+//! sun visibility the shading pass uses; `g`: real shadow, drawn only when debug masks are asked
+//! for (tests compare all four with ray-traced references). The MSAA resolve turns per-sample
+//! classes into per-pixel coverage.
 
 use super::RenderError;
 use super::gpu::MASK_FORMAT;
@@ -22,7 +23,9 @@ pub struct MaskDraw {
 pub struct ShadowMask {
     /// `r`: exactly [`VIRTUAL_SHADOW`].
     pub virtual_on_real: MaskDraw,
-    /// Debug channels `g`, `b` (two draws) and `a`.
+    /// `b` (two draws) and `a`.
+    pub virtual_surface: Vec<MaskDraw>,
+    /// Debug channel `g`.
     pub debug: Vec<MaskDraw>,
 }
 
@@ -63,18 +66,18 @@ impl ShadowMask {
         };
         Ok(Self {
             virtual_on_real: make("mask virtual shadow on real", 0xff, VIRTUAL_SHADOW, wgpu::ColorWrites::RED),
-            debug: vec![
-                make("mask real shadow", REAL_SHADOW, REAL_SHADOW, wgpu::ColorWrites::GREEN),
+            virtual_surface: vec![
                 make("mask virtual surface in real shadow", VIRTUAL_SURFACE | REAL_SHADOW, VIRTUAL_SURFACE | REAL_SHADOW, wgpu::ColorWrites::BLUE),
                 make("mask virtual surface in virtual shadow", VIRTUAL_SURFACE | VIRTUAL_SHADOW, VIRTUAL_SURFACE | VIRTUAL_SHADOW, wgpu::ColorWrites::BLUE),
                 make("mask virtual surface", VIRTUAL_SURFACE, VIRTUAL_SURFACE, wgpu::ColorWrites::ALPHA),
             ],
+            debug: vec![make("mask real shadow", REAL_SHADOW, REAL_SHADOW, wgpu::ColorWrites::GREEN)],
         })
     }
 
-    /// Records the `r` draw, and the debug draws when `debug`.
+    /// Records the draws (the debug one when `debug`).
     pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, debug: bool) {
-        let draws = std::iter::once(&self.virtual_on_real).chain(self.debug.iter().filter(|_| debug));
+        let draws = std::iter::once(&self.virtual_on_real).chain(&self.virtual_surface).chain(self.debug.iter().filter(|_| debug));
         for d in draws {
             pass.set_pipeline(&d.pipeline);
             pass.set_stencil_reference(d.reference);

@@ -1,11 +1,13 @@
 //! Pass 4 (`shaders/virtual_shading.wgsl`): the virtual objects, shaded, into the canvas layer
 //! (Jensen §3.2 step 4 with the ambient of §3.3).
 //!
-//! Two pipelines share the shader: one for samples whose stencil says "virtual surface, no
-//! shadow" (sun term on), one for every other virtual-surface sample (sun term off, the
-//! `sun_visible` override). Both test depth `GreaterEqual` against the prepass with the same
-//! invariant position computation, so each visible sample is shaded once and real geometry in
-//! front hides the object. The layer is premultiplied linear radiance, alpha 1 where covered.
+//! One draw of the objects: depth `GreaterEqual` against the prepass with the same invariant
+//! position computation, so each visible sample is shaded once and real geometry in front hides
+//! the object. The sun term is weighted by the fraction of the pixel's virtual-surface samples
+//! that no shadow volume covers, read from the shadow-mask pass (which therefore runs first);
+//! this keeps the objects to one geometry pass per frame, which is what a software rasteriser
+//! pays for. Closed meshes are drawn with back faces culled, open ones two-sided. The layer is
+//! premultiplied linear radiance, alpha 1 where covered.
 
 use super::RenderError;
 use super::camera::uniform_entry;
@@ -14,13 +16,26 @@ use super::mesh::VirtualVertex;
 use super::shaders;
 use super::stencil::{VIRTUAL_SURFACE, test};
 
-/// The two shading pipelines and their frame layout (group 0).
+fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// The shading pipelines (closed meshes culled, open ones two-sided) and their frame layout.
 pub struct VirtualShading {
-    /// Sun visible.
-    pub lit: wgpu::RenderPipeline,
-    /// In some shadow.
-    pub shadowed: wgpu::RenderPipeline,
-    /// Group 0: camera, lighting, probe header, coefficients, validity, ambient occlusion.
+    /// Back faces culled (closed meshes).
+    pub closed: wgpu::RenderPipeline,
+    /// Two-sided (open meshes).
+    pub open: wgpu::RenderPipeline,
+    /// Group 0: camera, lighting, probe header, coefficients, validity, ambient occlusion, masks.
     pub frame_layout: wgpu::BindGroupLayout,
 }
 
@@ -45,16 +60,8 @@ impl VirtualShading {
                 uniform_entry(2, wgpu::ShaderStages::FRAGMENT),
                 storage_entry(3),
                 storage_entry(4),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 5,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
+                texture_entry(5),
+                texture_entry(6),
             ],
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -63,8 +70,8 @@ impl VirtualShading {
             immediate_size: 0,
         });
         let attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2];
-        let make = |label: &str, sun_visible: bool, compare: wgpu::CompareFunction| {
-            let constants = [("sun_visible", if sun_visible { 1.0 } else { 0.0 })];
+        let compare = wgpu::CompareFunction::Equal;
+        let make = |label: &str, cull_mode: Option<wgpu::Face>| {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(label),
                 layout: Some(&layout),
@@ -78,32 +85,28 @@ impl VirtualShading {
                         attributes: &attrs,
                     })],
                 },
-                primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+                primitive: wgpu::PrimitiveState { cull_mode, ..Default::default() },
                 depth_stencil: Some(wgpu::DepthStencilState {
                     format: depth_format,
                     depth_write_enabled: Some(false),
                     depth_compare: Some(wgpu::CompareFunction::GreaterEqual),
-                    stencil: wgpu::StencilState { front: test(compare), back: test(compare), read_mask: 0xff, write_mask: 0 },
+                    stencil: wgpu::StencilState { front: test(compare), back: test(compare), read_mask: VIRTUAL_SURFACE, write_mask: 0 },
                     bias: Default::default(),
                 }),
                 multisample: wgpu::MultisampleState { count: samples, ..Default::default() },
                 fragment: Some(wgpu::FragmentState {
                     module: &module,
                     entry_point: Some("fs_main"),
-                    compilation_options: wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
+                    compilation_options: Default::default(),
                     targets: &[Some(wgpu::ColorTargetState { format: LAYER_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL })],
                 }),
                 multiview_mask: None,
                 cache: None,
             })
         };
-        Ok(Self {
-            lit: make("virtual shading lit", true, wgpu::CompareFunction::Equal),
-            shadowed: make("virtual shading shadowed", false, wgpu::CompareFunction::NotEqual),
-            frame_layout,
-        })
+        Ok(Self { closed: make("virtual shading closed", Some(wgpu::Face::Back)), open: make("virtual shading open", None), frame_layout })
     }
 
-    /// Stencil reference of both pipelines.
+    /// Stencil reference of both pipelines (samples showing a virtual surface).
     pub const REFERENCE: u32 = VIRTUAL_SURFACE;
 }

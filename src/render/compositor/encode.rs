@@ -160,11 +160,13 @@ impl Compositor {
             pa.set_vertex_buffer(0, self.proxy.vertices.slice(..));
             pa.set_index_buffer(self.proxy.indices.slice(..), wgpu::IndexFormat::Uint32);
             pa.draw_indexed(0..self.proxy.index_count, 0, 0..1);
-            pa.set_pipeline(&self.prepass.virtual_);
             pa.set_stencil_reference(VIRTUAL_SURFACE);
             pa.set_vertex_buffer(0, self.virt.vertices.slice(..));
             pa.set_index_buffer(self.virt.indices.slice(..), wgpu::IndexFormat::Uint32);
-            pa.draw_indexed(0..self.virt.index_count, 0, 0..1);
+            for d in &self.virt.draws {
+                pa.set_pipeline(if d.closed { &self.prepass.virtual_closed } else { &self.prepass.virtual_ });
+                pa.draw_indexed(d.indices.clone(), 0, 0..1);
+            }
             report.ran.push(pass::DEPTH_PREPASS);
             if sun_on {
                 if self.volumes.has_real() {
@@ -189,32 +191,7 @@ impl Compositor {
             }
         }
 
-        // Pass B1: shading.
-        if has_virtual {
-            let mut pb = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("virtual shading"),
-                color_attachments: &[Some(self.res.layer.attachment())],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment { view: &self.res.depth.view, depth_ops: None, stencil_ops: None }),
-                ..Default::default()
-            });
-            pb.set_bind_group(0, &self.shading_bg, &[]);
-            pb.set_vertex_buffer(0, self.virt.vertices.slice(..));
-            pb.set_index_buffer(self.virt.indices.slice(..), wgpu::IndexFormat::Uint32);
-            pb.set_stencil_reference(VirtualShading::REFERENCE);
-            for pipeline in [&self.shading.lit, &self.shading.shadowed] {
-                pb.set_pipeline(pipeline);
-                for d in &self.virt.draws {
-                    pb.set_bind_group(1, &d.bind_group, &[]);
-                    pb.draw_indexed(d.indices.clone(), 0, 0..1);
-                }
-            }
-            report.ran.push(pass::VIRTUAL_SHADING);
-            if sun_on {
-                report.ran.push(pass::SUN_TERM);
-            }
-        }
-
-        // Pass B2: masks.
+        // Pass M: masks.
         if has_virtual && !reuse {
             let mut pm = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("shadow mask"),
@@ -227,6 +204,29 @@ impl Compositor {
             self.stencil = Some(StencilState { sun: sun_key, debug: self.config.debug_masks, frame: self.frames });
         } else if reuse {
             report.skip(pass::SHADOW_MASK, reuse_reason());
+        }
+
+        // Pass B: shading (after the masks, whose virtual-surface channels give the sun visibility).
+        if has_virtual {
+            let mut pb = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("virtual shading"),
+                color_attachments: &[Some(self.res.layer.attachment())],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment { view: &self.res.depth.view, depth_ops: None, stencil_ops: None }),
+                ..Default::default()
+            });
+            pb.set_bind_group(0, &self.shading_bg, &[]);
+            pb.set_vertex_buffer(0, self.virt.vertices.slice(..));
+            pb.set_index_buffer(self.virt.indices.slice(..), wgpu::IndexFormat::Uint32);
+            pb.set_stencil_reference(VirtualShading::REFERENCE);
+            for d in &self.virt.draws {
+                pb.set_pipeline(if d.closed { &self.shading.closed } else { &self.shading.open });
+                pb.set_bind_group(1, &d.bind_group, &[]);
+                pb.draw_indexed(d.indices.clone(), 0, 0..1);
+            }
+            report.ran.push(pass::VIRTUAL_SHADING);
+            if sun_on {
+                report.ran.push(pass::SUN_TERM);
+            }
         }
 
         // Pass C: composite (and the warped debug masks).

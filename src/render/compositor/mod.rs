@@ -244,6 +244,7 @@ impl Compositor {
             }
             Arc::new(RayScene::new(m))
         });
+        let closed: Vec<Vec<bool>> = virtual_occ.iter().zip(parts.objects).map(|(o, (_, m))| o.closed_triangles(m.triangles.len())).collect();
         let volumes = Volumes::new(&gpu, virtual_occ, proxy_occ, config.builder)?;
         let d = &gpu.device;
         let res = Resources::new(&gpu, (canvas.width, canvas.height), (canvas.out_width, canvas.out_height));
@@ -266,7 +267,7 @@ impl Compositor {
         });
         let mat_layout = material_layout(d);
         let meshes: Vec<&Mesh> = parts.objects.iter().map(|(_, m)| *m).collect();
-        let virt = VirtualBuffers::new(d, &gpu.queue, &mat_layout, &meshes)?;
+        let virt = VirtualBuffers::new(d, &gpu.queue, &mat_layout, &meshes, &closed)?;
         let proxy = ProxyBuffers::new(d, parts.proxy);
         let (df, s) = (gpu.depth_format, gpu.samples);
         let prepass = DepthPrepass::new(d, &cam_layout, df, s, std::mem::size_of::<VirtualVertex>() as u64)?;
@@ -290,7 +291,7 @@ impl Compositor {
             }
         };
         res.occlusion.write(&gpu.queue, &occlusion);
-        let shading_bg = Self::shading_bind_group(d, &shading, &camera_buf, &lighting_buf, &probes, &res.occlusion.view);
+        let shading_bg = Self::shading_bind_group(d, &shading, &camera_buf, &lighting_buf, &probes, &res);
         res.warp.write(&gpu.queue, &canvas.warp);
         res.normal.write(&gpu.queue, &receivers.normal);
         res.albedo.write(&gpu.queue, &receivers.albedo);
@@ -337,7 +338,7 @@ impl Compositor {
         camera: &wgpu::Buffer,
         lighting: &wgpu::Buffer,
         probes: &GpuProbes,
-        occlusion: &wgpu::TextureView,
+        res: &Resources,
     ) -> wgpu::BindGroup {
         d.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("shading frame"),
@@ -348,7 +349,8 @@ impl Compositor {
                 wgpu::BindGroupEntry { binding: 2, resource: probes.header.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 3, resource: probes.coeffs.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 4, resource: probes.valid.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::TextureView(occlusion) },
+                wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::TextureView(&res.occlusion.view) },
+                wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&res.masks.resolved.view) },
             ],
         })
     }
@@ -396,7 +398,7 @@ impl Compositor {
             self.probes.write(&self.gpu.queue, grid);
         } else {
             self.probes = GpuProbes::new(&self.gpu.device, &self.gpu.queue, grid);
-            self.shading_bg = Self::shading_bind_group(&self.gpu.device, &self.shading, &self.camera_buf, &self.lighting_buf, &self.probes, &self.res.occlusion.view);
+            self.shading_bg = Self::shading_bind_group(&self.gpu.device, &self.shading, &self.camera_buf, &self.lighting_buf, &self.probes, &self.res);
         }
     }
 
