@@ -95,19 +95,29 @@ type Stage = fn(&PassReport) -> f64;
 
 fn bench_frames(c: &mut Criterion) {
     let scene = courtyard();
-    let gpu = Arc::new(Gpu::new(GpuOptions::default()).expect("GPU adapter"));
-    eprintln!("adapter: {} ({} samples)", gpu.describe(), gpu.samples);
+    let gpu4 = Arc::new(Gpu::new(GpuOptions::default()).expect("GPU adapter"));
+    let gpu1 = Arc::new(Gpu::new(GpuOptions { samples: 1 }).expect("GPU adapter"));
+    eprintln!("adapter: {} ({} samples)", gpu4.describe(), gpu4.samples);
     let object = torus(Vec3::new(-1.9, 0.7, 0.0), 0.5, 0.18, 250, 200);
     assert_eq!(object.triangles.len(), 100_000);
     let ray = Arc::new(RayScene::new(scene.proxy.clone()));
     let mut g = c.benchmark_group("frame");
     g.sample_size(10).measurement_time(Duration::from_secs(8)).warm_up_time(Duration::from_secs(2));
-    for (w, h) in [(640u32, 480u32), (1280, 720)] {
+    let runs = [
+        (640u32, 480u32, Builder::Cpu, 4u32, true),
+        (640, 480, Builder::Compute, 4, true),
+        (640, 480, Builder::Cpu, 1, true),
+        (640, 480, Builder::Cpu, 4, false),
+        (1280, 720, Builder::Cpu, 4, true),
+        (1280, 720, Builder::Compute, 4, true),
+    ];
+    for (w, h, builder, samples, with_object) in runs {
+        let gpu = if samples == 1 { gpu1.clone() } else { gpu4.clone() };
         let cam = camera_at(&scene, w, h);
-        let objects = [("torus100k".to_string(), &object)];
+        let objects = if with_object { vec![("torus100k".to_string(), &object)] } else { Vec::new() };
         let parts = SceneParts { camera: &cam, proxy: &scene.proxy, proxy_name: "proxy.glb", objects: &objects };
         let video = video_at(&scene, w, h);
-        for builder in [Builder::Cpu, Builder::Compute] {
+        {
             let mut config = CompositorConfig::for_scene(&scene);
             config.builder = builder;
             let mut comp = Compositor::new(gpu.clone(), &parts, ray.clone(), config).expect("compositor");
@@ -115,13 +125,17 @@ fn bench_frames(c: &mut Criterion) {
             // First frames compute the per-pixel c and b of the shadow region (set-up cost).
             comp.render(&video, &sun(0)).expect("frame");
             comp.render(&video, &sun(1)).expect("frame");
-            let tag = format!("{w}x{h}/{}", if builder == Builder::Cpu { "cpu" } else { "compute" });
-            let stages: [(&str, Stage); 5] = [
+            let tag = format!(
+                "{w}x{h}/{}{}{}",
+                if builder == Builder::Cpu { "cpu" } else { "compute" },
+                if samples == 1 { "/no_msaa" } else { "" },
+                if with_object { "" } else { "/no_objects" }
+            );
+            let stages: [(&str, Stage); 4] = [
                 ("volume_build", |r| r.timings.volume_build_ms),
                 ("upload", |r| r.timings.upload_ms),
                 ("gpu_passes", |r| r.timings.gpu_ms),
                 ("readback", |r| r.timings.readback_ms),
-                ("total", |r| r.timings.volume_build_ms + r.timings.receivers_ms + r.timings.upload_ms + r.timings.gpu_ms + r.timings.readback_ms),
             ];
             for (name, stage) in stages {
                 let mut k = 0;
@@ -137,6 +151,19 @@ fn bench_frames(c: &mut Criterion) {
                     })
                 });
             }
+            // Wall-clock time of whole frames: the sun moving (volumes rebuilt every frame) and
+            // still (volumes and stencil reused; shading, masks' consumers and composite rerun).
+            let mut k = 0;
+            g.bench_function(format!("{tag}/rebuild/total"), |b| {
+                b.iter_custom(|iters| {
+                    let t = std::time::Instant::now();
+                    for _ in 0..iters {
+                        k += 1;
+                        black_box(comp.render(&video, &sun(k % 2)).expect("frame"));
+                    }
+                    t.elapsed()
+                })
+            });
             if builder == Builder::Cpu {
                 g.bench_function(format!("{tag}/reuse/total"), |b| {
                     b.iter_custom(|iters| {

@@ -135,6 +135,11 @@ fn real_radiance(px: vec2<i32>, coverage: f32) -> vec3<f32> {
 fn fs_composite(in: FullscreenOut) -> @location(0) vec4<f32> {
     let px = vec2<i32>(floor(in.position.xy));
     let c = canvas_sample(px);
+    // Most pixels are untouched: no virtual surface, no virtual shadow, outside the region where
+    // the differential model has data. They are the footage, read once.
+    if (c.virtual_rgba.a <= 0.0 && c.masks.r <= 0.0 && (lighting.params.x < 1.5 || textureLoad(surface_ambient_with, px, 0).w < 0.5)) {
+        return vec4<f32>(textureLoad(video, px, 0).rgb * lighting.params.z, 1.0);
+    }
     let real = real_radiance(px, c.masks.r);
     let out = c.virtual_rgba.rgb + (1.0 - c.virtual_rgba.a) * real;
     return vec4<f32>(out * lighting.params.z, 1.0);
