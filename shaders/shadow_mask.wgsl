@@ -1,8 +1,8 @@
-// Pass 5: stencil classes into a coverage mask (full-screen). Each pipeline tests one stencil
+// Pass 4: stencil classes into a coverage mask (full-screen). Each pipeline tests one stencil
 // class and writes 1 into one channel: r = virtual shadow on a real surface (no real shadow
-// there), g = real shadow, b = a virtual surface without sun, a = a virtual surface. Only r is
-// needed for the picture; g, b, a are written for tests and debugging. MSAA resolve turns the
-// per-sample classes into coverage. Paired with src/render/shadow_mask.rs.
+// there, the composite darkens it), b = a virtual surface without sun and a = a virtual surface
+// (their ratio is the shading pass's sun visibility), g = real shadow (tests and debugging).
+// MSAA resolve turns the per-sample classes into coverage. Paired with src/render/shadow_mask.rs.
 
 #include "common/fullscreen.wgsl"
 

@@ -1,4 +1,4 @@
-// Pass 4: the virtual objects, shaded (Jensen §3.2 step 4 and §3.3): the glTF metallic-roughness
+// Pass 5: the virtual objects, shaded (Jensen §3.2 step 4 and §3.3): the glTF metallic-roughness
 // response to the sun, times its visibility (the fraction of the pixel's virtual-surface samples
 // that no shadow volume covers, from the shadow-mask pass), plus ambient light from the
 // irradiance-probe grid evaluated per

@@ -1,4 +1,4 @@
-//! Pass 5 (`shaders/shadow_mask.wgsl`): stencil classes into a coverage mask on the canvas.
+//! Pass 4 (`shaders/shadow_mask.wgsl`): stencil classes into a coverage mask on the canvas.
 //!
 //! `r`: virtual shadow on a real surface where no real shadow is, the samples the composite
 //! darkens; `b`: a virtual surface in some shadow, and `a`: a virtual surface, whose ratio is the

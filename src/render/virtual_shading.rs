@@ -1,4 +1,4 @@
-//! Pass 4 (`shaders/virtual_shading.wgsl`): the virtual objects, shaded, into the canvas layer
+//! Pass 5 (`shaders/virtual_shading.wgsl`): the virtual objects, shaded, into the canvas layer
 //! (Jensen §3.2 step 4 with the ambient of §3.3).
 //!
 //! One draw of the objects: depth `GreaterEqual` against the prepass with the same invariant

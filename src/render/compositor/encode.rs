@@ -95,18 +95,32 @@ impl Compositor {
         let differential = self.config.darkening == Darkening::Differential;
         let needs_receivers = has_virtual && !reuse && (differential || (sun_on && self.config.darkening == Darkening::Normal));
         if needs_receivers {
-            let mut pixels = if sun_on { self.receivers.in_shadow_reach(&self.virtual_bounds, l, super::RECEIVER_GROW_PX) } else { Vec::new() };
-            if differential {
-                let near = self.near_pixels.get_or_insert_with(|| self.receivers.near(&self.virtual_bounds, self.near_radius_m));
-                pixels.extend_from_slice(near);
-                pixels.sort_unstable();
-                pixels.dedup();
+            // The pixel list follows the sun only as closely as `b` does: it is rebuilt when `b`
+            // is (the region grows by RECEIVER_GROW_PX to cover the motion in between).
+            let key = (sun_on.then_some(l), differential);
+            let stale = match &self.receiver_pixels {
+                Some((k, _)) => match (k.0, key.0) {
+                    (Some(a), Some(b)) => angle_deg(a, b) > self.config.bounce_rebuild_deg || k.1 != key.1,
+                    (a, b) => a.is_some() != b.is_some() || k.1 != key.1,
+                },
+                None => true,
+            };
+            if stale {
+                let mut pixels = if sun_on { self.receivers.in_shadow_reach(&self.virtual_bounds, l, super::RECEIVER_GROW_PX) } else { Vec::new() };
+                if differential {
+                    let near = self.near_pixels.get_or_insert_with(|| self.receivers.near(&self.virtual_bounds, self.near_radius_m));
+                    pixels.extend_from_slice(near);
+                    pixels.sort_unstable();
+                    pixels.dedup();
+                }
+                self.receiver_pixels = Some((key, pixels));
             }
+            let pixels = self.receiver_pixels.as_ref().map(|(_, p)| p.as_slice()).unwrap_or(&[]);
             let with = if differential { self.with_ray.as_deref() } else { None };
             let s = self.receivers.ensure(
                 &self.proxy_ray,
                 with,
-                &pixels,
+                pixels,
                 sun_on.then_some(l),
                 self.config.ambient_quality,
                 self.config.bounce_quality,

@@ -8,12 +8,16 @@
 //!    bit);
 //! 2. shadow volumes of the real parts that can matter, z-fail counted, resolved to a flag; then
 //!    those of the virtual objects, the same way (skipped without sun);
-//! 3. the virtual objects shaded: sun term where the stencil says lit, SH ambient from the probe
-//!    grid everywhere;
-//! 4. the shadow mask: virtual shadow on real surfaces outside real shadow.
+//! 3. the shadow masks: virtual shadow on real surfaces outside real shadow, and which
+//!    virtual-surface samples are in some shadow;
+//! 4. the virtual objects shaded in one geometry pass: sun term times the pixel's unshadowed
+//!    fraction of virtual-surface samples, SH ambient from the probe grid times the objects' own
+//!    ambient occlusion.
 //!
 //! Then, in the footage's pixel grid, the composite warps the canvas layers through the lens
-//! model and darkens the footage under the virtual shadow with the proxy's normal and `c`.
+//! model and darkens the footage: under the virtual shadow with the proxy's normal and `c`, and,
+//! with the (default) differential model, also where the objects take sky and bounce light from
+//! real surfaces next to them.
 //!
 //! Work a frame does not need is left out, and the report says why: no virtual objects (the
 //! footage passes through), no sun (`Pd ≈ 0` or the sun below the horizon: no volumes, no sun
@@ -212,6 +216,9 @@ pub struct Compositor {
     near_radius_m: f32,
     /// Pixels of that region (computed on first use).
     near_pixels: Option<Vec<u32>>,
+    /// The pixels whose `c`, `b` (`c_v`, `b_v`) are kept up to date, and the sun and model they
+    /// were chosen for.
+    receiver_pixels: Option<((Option<Vec3>, bool), Vec<u32>)>,
 }
 
 fn file_name(p: &std::path::Path) -> String {
@@ -329,6 +336,7 @@ impl Compositor {
             with_ray,
             near_radius_m,
             near_pixels: None,
+            receiver_pixels: None,
         })
     }
 
