@@ -118,3 +118,42 @@ fn bake_relight_and_irradiance_commands() {
     assert!(!ok && err.contains("--at"), "{err}");
     std::fs::remove_dir_all(&dst).ok();
 }
+
+#[test]
+fn augment_writes_frames_a_report_and_a_contact_sheet() {
+    // Three LDR frames copied to a folder that is not a scene sequence (times from --start/--fps).
+    let dir = std::env::temp_dir().join(format!("heliar-aug-{}", std::process::id()));
+    let (input, output) = (dir.join("in"), dir.join("out"));
+    std::fs::create_dir_all(&input).unwrap();
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/courtyard/frames/ldr");
+    for i in [0, 1, 2] {
+        std::fs::copy(src.join(format!("frame_{i:03}.png")), input.join(format!("frame_{i:03}.png"))).unwrap();
+    }
+    let args = [
+        "augment", "scenes/courtyard", "--input", input.to_str().unwrap(), "--output", output.to_str().unwrap(),
+        "--start", "2024-06-21T15:30:00+02:00", "--fps", "0.1", "--exposure", "3.5",
+    ];
+    let (ok, _, err) = heliar(&args);
+    assert!(ok, "{err}");
+    let report = std::fs::read_to_string(output.join("report.jsonl")).unwrap();
+    let lines: Vec<serde_json::Value> = report.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(lines.len(), 3);
+    assert_eq!(lines[0]["passes"]["ran"][0], "volume_build");
+    assert_eq!(lines[0]["relight"]["ran"], true);
+    assert!(lines[1]["passes"]["skipped"].as_array().is_some());
+    assert!(output.join("contact_sheet.png").exists());
+    // PNG in, PNG out through the camera response; pixels far from the statue (beyond its shadow
+    // and the ≈ 2.5 m around it where it takes sky light from the real surfaces) are the input's
+    // own codes, the statue's pixels are not.
+    let a = image::open(input.join("frame_000.png")).unwrap().to_rgb8();
+    let b = image::open(output.join("frame_000.png")).unwrap().to_rgb8();
+    assert_eq!(a.dimensions(), b.dimensions());
+    let changed: Vec<(u32, u32)> = a.enumerate_pixels().filter(|(x, y, p)| b.get_pixel(*x, *y) != *p).map(|(x, y, _)| (x, y)).collect();
+    assert!(changed.len() > 300, "{} pixels changed", changed.len());
+    let far: Vec<&(u32, u32)> = changed.iter().filter(|&&(x, y)| !((40..240).contains(&x) && (40..200).contains(&y))).collect();
+    assert!(far.is_empty(), "pixels far from the statue changed: {} of them, e.g. {:?}", far.len(), &far[..far.len().min(10)]);
+    // A folder that is not a sequence, without --start, is refused with a reason.
+    let (ok, _, err) = heliar(&["augment", "scenes/courtyard", "--input", input.to_str().unwrap(), "--output", output.to_str().unwrap()]);
+    assert!(!ok && err.contains("--start"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}

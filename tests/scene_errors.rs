@@ -10,10 +10,10 @@ fn scratch(name: &str) -> PathBuf {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/courtyard");
     let dst = std::env::temp_dir().join(format!("heliar-scene-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dst);
-    for d in ["calib", "frames/hdr", "frames/ldr"] {
+    for d in ["calib", "frames/hdr", "frames/ldr", "objects"] {
         std::fs::create_dir_all(dst.join(d)).unwrap();
     }
-    for f in ["scene.toml", "proxy.glb", "calib/camera.toml", "env.exr", "truth.csv"] {
+    for f in ["scene.toml", "proxy.glb", "calib/camera.toml", "env.exr", "truth.csv", "objects/statue.glb"] {
         std::fs::copy(src.join(f), dst.join(f)).unwrap();
     }
     for i in 0..12 {

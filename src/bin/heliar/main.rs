@@ -1,6 +1,7 @@
 //! The `heliar` command.
 
 mod bake;
+mod augment;
 mod bench;
 mod bench_irradiance;
 mod bench_vem;
@@ -34,6 +35,8 @@ enum Command {
     Irradiance(bake::IrradianceArgs),
     /// Directional lights from captured HDR video environment maps (JSON lines).
     Vem(vem::VemArgs),
+    /// Composite the scene's virtual objects into a frame sequence (estimate → relight → composite).
+    Augment(augment::AugmentArgs),
 }
 
 fn main() {
@@ -46,6 +49,7 @@ fn main() {
         Command::Relight(a) => bake::run_relight(a),
         Command::Irradiance(a) => bake::run_irradiance(a),
         Command::Vem(a) => vem::run(a),
+        Command::Augment(a) => augment::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -1,0 +1,4 @@
+// Constants shared by the passes.
+
+const PI: f32 = 3.14159265358979;
+

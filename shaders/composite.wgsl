@@ -1,0 +1,153 @@
+// Pass 6: the output frame, drawn in the footage's own (distorted) pixel grid (Jensen §3.2
+// step 3, with the surface normal the paper left out).
+//
+// For each output pixel, `warp` gives the point of the undistorted pinhole canvas that the lens
+// maps there (precomputed from the Brown–Conrady model); the canvas layers (virtual objects,
+// premultiplied, and the shadow coverage) are sampled there. Real pixels under a virtual shadow
+// are darkened by the ratio of the radiance without and with the sun:
+//   normal-aware: (c*Pa [+ b*Pd]) / (c*Pa + Pd*max(n.l, 0) [+ b*Pd]), with the proxy's normal n,
+//                 weighted-ambient factor c and sun bounce b of that pixel;
+//   constant:     Pa / (Pa + Pd), Jensen's one ratio for every pixel.
+//   differential: L_with / L_without of the estimator's model at the pixel, with
+//                 L_without = c*Pa + (s*max(n.l,0) + b)*Pd and
+//                 L_with    = c_v*Pa + (max(s - coverage, 0)*max(n.l,0) + b_v)*Pd, with s the
+//                 pixel's sunlit fraction (real shadows) and coverage its part in virtual but not
+//                 real shadow, where c_v, b_v are
+//                 c and b with the virtual objects in the scene: the virtual shadow, and the sky
+//                 and bounce light the objects take from surfaces near them (Debevec 1998's
+//                 differential rendering, with the estimator's model as the local scene);
+//                 with c_v = c, b_v = b it is the normal-aware ratio.
+// Clipped video pixels (true value unknown) get the model's radiance rho/pi*L instead.
+// Paired with src/render/composite.rs.
+
+#include "common/fullscreen.wgsl"
+#include "common/lighting.wgsl"
+
+// Linear radiance of the footage; alpha 1 for a usable pixel, 0 for a clipped or invalid one.
+@group(0) @binding(0) var video: texture_2d<f32>;
+// xyz: unit normal of the proxy surface seen by the pixel (facing the camera); w: 1 if any.
+@group(0) @binding(1) var surface_normal: texture_2d<f32>;
+// rgb: weighted-ambient factor c; w: the real sun visibility s of the surface point.
+@group(0) @binding(2) var surface_ambient: texture_2d<f32>;
+// rgb: sun-bounce factor b.
+@group(0) @binding(3) var surface_bounce: texture_2d<f32>;
+// rgb: the proxy's diffuse albedo.
+@group(0) @binding(4) var surface_albedo: texture_2d<f32>;
+// rgb: c_v (c with the virtual objects present); w: 1 where computed.
+@group(0) @binding(5) var surface_ambient_with: texture_2d<f32>;
+// rgb: b_v (b with the virtual objects present).
+@group(0) @binding(6) var surface_bounce_with: texture_2d<f32>;
+// xy: canvas pixel coordinates (OpenCV convention) of the output pixel's centre; negative x when
+// the lens model has no inverse there.
+@group(0) @binding(7) var warp: texture_2d<f32>;
+@group(0) @binding(8) var virtual_layer: texture_2d<f32>;
+@group(0) @binding(9) var masks: texture_2d<f32>;
+@group(0) @binding(10) var canvas_sampler: sampler;
+@group(0) @binding(11) var<uniform> lighting: Lighting;
+
+@vertex
+fn vs_main(@builtin(vertex_index) index: u32) -> FullscreenOut {
+    return fullscreen_vertex(index, 0.0);
+}
+
+struct CanvasSample {
+    virtual_rgba: vec4<f32>,
+    masks: vec4<f32>,
+}
+
+fn canvas_sample(px: vec2<i32>) -> CanvasSample {
+    var out: CanvasSample;
+    out.virtual_rgba = vec4<f32>(0.0);
+    out.masks = vec4<f32>(0.0);
+    let w = textureLoad(warp, px, 0).xy;
+    if (w.x < -0.5) {
+        return out;
+    }
+    let size = vec2<f32>(textureDimensions(virtual_layer));
+    let uv = (w + vec2<f32>(0.5)) / size;
+    out.virtual_rgba = textureSampleLevel(virtual_layer, canvas_sampler, uv, 0.0);
+    out.masks = textureSampleLevel(masks, canvas_sampler, uv, 0.0);
+    return out;
+}
+
+// The differential model (see the file's head).
+fn differential(px: vec2<i32>, v: vec4<f32>, n: vec3<f32>, coverage: f32) -> vec3<f32> {
+    let present = textureLoad(surface_ambient_with, px, 0);
+    if (present.w < 0.5 && coverage <= 0.0) {
+        return v.rgb;
+    }
+    let a = textureLoad(surface_ambient, px, 0);
+    let b = textureLoad(surface_bounce, px, 0).rgb;
+    var c_v = a.rgb;
+    var b_v = b;
+    if (present.w > 0.5) {
+        c_v = present.rgb;
+        b_v = textureLoad(surface_bounce_with, px, 0).rgb;
+    }
+    let use_b = lighting.params.y;
+    var pd = vec3<f32>(0.0);
+    if (lighting.sun_dir.w > 0.5) {
+        pd = lighting.pd.rgb;
+    }
+    // a.w: the pixel's sunlit fraction (real shadows only); `coverage` is the part in virtual but
+    // not real shadow, so the part that stays lit is what is left of both.
+    let cos_l = max(dot(n, lighting.sun_dir.xyz), 0.0);
+    let l0 = a.rgb * lighting.pa.rgb + (a.w * cos_l + use_b * b) * pd;
+    let l1 = c_v * lighting.pa.rgb + (max(a.w - coverage, 0.0) * cos_l + use_b * b_v) * pd;
+    if (v.a > 0.5) {
+        return select(v.rgb, v.rgb * l1 / l0, l0 > vec3<f32>(0.0));
+    }
+    return textureLoad(surface_albedo, px, 0).rgb / PI * l1;
+}
+
+// Radiance of a real pixel after the virtual shadow covering `coverage` of it.
+fn real_radiance(px: vec2<i32>, coverage: f32) -> vec3<f32> {
+    let v = textureLoad(video, px, 0);
+    let s = textureLoad(surface_normal, px, 0);
+    if (s.w < 0.5) {
+        return v.rgb;
+    }
+    if (lighting.params.x > 1.5) {
+        return differential(px, v, s.xyz, coverage);
+    }
+    if (coverage <= 0.0 || lighting.sun_dir.w < 0.5) {
+        return v.rgb;
+    }
+    let pd = lighting.pd.rgb;
+    let pa = lighting.pa.rgb;
+    var ambient = textureLoad(surface_ambient, px, 0).rgb * pa;
+    if (lighting.params.y > 0.5) {
+        ambient += textureLoad(surface_bounce, px, 0).rgb * pd;
+    }
+    var shadowed: vec3<f32>;
+    if (lighting.params.x > 0.5) {
+        shadowed = v.rgb * pa / max(pa + pd, vec3<f32>(1e-20));
+    } else if (v.a > 0.5) {
+        let lit = ambient + pd * max(dot(s.xyz, lighting.sun_dir.xyz), 0.0);
+        shadowed = select(v.rgb, v.rgb * ambient / lit, lit > vec3<f32>(0.0));
+    } else {
+        shadowed = textureLoad(surface_albedo, px, 0).rgb / PI * ambient;
+    }
+    return mix(v.rgb, shadowed, coverage);
+}
+
+@fragment
+fn fs_composite(in: FullscreenOut) -> @location(0) vec4<f32> {
+    let px = vec2<i32>(floor(in.position.xy));
+    let c = canvas_sample(px);
+    // Most pixels are untouched: no virtual surface, no virtual shadow, outside the region where
+    // the differential model has data. They are the footage, read once.
+    if (c.virtual_rgba.a <= 0.0 && c.masks.r <= 0.0 && (lighting.params.x < 1.5 || textureLoad(surface_ambient_with, px, 0).w < 0.5)) {
+        return vec4<f32>(textureLoad(video, px, 0).rgb * lighting.params.z, 1.0);
+    }
+    let real = real_radiance(px, c.masks.r);
+    let out = c.virtual_rgba.rgb + (1.0 - c.virtual_rgba.a) * real;
+    return vec4<f32>(out * lighting.params.z, 1.0);
+}
+
+// The canvas masks warped to the output grid (tests and debugging).
+@fragment
+fn fs_masks(in: FullscreenOut) -> @location(0) vec4<f32> {
+    let px = vec2<i32>(floor(in.position.xy));
+    return canvas_sample(px).masks;
+}

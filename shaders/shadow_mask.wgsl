@@ -1,0 +1,17 @@
+// Pass 4: stencil classes into a coverage mask (full-screen). Each pipeline tests one stencil
+// class and writes 1 into one channel: r = virtual shadow on a real surface (no real shadow
+// there, the composite darkens it), b = a virtual surface without sun and a = a virtual surface
+// (their ratio is the shading pass's sun visibility), g = real shadow (tests and debugging).
+// MSAA resolve turns the per-sample classes into coverage. Paired with src/render/shadow_mask.rs.
+
+#include "common/fullscreen.wgsl"
+
+@vertex
+fn vs_main(@builtin(vertex_index) index: u32) -> @builtin(position) vec4<f32> {
+    return fullscreen_vertex(index, 0.0).position;
+}
+
+@fragment
+fn fs_main() -> @location(0) vec4<f32> {
+    return vec4<f32>(1.0);
+}

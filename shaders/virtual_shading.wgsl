@@ -1,0 +1,138 @@
+// Pass 5: the virtual objects, shaded (Jensen §3.2 step 4 and §3.3): the glTF metallic-roughness
+// response to the sun, times its visibility (the fraction of the pixel's virtual-surface samples
+// that no shadow volume covers, from the shadow-mask pass), plus ambient light from the
+// irradiance-probe grid evaluated per
+// pixel, times the objects' own ambient occlusion. Depth-tested for equality against the
+// prepass, so the real proxy hides them. Output
+// is premultiplied linear radiance with alpha 1. Paired with src/render/virtual_shading.rs.
+
+#include "common/camera.wgsl"
+#include "common/lighting.wgsl"
+#include "common/sh.wgsl"
+#include "common/brdf.wgsl"
+
+struct Material {
+    // Linear base colour factor.
+    base_color: vec4<f32>,
+    // x: metallic, y: roughness, z: 1 when the base-colour texture is used, w: unused.
+    params: vec4<f32>,
+}
+
+@group(0) @binding(0) var<uniform> camera: Camera;
+@group(0) @binding(1) var<uniform> lighting: Lighting;
+@group(0) @binding(2) var<uniform> probe_grid: ProbeGridHeader;
+// 9 coefficients per probe, rgb in xyz.
+@group(0) @binding(3) var<storage, read> probe_coeffs: array<vec4<f32>>;
+// 1 for a valid probe, 0 for one inside real geometry.
+@group(0) @binding(4) var<storage, read> probe_valid: array<u32>;
+// Per canvas pixel: the fraction of the hemisphere the virtual objects leave open (their own
+// ambient occlusion, which the probes cannot know).
+@group(0) @binding(5) var ambient_occlusion: texture_2d<f32>;
+// The resolved shadow masks (shadow_mask.wgsl): b = coverage of virtual-surface samples in some
+// shadow, a = coverage of virtual-surface samples.
+@group(0) @binding(6) var shadow_masks: texture_2d<f32>;
+
+@group(1) @binding(0) var<uniform> material: Material;
+@group(1) @binding(1) var base_color_texture: texture_2d<f32>;
+@group(1) @binding(2) var base_color_sampler: sampler;
+
+struct VertexIn {
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+}
+
+struct VertexOut {
+    @invariant @builtin(position) position: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+}
+
+@vertex
+fn vs_main(v: VertexIn) -> VertexOut {
+    var out: VertexOut;
+    out.position = clip_from_world_point(camera, vec4<f32>(v.position, 1.0));
+    out.world = v.position;
+    out.normal = v.normal;
+    out.uv = v.uv;
+    return out;
+}
+
+fn probe_sh_eval(probe: u32, d: vec3<f32>) -> vec3<f32> {
+    let y = sh_basis(d);
+    var e = vec3<f32>(0.0);
+    for (var k = 0u; k < 9u; k += 1u) {
+        e += probe_coeffs[probe * 9u + k].xyz * y[k];
+    }
+    return e;
+}
+
+// Irradiance at `p` on a surface of normal `n`: trilinear interpolation of the valid probes of the
+// surrounding cell, weights renormalised, clamped to be non-negative (ProbeGrid::irradiance).
+fn probe_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let dims = probe_grid.dims.xyz;
+    let maxc = max(vec3<f32>(dims) - vec3<f32>(1.0), vec3<f32>(0.0));
+    let g = min(max((p - probe_grid.origin.xyz) / probe_grid.origin.w, vec3<f32>(0.0)), maxc);
+    let base = min(floor(g), max(maxc - vec3<f32>(1.0), vec3<f32>(0.0)));
+    let f = g - base;
+    let b = vec3<u32>(base);
+    var e = vec3<f32>(0.0);
+    var wsum = 0.0;
+    for (var corner = 0u; corner < 8u; corner += 1u) {
+        let o = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
+        let q = min(b + o, dims - vec3<u32>(1u));
+        let i = q.x + dims.x * (q.y + dims.y * q.z);
+        if (probe_valid[i] == 0u) {
+            continue;
+        }
+        let wv = select(vec3<f32>(1.0) - f, f, o == vec3<u32>(1u));
+        let w = wv.x * wv.y * wv.z;
+        if (w <= 0.0) {
+            continue;
+        }
+        wsum += w;
+        e += w * probe_sh_eval(i, n);
+    }
+    if (wsum <= 0.0) {
+        return vec3<f32>(0.0);
+    }
+    return max(e / wsum, vec3<f32>(0.0));
+}
+
+// Ambient occlusion `visibility` raised to account for light the occluding parts reflect, for a
+// surface of `albedo` surrounded by similar ones: Jimenez et al. 2016, "Practical real-time
+// strategies for accurate indirect occlusion", cubic fit of the multi-bounce visibility.
+fn multi_bounce_ao(visibility: f32, albedo: vec3<f32>) -> vec3<f32> {
+    let a = 2.0404 * albedo - vec3<f32>(0.3324);
+    let b = -4.7951 * albedo + vec3<f32>(0.6417);
+    let c = 2.7552 * albedo + vec3<f32>(0.6903);
+    let x = vec3<f32>(visibility);
+    return max(x, ((x * a + b) * x + c) * x);
+}
+
+@fragment
+fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
+    var n = normalize(in.normal);
+    if (!front) {
+        // An open mesh seen from behind: shade the side that faces the camera.
+        n = -n;
+    }
+    let v = normalize(camera.eye_world.xyz - in.world);
+    var base = material.base_color.rgb;
+    if (material.params.z > 0.5) {
+        base *= textureSample(base_color_texture, base_color_sampler, in.uv).rgb;
+    }
+    let s = Surface(base, material.params.x, material.params.y);
+    let nv = dot(n, v);
+    let r = reflect(-v, n);
+    let px = vec2<i32>(floor(in.position.xy));
+    let ao = multi_bounce_ao(textureLoad(ambient_occlusion, px, 0).r, base);
+    var radiance = ao * ambient_radiance(s, nv, probe_irradiance(in.world, n), probe_irradiance(in.world, r));
+    if (lighting.sun_dir.w > 0.5) {
+        let m = textureLoad(shadow_masks, px, 0);
+        let visible = 1.0 - clamp(m.b / max(m.a, 1e-3), 0.0, 1.0);
+        radiance += visible * lighting.pd.rgb * brdf_cos(s, n, v, lighting.sun_dir.xyz);
+    }
+    return vec4<f32>(radiance, 1.0);
+}

@@ -1,0 +1,84 @@
+//! Pass 6 (`shaders/composite.wgsl`): the output frame in the footage's pixel grid.
+//!
+//! Reads the footage (linear), the proxy data per pixel ([`super::receivers`]), the lens warp
+//! ([`super::camera`]) and the two canvas layers, and writes linear radiance (times the
+//! lighting's output scale). The same pipeline code serves an offscreen float target and a
+//! window surface; only the target format differs.
+
+use super::RenderError;
+use super::camera::uniform_entry;
+use super::shaders;
+
+/// Texture bindings of the composite pass, in `shaders/composite.wgsl` order.
+const TEXTURE_BINDINGS: u32 = 10;
+/// The first of the bindings sampled bilinearly (the canvas layers).
+const FIRST_FILTERED: u32 = 8;
+
+/// The composite pipelines for one target format.
+pub struct Composite {
+    /// Output radiance.
+    pub composite: wgpu::RenderPipeline,
+    /// The canvas masks warped to the output grid (debug).
+    pub masks: Option<wgpu::RenderPipeline>,
+}
+
+/// Layout of the composite bind group.
+pub fn layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    let mut entries: Vec<wgpu::BindGroupLayoutEntry> = (0..TEXTURE_BINDINGS)
+        .map(|binding| {
+            // The footage-sized inputs are read with textureLoad (float formats that need not be
+            // filterable); the canvas layers are sampled bilinearly.
+            let filterable = binding >= FIRST_FILTERED;
+            wgpu::BindGroupLayoutEntry {
+                binding,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable },
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
+                count: None,
+            }
+        })
+        .collect();
+    entries.push(wgpu::BindGroupLayoutEntry {
+        binding: TEXTURE_BINDINGS,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+        count: None,
+    });
+    entries.push(uniform_entry(TEXTURE_BINDINGS + 1, wgpu::ShaderStages::FRAGMENT));
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("composite"), entries: &entries })
+}
+
+impl Composite {
+    /// Pipelines writing `format` (and, with `masks_format`, the debug mask pipeline).
+    pub fn new(
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        format: wgpu::TextureFormat,
+        masks_format: Option<wgpu::TextureFormat>,
+    ) -> Result<Self, RenderError> {
+        let module = shaders::module(device, "composite.wgsl")?;
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("composite"), bind_group_layouts: &[Some(layout)], immediate_size: 0 });
+        let make = |entry: &str, format: wgpu::TextureFormat| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&pl),
+                vertex: wgpu::VertexState { module: &module, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &[] },
+                primitive: wgpu::PrimitiveState::default(),
+                depth_stencil: None,
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    targets: &[Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        Ok(Self { composite: make("fs_composite", format), masks: masks_format.map(|f| make("fs_masks", f)) })
+    }
+}

@@ -1,0 +1,192 @@
+//! Per-frame inputs and the per-frame report of the compositor.
+
+use crate::io::frames::{Frame, Linearizer, PixelState};
+use crate::io::image::LinearImage;
+use glam::Vec3;
+use serde::Serialize;
+
+/// Rec. 709 luminance of an RGB value.
+pub fn luma(v: Vec3) -> f32 {
+    v.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
+
+/// Mirrors `Lighting` in `shaders/common/lighting.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct LightingUniform {
+    /// Toward the sun; `w` = 1 when the sun term is on.
+    pub sun_dir: [f32; 4],
+    /// `Pd`.
+    pub pd: [f32; 4],
+    /// `Pa`.
+    pub pa: [f32; 4],
+    /// Darkening model, bounce on, output scale, unused.
+    pub params: [f32; 4],
+}
+
+/// How real pixels are darkened by the virtual objects.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Darkening {
+    /// Where only a virtual shadow falls: `(c·Pa [+ b·Pd]) / (c·Pa + Pd·max(n·l,0) [+ b·Pd])`
+    /// with the proxy's normal, weighted ambient and bounce at the pixel.
+    Normal,
+    /// Jensen's single ratio `Pa / (Pa + Pd)` for every pixel under a virtual shadow.
+    Constant,
+    /// The ratio of the model's radiance with and without the virtual objects: the normal-aware
+    /// shadow, plus the sky and bounce light the objects take from real surfaces near them
+    /// (contact shadows), with `c` and `b` computed both ways.
+    #[default]
+    Differential,
+}
+
+impl Darkening {
+    /// Value of `Lighting.params.x` in the shaders.
+    pub fn shader_code(self) -> f32 {
+        match self {
+            Darkening::Normal => 0.0,
+            Darkening::Constant => 1.0,
+            Darkening::Differential => 2.0,
+        }
+    }
+}
+
+/// The lighting a frame is composited with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameLighting {
+    /// Unit direction toward the sun, world frame.
+    pub sun_dir: Vec3,
+    /// Sun is above the horizon.
+    pub above_horizon: bool,
+    /// `Pd` (RGB); zero when unknown.
+    pub pd: Vec3,
+    /// `Pa` (RGB).
+    pub pa: Vec3,
+}
+
+/// A footage frame in linear radiance, with a usable flag per pixel (`a` = 1, or 0 when clipped
+/// or invalid): the texture the composite reads.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VideoFrame {
+    /// Width.
+    pub width: u32,
+    /// Height.
+    pub height: u32,
+    /// Linear RGB and the usable flag, row-major.
+    pub rgba: Vec<[f32; 4]>,
+}
+
+impl VideoFrame {
+    /// Linearises a decoded frame.
+    pub fn from_frame(frame: &Frame, lin: &Linearizer) -> Self {
+        let rgba = (0..(frame.width * frame.height) as usize)
+            .map(|i| {
+                let (v, s) = lin.radiance(frame, i);
+                match s {
+                    PixelState::Ok => [v[0], v[1], v[2], 1.0],
+                    PixelState::Clipped => [v[0], v[1], v[2], 0.0],
+                    PixelState::Invalid => [0.0; 4],
+                }
+            })
+            .collect();
+        Self { width: frame.width, height: frame.height, rgba }
+    }
+
+    /// A frame from linear values, every pixel usable.
+    pub fn from_linear(img: &LinearImage) -> Self {
+        Self { width: img.width, height: img.height, rgba: img.data.iter().map(|p| [p[0], p[1], p[2], 1.0]).collect() }
+    }
+}
+
+/// A pass or stage left out, and why.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Skipped {
+    /// Pass name.
+    pub pass: &'static str,
+    /// Why.
+    pub reason: String,
+}
+
+/// Shadow-volume numbers of a frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct VolumeStats {
+    /// Triangles of the virtual occluders' volumes (`None` when built on the GPU and not read).
+    pub virtual_triangles: Option<usize>,
+    /// Triangles of the real occluders' volumes.
+    pub real_triangles: usize,
+    /// Parts of the real proxy that got a volume.
+    pub real_parts: usize,
+    /// Built by the compute pass instead of the CPU.
+    pub compute: bool,
+    /// Volumes and stencil results of an earlier frame reused.
+    pub reused: bool,
+}
+
+/// Where the time of a frame went, ms.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct FrameTimings {
+    /// Shadow-volume construction on the CPU (or recording the compute pass).
+    pub volume_build_ms: f64,
+    /// Per-pixel `c`/`b` of newly reached pixels.
+    pub receivers_ms: f64,
+    /// Uploads (footage, volumes, surface data, probes, uniforms).
+    pub upload_ms: f64,
+    /// Recording, submitting and waiting for the render passes.
+    pub gpu_ms: f64,
+    /// Copying the output to a buffer and mapping it.
+    pub readback_ms: f64,
+}
+
+/// The compositor's report of one frame (part of the per-frame JSON line).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct PassReport {
+    /// Passes that ran, in order.
+    pub ran: Vec<&'static str>,
+    /// Passes left out, with the reason.
+    pub skipped: Vec<Skipped>,
+    /// Sun term and shadow volumes on.
+    pub sun: bool,
+    /// Volume numbers.
+    pub volumes: VolumeStats,
+    /// Pixels whose `c`/`b` were computed this frame.
+    pub receivers_computed: usize,
+    /// Timings.
+    pub timings: FrameTimings,
+}
+
+impl PassReport {
+    /// Records a skipped pass.
+    pub fn skip(&mut self, pass: &'static str, reason: impl Into<String>) {
+        self.skipped.push(Skipped { pass, reason: reason.into() });
+    }
+    /// True when `pass` ran.
+    pub fn ran(&self, pass: &str) -> bool {
+        self.ran.contains(&pass)
+    }
+    /// The reason `pass` was skipped, if it was.
+    pub fn skip_reason(&self, pass: &str) -> Option<&str> {
+        self.skipped.iter().find(|s| s.pass == pass).map(|s| s.reason.as_str())
+    }
+}
+
+/// Pass names used in reports.
+pub mod pass {
+    /// CPU (or compute) shadow-volume construction.
+    pub const VOLUME_BUILD: &str = "volume_build";
+    /// Depth prepass.
+    pub const DEPTH_PREPASS: &str = "depth_prepass";
+    /// Real occluders' volumes and their resolve.
+    pub const REAL_VOLUMES: &str = "real_volumes";
+    /// Virtual occluders' volumes and their resolve.
+    pub const VIRTUAL_VOLUMES: &str = "virtual_volumes";
+    /// Virtual object shading.
+    pub const VIRTUAL_SHADING: &str = "virtual_shading";
+    /// Stencil classes into the coverage mask.
+    pub const SHADOW_MASK: &str = "shadow_mask";
+    /// The sun term of the virtual objects and the darkening of real pixels.
+    pub const SUN_TERM: &str = "sun_term";
+    /// The output frame.
+    pub const COMPOSITE: &str = "composite";
+    /// Copy to the CPU.
+    pub const READBACK: &str = "readback";
+}

@@ -1,0 +1,97 @@
+//! The GPU compositor: virtual objects merged into outdoor footage, lit by the estimated sun and
+//! sky, shadowed by real things and casting shadows onto the real ground (Jensen §3.2–3.4, §5).
+//!
+//! # How it works
+//! Per frame, [`Compositor::render`] takes the footage (linear radiance), the sun direction and
+//! the estimated `Pd`, `Pa`; a [`ProbeGrid`](crate::irradiance::ProbeGrid) holds the ambient
+//! light ([`probes`]). The passes, each a `src/render/<pass>.rs` beside `shaders/<pass>.wgsl`:
+//!
+//! | pass | what it does |
+//! |---|---|
+//! | [`depth_prepass`] | real proxy and virtual objects into depth (never in colour) |
+//! | [`shadow_volume`] + [`stencil`] | z-fail shadow volumes of the directional sun, real parts down, virtual up, each resolved to a flag |
+//! | [`shadow_mask`] | samples in virtual but not real shadow, and virtual-surface samples in any shadow, as MSAA coverage |
+//! | [`virtual_shading`] | glTF metallic–roughness sun term times the unshadowed fraction, SH ambient per pixel times self-occlusion |
+//! | [`composite`] | in the footage's own pixel grid: lens warp of the canvas layers, footage darkened with the proxy's normal and `c` (and `c_v`, `b_v` with the objects present: contact shadows) |
+//!
+//! Volumes come from [`occluder`] (welded adjacency, closed or not) and [`volume`] (rayon) or
+//! [`volume_compute`] (a compute pass); [`reach`] decides which real parts need one;
+//! [`receivers`] holds the proxy's per-pixel normal, `c` and `b`; [`occlusion`] the objects' own
+//! ambient occlusion; [`camera`] the undistorted
+//! canvas and the lens warp; [`output`] writes frames with the camera's response; [`target`]
+//! the window surface that shares all of the above.
+//!
+//! Conventions are the crate's: world +Y up, metres; OpenCV camera; linear scene radiance with
+//! `L = ρ/π·(c·Pa + s·Pd·max(n·l,0) [+ b·Pd])`.
+
+pub mod camera;
+pub mod composite;
+pub mod compositor;
+pub mod depth_prepass;
+pub mod frame;
+pub mod gpu;
+pub mod mesh;
+pub mod occluder;
+pub mod occlusion;
+pub mod output;
+pub mod probes;
+pub mod reach;
+pub mod receivers;
+pub mod shaders;
+pub mod shadow_mask;
+pub mod shadow_volume;
+pub mod stencil;
+pub mod target;
+pub mod virtual_shading;
+pub mod volume;
+pub mod volume_compute;
+
+pub use compositor::{Builder, Compositor, CompositorConfig, RenderedFrame, SceneParts};
+pub use frame::{Darkening, FrameLighting, PassReport, VideoFrame};
+pub use gpu::{Gpu, GpuOptions};
+
+/// Errors of the compositor.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// No GPU adapter (hardware or Mesa's software ones) could be opened.
+    #[error("no GPU adapter: {0} (install Mesa: `apt-get install -y mesa-vulkan-drivers`, or set WGPU_BACKEND=gl)")]
+    NoAdapter(String),
+    /// The adapter refused to open a device.
+    #[error("could not open the GPU device: {0}")]
+    NoDevice(String),
+    /// The device failed while working.
+    #[error("GPU device error: {0}")]
+    Device(String),
+    /// A shader file is missing or its includes are broken.
+    #[error("shaders/{name}: {message}")]
+    Shader {
+        /// The shader file under `shaders/`.
+        name: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A frame does not have the camera's size.
+    #[error("frame is {}×{} but the camera is {}×{}", got.0, got.1, want.0, want.1)]
+    FrameSize {
+        /// Frame size.
+        got: (u32, u32),
+        /// Camera size.
+        want: (u32, u32),
+    },
+    /// A buffer would exceed the device's limit.
+    #[error("{what} needs {bytes} bytes, more than the device allows ({limit})")]
+    TooLarge {
+        /// What.
+        what: String,
+        /// Bytes needed.
+        bytes: u64,
+        /// The limit.
+        limit: u64,
+    },
+    /// An output file could not be written.
+    #[error(transparent)]
+    Io(#[from] crate::io::IoError),
+    /// A window surface problem.
+    #[error("window surface: {0}")]
+    Surface(String),
+}

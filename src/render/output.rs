@@ -1,0 +1,211 @@
+//! Composited frames to files, through the camera's response so that virtual parts match the
+//! footage (Jensen's output is the augmented video itself).
+//!
+//! # How it works
+//! The composite is scene radiance. For an LDR file it becomes camera codes the way the camera
+//! made the footage: times the exposure, through the inverse response (sRGB, gamma, linear or
+//! the calibrated table), clipped at full scale, quantised to the input's bit depth. Pixels the
+//! composite left exactly as they came in keep their original codes, so untouched footage is
+//! bit-identical. An EXR file holds camera-linear values (radiance × exposure, the units of the
+//! input EXR frames).
+
+use crate::io::IoError;
+use crate::io::frames::{Frame, FrameData, Response};
+use crate::io::image::{ExrPrecision, LinearImage, srgb_from_linear};
+use crate::scene::Photometry;
+use std::path::Path;
+
+use super::frame::VideoFrame;
+
+/// Output file kinds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OutputKind {
+    /// PNG through the camera response (8 or 16 bits, as the input).
+    Png,
+    /// OpenEXR, camera-linear, half floats.
+    Exr,
+}
+
+impl OutputKind {
+    /// File extension.
+    pub fn extension(self) -> &'static str {
+        match self {
+            OutputKind::Png => "png",
+            OutputKind::Exr => "exr",
+        }
+    }
+}
+
+/// The normalised code in `[0, 1]` of a relative linear camera value, inverting `response`.
+pub fn code_from_linear(response: &Response, x: f32, channel: usize) -> f32 {
+    let x = if x.is_nan() { 0.0 } else { x.max(0.0) };
+    match response {
+        Response::Srgb => srgb_from_linear(x.min(1.0)),
+        Response::Linear => x.min(1.0),
+        Response::Gamma(g) => x.min(1.0).powf(1.0 / g),
+        Response::Table(t) => {
+            let col = |i: usize| t[i][channel];
+            let n = t.len();
+            if x <= col(0) {
+                return 0.0;
+            }
+            if x >= col(n - 1) {
+                return 1.0;
+            }
+            // First row at or above x (the table is monotone non-decreasing).
+            let hi = (0..n).find(|&i| col(i) >= x).unwrap_or(n - 1).max(1);
+            let (a, b) = (col(hi - 1), col(hi));
+            let f = if b > a { (x - a) / (b - a) } else { 0.0 };
+            ((hi - 1) as f32 + f) / (n - 1) as f32
+        }
+    }
+}
+
+/// Writes `image` (scene radiance) to `path`. `input` is the decoded footage frame and `video`
+/// its linearisation: pixels where `image` equals `video` (within the relative `precision` of
+/// the GPU output) keep the input's codes (LDR) or values (HDR).
+pub fn write_frame(
+    path: &Path,
+    kind: OutputKind,
+    image: &LinearImage,
+    precision: f32,
+    video: &VideoFrame,
+    input: &Frame,
+    photometry: &Photometry,
+) -> Result<(), IoError> {
+    let (w, h) = (image.width, image.height);
+    let same = |i: usize| {
+        let (o, v) = (image.data[i], video.rgba[i]);
+        (0..3).all(|c| (o[c] - v[c]).abs() <= precision * v[c].abs())
+    };
+    match kind {
+        OutputKind::Exr => {
+            let mut out = LinearImage::new(w, h);
+            for i in 0..out.data.len() {
+                out.data[i] = match (&input.data, same(i)) {
+                    (FrameData::Hdr(img), true) => img.data[i],
+                    _ => image.data[i].map(|c| c * photometry.exposure),
+                };
+            }
+            out.write_exr(path, ExrPrecision::Half)
+        }
+        OutputKind::Png => {
+            let (bits, codes) = match &input.data {
+                FrameData::Ldr { bits, codes } => (*bits, Some(codes)),
+                FrameData::Hdr(_) => (8, None),
+            };
+            let max = if bits == 16 { 65535.0 } else { 255.0 };
+            let mut out: Vec<u16> = Vec::with_capacity((w * h * 3) as usize);
+            for i in 0..(w * h) as usize {
+                match codes {
+                    Some(c) if same(i) => out.extend_from_slice(&c[3 * i..3 * i + 3]),
+                    _ => {
+                        for ch in 0..3 {
+                            let e = code_from_linear(&photometry.response, image.data[i][ch] * photometry.exposure, ch);
+                            out.push((e * max + 0.5).floor().clamp(0.0, max) as u16);
+                        }
+                    }
+                }
+            }
+            let res = if bits == 16 {
+                let bytes: Vec<u8> = out.iter().flat_map(|v| v.to_be_bytes()).collect();
+                ::image::save_buffer(path, &bytes, w, h, ::image::ExtendedColorType::Rgb16)
+            } else {
+                let bytes: Vec<u8> = out.iter().map(|&v| v as u8).collect();
+                ::image::save_buffer(path, &bytes, w, h, ::image::ExtendedColorType::Rgb8)
+            };
+            res.map_err(|source| IoError::Png { path: path.to_owned(), source })
+        }
+    }
+}
+
+/// An 8-bit RGB image for contact sheets.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rgb8 {
+    /// Width.
+    pub width: u32,
+    /// Height.
+    pub height: u32,
+    /// RGB bytes, row-major.
+    pub data: Vec<u8>,
+}
+
+impl Rgb8 {
+    /// `image` through the camera response, as the PNG output would encode it.
+    pub fn from_radiance(image: &LinearImage, photometry: &Photometry) -> Self {
+        let data = image
+            .data
+            .iter()
+            .flat_map(|p| (0..3).map(move |c| (code_from_linear(&photometry.response, p[c] * photometry.exposure, c) * 255.0 + 0.5).floor().clamp(0.0, 255.0) as u8))
+            .collect();
+        Self { width: image.width, height: image.height, data }
+    }
+
+    /// Box-filtered down to at most `max_width` pixels wide.
+    pub fn shrink_to(&self, max_width: u32) -> Self {
+        let k = self.width.div_ceil(max_width.max(1)).max(1);
+        if k == 1 {
+            return self.clone();
+        }
+        let (w, h) = (self.width / k, self.height / k);
+        let mut data = Vec::with_capacity((w * h * 3) as usize);
+        for y in 0..h {
+            for x in 0..w {
+                for c in 0..3 {
+                    let mut s = 0u32;
+                    for dy in 0..k {
+                        for dx in 0..k {
+                            s += self.data[(((y * k + dy) * self.width + x * k + dx) * 3 + c) as usize] as u32;
+                        }
+                    }
+                    data.push((s / (k * k)) as u8);
+                }
+            }
+        }
+        Self { width: w, height: h, data }
+    }
+}
+
+/// Tiles `images` (all the same size) into a grid `columns` wide with `gap` white pixels between
+/// them, and writes it as PNG.
+pub fn write_contact_sheet(path: &Path, images: &[Rgb8], columns: u32, gap: u32) -> Result<(), IoError> {
+    let Some(first) = images.first() else { return Ok(()) };
+    let (tw, th) = (first.width, first.height);
+    let cols = columns.clamp(1, images.len() as u32);
+    let rows = (images.len() as u32).div_ceil(cols);
+    let (w, h) = (cols * tw + (cols - 1) * gap, rows * th + (rows - 1) * gap);
+    let mut data = vec![255u8; (w * h * 3) as usize];
+    for (k, img) in images.iter().enumerate() {
+        let (cx, cy) = ((k as u32 % cols) * (tw + gap), (k as u32 / cols) * (th + gap));
+        for y in 0..th.min(img.height) {
+            let src = (y * img.width * 3) as usize;
+            let dst = (((cy + y) * w + cx) * 3) as usize;
+            let n = (tw.min(img.width) * 3) as usize;
+            data[dst..dst + n].copy_from_slice(&img.data[src..src + n]);
+        }
+    }
+    ::image::save_buffer(path, &data, w, h, ::image::ExtendedColorType::Rgb8).map_err(|source| IoError::Png { path: path.to_owned(), source })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::frames::Response;
+
+    #[test]
+    fn inverse_responses_round_trip() {
+        let table = Response::Table(vec![[0.0; 3], [0.1, 0.2, 0.3], [0.5, 0.5, 0.6], [1.0; 3]]);
+        for r in [Response::Srgb, Response::Linear, Response::Gamma(2.2), table] {
+            for ch in 0..3 {
+                for k in 0..=20 {
+                    let e = k as f32 / 20.0;
+                    let back = code_from_linear(&r, r.linear(e, ch), ch);
+                    assert!((back - e).abs() < 1e-4, "{r:?} ch {ch}: {e} -> {back}");
+                }
+            }
+        }
+        assert!((code_from_linear(&Response::Srgb, 7.0, 0) - 1.0).abs() < 1e-6);
+        assert_eq!(code_from_linear(&Response::Srgb, f32::NAN, 0), 0.0);
+    }
+}

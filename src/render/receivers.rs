@@ -1,0 +1,263 @@
+//! What the footage shows at each pixel, as far as the real proxy knows: the surface point, its
+//! normal, albedo, weighted-ambient factor `c` and sun bounce `b`, and the same two factors with
+//! the virtual objects standing in the scene (`c_v`, `b_v`). The composite pass needs them to
+//! darken real pixels under a virtual shadow with the right ratio (Jensen §3.2 step 3 notes that
+//! the surface normal is needed; §4.1 defines `c`), and, with the differential model, to darken
+//! the sky light and bounce the virtual objects take from real surfaces near them.
+//!
+//! # How it works
+//! One ray per footage pixel (through the lens model) against the proxy gives the point, the
+//! normal facing the camera and the albedo; this is cheap and done once per camera. `c` and `b`
+//! are path-traced integrals ([`crate::geometry::ambient::transport`], the same the estimator
+//! uses), too costly for every pixel, so they are computed only for the pixels a virtual shadow
+//! can reach or near the virtual objects (the caller passes them) and cached: `c` and `c_v` for
+//! good, `b`, `b_v` and the real sun visibility `s` until the sun has moved more than the
+//! estimator's `sun_rebuild_deg`. Pixels not computed hold `c = 1`, `b = 0` and no `c_v`.
+
+use crate::geometry::ambient::{TransportQuality, transport};
+use crate::geometry::raycast::RayScene;
+use crate::scene::camera::Camera;
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// Per-pixel proxy data of the footage.
+#[derive(Clone, Debug)]
+pub struct Receivers {
+    /// Footage width.
+    pub width: u32,
+    /// Footage height.
+    pub height: u32,
+    /// Surface point (world) per pixel; `None` where the pixel sees no proxy surface.
+    pub point: Vec<Option<Vec3>>,
+    /// Unit normal facing the camera, `w = 1` where there is a surface (texture layout).
+    pub normal: Vec<[f32; 4]>,
+    /// Diffuse albedo (texture layout).
+    pub albedo: Vec<[f32; 4]>,
+    /// Weighted-ambient factor `c`, and in `w` the real sun visibility `s` as the sunlit fraction
+    /// of the pixel (texture layout).
+    pub ambient: Vec<[f32; 4]>,
+    /// Sun-bounce factor `b` for [`Receivers::bounce_sun`] (texture layout).
+    pub bounce: Vec<[f32; 4]>,
+    /// `c_v`: `c` with the virtual objects in the scene; `w` = 1 where computed.
+    pub ambient_with: Vec<[f32; 4]>,
+    /// `b_v`: `b` with the virtual objects in the scene.
+    pub bounce_with: Vec<[f32; 4]>,
+    /// Pixels whose `c` has been computed.
+    have_ambient: Vec<bool>,
+    /// Pixels whose `b` has been computed for `bounce_sun`.
+    have_bounce: Vec<bool>,
+    /// Sun direction the bounce values belong to.
+    pub bounce_sun: Option<Vec3>,
+    /// Seed of the integrals.
+    seed: u64,
+    /// The camera (for sub-pixel rays).
+    camera: Camera,
+}
+
+/// Sub-pixel rays per axis for the sunlit fraction of a pixel (a pixel on a real shadow's edge is
+/// partly lit in the footage; the differential model darkens exactly that part).
+const LIT_SUBPIXELS: u32 = 4;
+
+/// The fraction of pixel `p` (footage grid) whose first proxy surface sees the sun `l`.
+fn lit_fraction(camera: &Camera, proxy: &RayScene, p: u32, l: Vec3) -> f32 {
+    let w = camera.intrinsics.width;
+    let (col, row) = ((p % w) as f64, (p / w) as f64);
+    let n = LIT_SUBPIXELS;
+    let mut lit = 0;
+    for k in 0..n * n {
+        let uv = glam::DVec2::new(col + ((k % n) as f64 + 0.5) / n as f64 - 0.5, row + ((k / n) as f64 + 0.5) / n as f64 - 0.5);
+        let Some((o, d)) = camera.ray_at(uv) else { continue };
+        if let Some(hit) = proxy.intersect(o.as_vec3(), d.as_vec3(), f32::MAX)
+            && hit.normal.dot(l) > 0.0
+            && proxy.sees_direction(hit.point, hit.normal, l)
+        {
+            lit += 1;
+        }
+    }
+    lit as f32 / (n * n) as f32
+}
+
+/// What one [`Receivers::ensure`] call computed.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EnsureStats {
+    /// Pixels whose `c` (and `b`) were computed now.
+    pub computed: usize,
+    /// True when the cached `b` was dropped because the sun moved.
+    pub bounce_reset: bool,
+    /// Time spent, ms.
+    pub ms: f64,
+}
+
+impl Receivers {
+    /// Casts the primary rays of `camera` against `proxy`.
+    pub fn new(camera: &Camera, proxy: &RayScene, seed: u64) -> Self {
+        let (w, h) = (camera.intrinsics.width, camera.intrinsics.height);
+        let hits: Vec<Option<(Vec3, Vec3, Vec3)>> = (0..w * h)
+            .into_par_iter()
+            .map(|i| {
+                let (o, d) = camera.pixel_ray(i % w, i / w)?;
+                let hit = proxy.intersect(o.as_vec3(), d.as_vec3(), f32::MAX)?;
+                Some((hit.point, hit.normal, proxy.albedo(&hit)))
+            })
+            .collect();
+        let n = hits.len();
+        Self {
+            width: w,
+            height: h,
+            point: hits.iter().map(|h| h.map(|h| h.0)).collect(),
+            normal: hits.iter().map(|h| h.map_or([0.0; 4], |h| [h.1.x, h.1.y, h.1.z, 1.0])).collect(),
+            albedo: hits.iter().map(|h| h.map_or([0.0; 4], |h| [h.2.x, h.2.y, h.2.z, 1.0])).collect(),
+            ambient: vec![[1.0, 1.0, 1.0, 1.0]; n],
+            bounce: vec![[0.0; 4]; n],
+            ambient_with: vec![[1.0, 1.0, 1.0, 0.0]; n],
+            bounce_with: vec![[0.0; 4]; n],
+            have_ambient: vec![false; n],
+            have_bounce: vec![false; n],
+            bounce_sun: None,
+            seed,
+            camera: camera.clone(),
+        }
+    }
+
+    /// Makes sure `c` (and, with `sun` given, `b` and `s` for that sun) is known at `pixels`,
+    /// and, when `with` (the proxy and the virtual objects together) is given, `c_v` and `b_v`
+    /// too. The cached sun-dependent values are dropped when the sun moved by more than
+    /// `rebuild_deg`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn ensure(
+        &mut self,
+        proxy: &RayScene,
+        with: Option<&RayScene>,
+        pixels: &[u32],
+        sun: Option<Vec3>,
+        ambient_quality: TransportQuality,
+        bounce_quality: TransportQuality,
+        rebuild_deg: f64,
+    ) -> EnsureStats {
+        let t = std::time::Instant::now();
+        let mut stats = EnsureStats::default();
+        if let Some(l) = sun {
+            let moved = self.bounce_sun.is_none_or(|s| (s.dot(l).clamp(-1.0, 1.0).acos().to_degrees() as f64) > rebuild_deg);
+            if moved {
+                self.have_bounce.iter_mut().for_each(|b| *b = false);
+                self.bounce.iter_mut().for_each(|b| *b = [0.0; 4]);
+                self.bounce_with.iter_mut().for_each(|b| *b = [0.0; 4]);
+                self.bounce_sun = Some(l);
+                stats.bounce_reset = true;
+            }
+        }
+        let bounce_sun = sun.and(self.bounce_sun);
+        let with_ready = |i: usize| with.is_none() || self.ambient_with[i][3] > 0.0;
+        let todo: Vec<u32> = pixels
+            .iter()
+            .copied()
+            .filter(|&p| {
+                let i = p as usize;
+                i < self.point.len()
+                    && self.point[i].is_some()
+                    && (!self.have_ambient[i] || !with_ready(i) || (bounce_sun.is_some() && !self.have_bounce[i]))
+            })
+            .collect();
+        let seed = self.seed;
+        type Row = (u32, Vec3, Vec3, f32, Option<(Vec3, Vec3)>);
+        let results: Vec<Row> = todo
+            .par_iter()
+            .filter_map(|&p| {
+                let i = p as usize;
+                let point = self.point[i]?;
+                let n = Vec3::new(self.normal[i][0], self.normal[i][1], self.normal[i][2]);
+                let q = if bounce_sun.is_some() { bounce_quality } else { ambient_quality };
+                let pixel_seed = seed ^ (p as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+                let tr = transport(proxy, point, n, bounce_sun, q, pixel_seed);
+                let lit = bounce_sun.map_or(0.0, |l| lit_fraction(&self.camera, proxy, p, l));
+                // Same seed with and without the objects: the difference is then mostly the
+                // objects', not Monte Carlo noise.
+                let tv = with.map(|w| {
+                    let t = transport(w, point, n, bounce_sun, q, pixel_seed);
+                    (t.c, t.b)
+                });
+                Some((p, tr.c, tr.b, lit, tv))
+            })
+            .collect();
+        for (p, c, b, lit, tv) in results {
+            let i = p as usize;
+            self.ambient[i] = [c.x, c.y, c.z, lit];
+            self.have_ambient[i] = true;
+            if bounce_sun.is_some() {
+                self.bounce[i] = [b.x, b.y, b.z, 1.0];
+                self.have_bounce[i] = true;
+            }
+            if let Some((cv, bv)) = tv {
+                self.ambient_with[i] = [cv.x, cv.y, cv.z, 1.0];
+                self.bounce_with[i] = [bv.x, bv.y, bv.z, 1.0];
+            }
+        }
+        stats.computed = todo.len();
+        stats.ms = t.elapsed().as_secs_f64() * 1e3;
+        stats
+    }
+
+    /// Pixels whose surface point lies within `radius_m` of one of the boxes `bounds`, where a
+    /// virtual object takes a noticeable part of the sky and bounce light.
+    pub fn near(&self, bounds: &[(Vec3, Vec3)], radius_m: f32) -> Vec<u32> {
+        (0..self.point.len() as u32)
+            .into_par_iter()
+            .filter(|&i| self.point[i as usize].is_some_and(|p| bounds.iter().any(|(lo, hi)| (p.clamp(*lo, *hi) - p).length() <= radius_m)))
+            .collect()
+    }
+
+    /// Pixels whose surface point lies in the region swept from the boxes `bounds` away from
+    /// the sun `l` (where their shadows can fall), grown by `grow_px` pixels.
+    pub fn in_shadow_reach(&self, bounds: &[(Vec3, Vec3)], l: Vec3, grow_px: u32) -> Vec<u32> {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let hit: Vec<bool> = self.point.par_iter().map(|p| p.is_some_and(|p| bounds.iter().any(|b| swept_box_contains(*b, l, p)))).collect();
+        let g = grow_px as i64;
+        (0..(w * h) as u32)
+            .into_par_iter()
+            .filter(|&i| {
+                let (x, y) = (i as i64 % w, i as i64 / w);
+                (-g..=g).any(|dy| (-g..=g).any(|dx| {
+                    let (xx, yy) = (x + dx, y + dy);
+                    xx >= 0 && yy >= 0 && xx < w && yy < h && hit[(yy * w + xx) as usize]
+                }))
+            })
+            .collect()
+    }
+}
+
+/// Whether `p` lies in the box `(lo, hi)` or in its shadow sweep along `−l`: moving from `p`
+/// toward the sun, does the ray pass through the box?
+pub fn swept_box_contains((lo, hi): (Vec3, Vec3), l: Vec3, p: Vec3) -> bool {
+    // Slab test of the ray p + t·l, t ≥ 0.
+    let (mut t0, mut t1) = (0.0f32, f32::MAX);
+    for a in 0..3 {
+        if l[a].abs() < 1e-12 {
+            if p[a] < lo[a] || p[a] > hi[a] {
+                return false;
+            }
+        } else {
+            let (ta, tb) = ((lo[a] - p[a]) / l[a], (hi[a] - p[a]) / l[a]);
+            t0 = t0.max(ta.min(tb));
+            t1 = t1.min(ta.max(tb));
+        }
+    }
+    t0 <= t1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn swept_box() {
+        let b = (Vec3::ZERO, Vec3::ONE);
+        let l = Vec3::new(0.0, 1.0, 0.0);
+        assert!(swept_box_contains(b, l, Vec3::new(0.5, -3.0, 0.5)));
+        assert!(swept_box_contains(b, l, Vec3::new(0.5, 0.5, 0.5)));
+        assert!(!swept_box_contains(b, l, Vec3::new(0.5, 3.0, 0.5)));
+        assert!(!swept_box_contains(b, l, Vec3::new(1.5, -3.0, 0.5)));
+        let l = Vec3::new(1.0, 1.0, 0.0).normalize();
+        assert!(swept_box_contains(b, l, Vec3::new(-1.5, -1.5, 0.5)));
+        assert!(!swept_box_contains(b, l, Vec3::new(1.5, -1.5, 0.5)));
+    }
+}

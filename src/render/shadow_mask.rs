@@ -1,0 +1,87 @@
+//! Pass 4 (`shaders/shadow_mask.wgsl`): stencil classes into a coverage mask on the canvas.
+//!
+//! `r`: virtual shadow on a real surface where no real shadow is, the samples the composite
+//! darkens; `b`: a virtual surface in some shadow, and `a`: a virtual surface, whose ratio is the
+//! sun visibility the shading pass uses; `g`: real shadow, drawn only when debug masks are asked
+//! for (tests compare all four with ray-traced references). The MSAA resolve turns per-sample
+//! classes into per-pixel coverage.
+
+use super::RenderError;
+use super::gpu::MASK_FORMAT;
+use super::shaders;
+use super::stencil::{REAL_SHADOW, VIRTUAL_SHADOW, VIRTUAL_SURFACE, test};
+
+/// One mask pipeline: a stencil test and the channel it writes.
+pub struct MaskDraw {
+    /// The pipeline.
+    pub pipeline: wgpu::RenderPipeline,
+    /// Its stencil reference.
+    pub reference: u32,
+}
+
+/// The mask pipelines.
+pub struct ShadowMask {
+    /// `r`: exactly [`VIRTUAL_SHADOW`].
+    pub virtual_on_real: MaskDraw,
+    /// `b` (two draws) and `a`.
+    pub virtual_surface: Vec<MaskDraw>,
+    /// Debug channel `g`.
+    pub debug: Vec<MaskDraw>,
+}
+
+impl ShadowMask {
+    /// Builds the pipelines.
+    pub fn new(device: &wgpu::Device, depth_format: wgpu::TextureFormat, samples: u32) -> Result<Self, RenderError> {
+        let module = shaders::module(device, "shadow_mask.wgsl")?;
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("shadow mask"), bind_group_layouts: &[], immediate_size: 0 });
+        let make = |label: &str, read_mask: u32, reference: u32, channel: wgpu::ColorWrites| MaskDraw {
+            pipeline: device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState { module: &module, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &[] },
+                primitive: wgpu::PrimitiveState::default(),
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: depth_format,
+                    depth_write_enabled: Some(false),
+                    depth_compare: Some(wgpu::CompareFunction::Always),
+                    stencil: wgpu::StencilState {
+                        front: test(wgpu::CompareFunction::Equal),
+                        back: test(wgpu::CompareFunction::Equal),
+                        read_mask,
+                        write_mask: 0,
+                    },
+                    bias: Default::default(),
+                }),
+                multisample: wgpu::MultisampleState { count: samples, ..Default::default() },
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some("fs_main"),
+                    compilation_options: Default::default(),
+                    targets: &[Some(wgpu::ColorTargetState { format: MASK_FORMAT, blend: None, write_mask: channel })],
+                }),
+                multiview_mask: None,
+                cache: None,
+            }),
+            reference,
+        };
+        Ok(Self {
+            virtual_on_real: make("mask virtual shadow on real", 0xff, VIRTUAL_SHADOW, wgpu::ColorWrites::RED),
+            virtual_surface: vec![
+                make("mask virtual surface in real shadow", VIRTUAL_SURFACE | REAL_SHADOW, VIRTUAL_SURFACE | REAL_SHADOW, wgpu::ColorWrites::BLUE),
+                make("mask virtual surface in virtual shadow", VIRTUAL_SURFACE | VIRTUAL_SHADOW, VIRTUAL_SURFACE | VIRTUAL_SHADOW, wgpu::ColorWrites::BLUE),
+                make("mask virtual surface", VIRTUAL_SURFACE, VIRTUAL_SURFACE, wgpu::ColorWrites::ALPHA),
+            ],
+            debug: vec![make("mask real shadow", REAL_SHADOW, REAL_SHADOW, wgpu::ColorWrites::GREEN)],
+        })
+    }
+
+    /// Records the draws (the debug one when `debug`).
+    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, debug: bool) {
+        let draws = std::iter::once(&self.virtual_on_real).chain(&self.virtual_surface).chain(self.debug.iter().filter(|_| debug));
+        for d in draws {
+            pass.set_pipeline(&d.pipeline);
+            pass.set_stencil_reference(d.reference);
+            pass.draw(0..3, 0..1);
+        }
+    }
+}

@@ -1,0 +1,10 @@
+//! GPU compositor tests, headless on whatever adapter wgpu finds (Mesa's lavapipe through Vulkan,
+//! or llvmpipe through GL). Every comparison is against an independent CPU reference, never
+//! against the compositor itself.
+
+mod courtyard;
+mod robust;
+mod shading;
+mod shadows;
+mod skip;
+mod support;

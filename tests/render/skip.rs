@@ -1,0 +1,121 @@
+//! The skip logic: every pass a frame does not need is left out with a reason, and leaving it
+//! out does not change the picture.
+
+use crate::support::*;
+use glam::Vec3;
+use heliar::geometry::{Material, Mesh};
+use heliar::render::frame::pass;
+use heliar::render::{CompositorConfig, FrameLighting, VideoFrame};
+
+fn video(w: u32, h: u32) -> VideoFrame {
+    // A gradient, so that pass-through is checked pixel by pixel.
+    VideoFrame { width: w, height: h, rgba: (0..w * h).map(|i| [0.1 + (i % w) as f32 * 1e-3, 0.2 + (i / w) as f32 * 1e-3, 0.3, 1.0]).collect() }
+}
+
+fn statue_near_wall() -> Vec<(String, Mesh)> {
+    vec![("sphere".into(), icosphere(Vec3::new(-1.9, 0.85, 0.0), 0.35, 2, Material::diffuse("red", [0.6, 0.12, 0.08]), "sphere"))]
+}
+
+fn setup(objects: Vec<(String, Mesh)>) -> Setup {
+    Setup { camera: camera([1.5, 1.6, 5.0], [-1.2, 0.4, 0.2], 160, 120, [0.0; 5]), proxy: yard_proxy(), objects }
+}
+
+fn lighting(sun: Vec3, pd: f32) -> FrameLighting {
+    FrameLighting { sun_dir: sun, above_horizon: sun.y > 0.0, pd: Vec3::splat(pd), pa: Vec3::new(0.55, 0.62, 0.8) }
+}
+
+fn config() -> CompositorConfig {
+    let mut c = CompositorConfig::for_estimator(&Default::default());
+    c.debug_masks = true;
+    c
+}
+
+#[test]
+fn no_sun_means_no_volumes_and_no_sun_term() {
+    let s = setup(statue_near_wall());
+    // The normal-aware model changes nothing without sun (the differential one still darkens
+    // the sky light the objects take, which is right but not what this test is about).
+    let mut c = config();
+    c.darkening = heliar::render::Darkening::Normal;
+    let mut comp = s.compositor(c);
+    let v = video(160, 120);
+    for (l, why) in [(lighting(Vec3::new(-0.5, -0.1, 0.4).normalize(), 3.0), "below the horizon"), (lighting(courtyard_sun(), 0.01), "Pd ≈ 0")] {
+        comp.invalidate();
+        let (frame, r) = comp.render(&v, &l).unwrap();
+        assert!(!r.sun);
+        for p in [pass::VOLUME_BUILD, pass::REAL_VOLUMES, pass::VIRTUAL_VOLUMES, pass::SUN_TERM] {
+            let reason = r.skip_reason(p).unwrap_or_else(|| panic!("{p} not skipped: {r:?}"));
+            assert!(reason.contains(why), "{p}: {reason}");
+        }
+        assert!(r.ran(pass::DEPTH_PREPASS) && r.ran(pass::VIRTUAL_SHADING) && r.ran(pass::COMPOSITE));
+        // No real pixel is darkened.
+        let masks = frame.masks.unwrap();
+        for (i, px) in frame.image.data.iter().enumerate() {
+            if masks[i][3] == 0 {
+                let same = (0..3).all(|c| (px[c] - v.rgba[i][c]).abs() <= frame.precision * v.rgba[i][c]);
+                assert!(same, "pixel {i} changed without sun: {px:?} vs {:?}", v.rgba[i]);
+            }
+        }
+    }
+}
+
+#[test]
+fn no_real_occluder_in_reach_means_no_real_volume_pass() {
+    // A ball out in the open, south-west of the wall, toward the sun: the wall's shadow reaches
+    // neither the ball nor the ground its shadow falls on.
+    let s = setup(vec![("ball".into(), icosphere(Vec3::new(1.0, 0.4, 2.5), 0.4, 2, Material::diffuse("b", [0.5; 3]), "ball"))]);
+    let mut comp = s.compositor(config());
+    let (_, r) = comp.render(&video(160, 120), &lighting(courtyard_sun(), 3.0)).unwrap();
+    assert!(r.ran(pass::VIRTUAL_VOLUMES), "{r:?}");
+    let reason = r.skip_reason(pass::REAL_VOLUMES).unwrap_or_else(|| panic!("real volumes ran: {r:?}"));
+    assert!(reason.contains("no part of the real proxy"), "{reason}");
+    assert_eq!(r.volumes.real_parts, 0);
+    // The statue by the wall needs the wall's volume.
+    let mut comp = setup(statue_near_wall()).compositor(config());
+    let (_, r) = comp.render(&video(160, 120), &lighting(courtyard_sun(), 3.0)).unwrap();
+    assert!(r.ran(pass::REAL_VOLUMES) && r.volumes.real_parts == 1, "{r:?}");
+}
+
+#[test]
+fn unchanged_sun_reuses_volumes_and_stencil_with_the_same_picture() {
+    let s = setup(statue_near_wall());
+    let v = video(160, 120);
+    let sun = courtyard_sun();
+    let mut comp = s.compositor(config());
+    let (first, r1) = comp.render(&v, &lighting(sun, 3.0)).unwrap();
+    assert!(r1.ran(pass::VOLUME_BUILD) && !r1.volumes.reused);
+    // A cloud dims the sun: volumes and stencil are reused, shading reruns, and the picture is
+    // the one a fresh compositor draws.
+    let (second, r2) = comp.render(&v, &lighting(sun, 1.5)).unwrap();
+    assert!(r2.volumes.reused, "{r2:?}");
+    for p in [pass::VOLUME_BUILD, pass::DEPTH_PREPASS, pass::REAL_VOLUMES, pass::VIRTUAL_VOLUMES, pass::SHADOW_MASK] {
+        assert!(r2.skip_reason(p).is_some_and(|r| r.contains("reused")), "{p}: {r2:?}");
+    }
+    assert!(r2.ran(pass::VIRTUAL_SHADING) && r2.ran(pass::SUN_TERM));
+    assert!(first.masks == second.masks);
+    let mut fresh = s.compositor(config());
+    let (want, _) = fresh.render(&v, &lighting(sun, 1.5)).unwrap();
+    let differ = want.image.data.iter().zip(&second.image.data).filter(|(a, b)| a != b).count();
+    assert_eq!(differ, 0, "{differ} pixels differ from a fresh compositor's");
+    assert!(first.image.data != second.image.data, "the dimmer sun changed nothing");
+    // The sun moves by 0.01°: still reused.
+    let moved = (sun + Vec3::new(1.7e-4, 0.0, 0.0)).normalize();
+    let (_, r3) = comp.render(&v, &lighting(moved, 1.5)).unwrap();
+    assert!(r3.volumes.reused, "{r3:?}");
+    // A sun that moved more than the tolerance rebuilds.
+    let far = (sun + Vec3::new(0.01, 0.0, 0.0)).normalize();
+    let (_, r4) = comp.render(&v, &lighting(far, 1.5)).unwrap();
+    assert!(r4.ran(pass::VOLUME_BUILD) && !r4.volumes.reused, "{r4:?}");
+}
+
+#[test]
+fn no_virtual_objects_pass_the_footage_through() {
+    let s = setup(Vec::new());
+    let mut comp = s.compositor(config());
+    let v = video(160, 120);
+    let (frame, r) = comp.render(&v, &lighting(courtyard_sun(), 3.0)).unwrap();
+    assert!(r.skip_reason(pass::DEPTH_PREPASS).is_some_and(|s| s.contains("no virtual objects")), "{r:?}");
+    // Bit for bit with a 32-bit float output; within half-float rounding on GL.
+    let changed = frame.image.data.iter().zip(&v.rgba).filter(|(a, b)| (0..3).any(|c| (a[c] - b[c]).abs() > frame.precision * b[c])).count();
+    assert_eq!(changed, 0);
+}
