@@ -5,6 +5,7 @@
 
 mod edit;
 mod ops;
+mod ui;
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
@@ -35,6 +36,14 @@ enum Command {
     Hdr(HdrArgs),
     /// Create a new scene folder from a proxy, a camera file and the place.
     New(NewArgs),
+    /// The calibration app: all of the above with the mouse (needs a display).
+    Ui(UiArgs),
+}
+
+#[derive(clap::Args)]
+struct UiArgs {
+    /// Scene folder to open.
+    scene: Option<PathBuf>,
 }
 
 fn main() {
@@ -45,6 +54,7 @@ fn main() {
         Command::Mark(a) => mark(a),
         Command::Hdr(a) => hdr(a),
         Command::New(a) => new_scene(a),
+        Command::Ui(a) => ui::run(a.scene),
     };
     if let Err(e) = r {
         eprintln!("error: {e:#}");
