@@ -229,24 +229,19 @@ impl HdrTab {
         ui.heading("Bracketed exposures");
         ui.label("The same view at three or more exposure times (tripod, fixed focus and white balance).");
         let mut remove = None;
-        egui::Grid::new("exposures").num_columns(4).show(ui, |ui| {
-            ui.label("");
-            ui.label("image file");
-            ui.label("time (s)");
-            ui.end_row();
-            for (i, r) in self.rows.iter_mut().enumerate() {
+        for (i, r) in self.rows.iter_mut().enumerate() {
+            ui.horizontal(|ui| {
                 if ui.selectable_label(self.shown == i && !self.show_result, format!("{}", i + 1)).clicked() {
                     self.shown = i;
                     self.show_result = false;
                 }
-                ui.add(egui::TextEdit::singleline(&mut r.path).hint_text("shot.jpg").desired_width(190.0));
-                ui.add(egui::TextEdit::singleline(&mut r.time).hint_text("1/250").desired_width(60.0));
-                if ui.small_button("×").clicked() {
+                ui.add_sized([210.0, 20.0], egui::TextEdit::singleline(&mut r.path).hint_text("image file (shot.jpg)"));
+                ui.add_sized([64.0, 20.0], egui::TextEdit::singleline(&mut r.time).hint_text("1/250 s"));
+                if ui.small_button("×").on_hover_text("remove this exposure").clicked() {
                     remove = Some(i);
                 }
-                ui.end_row();
-            }
-        });
+            });
+        }
         if let Some(i) = remove {
             self.rows.remove(i);
         }

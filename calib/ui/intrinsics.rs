@@ -378,7 +378,7 @@ impl IntrinsicsTab {
         });
         let Some((_, pic)) = &mut self.picture else { return };
         let (_, t) = self.view.show(ui, pic);
-        let painter = ui.painter_at(t.clip);
+        let painter = t.image_painter(ui);
         if let (Some(corners), Some(d)) = (&v.corners, &self.detected) {
             // OpenCV's drawing: one colour per row, rows joined in order, the first corner ringed.
             let cols = d.board.cols as usize;

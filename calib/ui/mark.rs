@@ -245,7 +245,7 @@ fn tint(state: &SceneState, map: &NodeMap, hovered: Option<usize>) -> Picture {
                 Some(Marked::Extras) => [60, 140, 255, 105],
                 _ => [0, 0, 0, 0],
             };
-            if n != NONE && hovered == Some(n as usize) { [base[0].max(160), base[1].max(160), base[2].max(160), 140] } else { base }
+            if n != NONE && hovered == Some(n as usize) { [base[0].max(200), base[1].max(200), base[2].max(200), 80] } else { base }
         })
         .collect();
     Picture::from_rgba_nearest("tint", [map.w * map.step, map.h * map.step], [map.w, map.h], &rgba)
@@ -255,5 +255,5 @@ fn tint(state: &SceneState, map: &NodeMap, hovered: Option<usize>) -> Picture {
 fn draw_map_picture(ui: &egui::Ui, t: &Transform, map: &NodeMap, pic: &mut Picture) {
     let size = Vec2::new((map.w * map.step) as f32, (map.h * map.step) as f32) * t.scale();
     let rect = Rect::from_min_size(t.rect.min, size);
-    ui.painter_at(t.clip).image(pic.texture(ui.ctx()), rect, Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)), Color32::WHITE);
+    t.image_painter(ui).image(pic.texture(ui.ctx()), rect, Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)), Color32::WHITE);
 }

@@ -37,6 +37,23 @@ pub struct ProxyPicker {
     hovered: Option<usize>,
 }
 
+/// The per-axis median of the vertices and the distance from it within which three quarters of
+/// them lie.
+fn robust_extent(vertices: &[Vertex]) -> (DVec3, f64) {
+    if vertices.is_empty() {
+        return (DVec3::ZERO, 1.0);
+    }
+    let median = |f: fn(&DVec3) -> f64| {
+        let mut v: Vec<f64> = vertices.iter().map(|x| f(&x.p)).collect();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let c = DVec3::new(median(|p| p.x), median(|p| p.y), median(|p| p.z));
+    let mut d: Vec<f64> = vertices.iter().map(|v| (v.p - c).length()).collect();
+    d.sort_by(f64::total_cmp);
+    (c, d[(d.len() * 3 / 4).min(d.len() - 1)].max(0.1))
+}
+
 impl ProxyPicker {
     fn prepare(&mut self, state: &SceneState) {
         if self.version == state.version {
@@ -61,10 +78,10 @@ impl ProxyPicker {
         if bounds != self.bounds {
             // A new proxy: look at it from the side the scene's camera sees it from.
             self.bounds = bounds;
-            let (lo, hi) = bounds.unwrap_or((DVec3::splat(-1.0), DVec3::splat(1.0)));
-            self.target = (lo + hi) / 2.0;
-            let radius = ((hi - lo).length() / 2.0).max(0.1);
-            self.distance = radius / HALF_FOV_RAD.tan() * 1.1;
+            // Framed on where most vertices are (a large ground plane has only four corners).
+            let (target, radius) = robust_extent(&self.vertices);
+            self.target = target;
+            self.distance = radius / HALF_FOV_RAD.sin() * 1.1;
             let back = -state.scene.camera.pose.rotation.z_axis;
             self.yaw = back.x.atan2(back.z);
             self.pitch = back.y.asin().max(0.35);

@@ -236,8 +236,8 @@ impl PoseTab {
                 }
                 ui.label(p.pixel.map_or("click the frame".into(), |u| format!("{:.1}, {:.1}", u.x, u.y)));
                 let bad = !p.world_text.trim().is_empty() && p.world.is_none();
-                let edit = egui::TextEdit::singleline(&mut p.world_text).hint_text("pick or type").desired_width(130.0).text_color_opt(bad.then_some(Color32::from_rgb(235, 80, 70)));
-                if ui.add(edit).changed() {
+                let edit = egui::TextEdit::singleline(&mut p.world_text).hint_text("pick or type").text_color_opt(bad.then_some(Color32::from_rgb(235, 80, 70)));
+                if ui.add_sized([130.0, 20.0], edit).changed() {
                     p.world = crate::ops::scene::parse_vec3(&p.world_text, "proxy point").ok().map(DVec3::from);
                 }
                 let complete = p.pixel.is_some() && p.world.is_some();
@@ -295,7 +295,7 @@ impl PoseTab {
         };
         let (response, t) = self.view.show(ui, pic);
         self.interact(&response, &t);
-        let painter = ui.painter_at(t.clip);
+        let painter = t.image_painter(ui);
         if self.show_current
             && let Some((_, _, current)) = &self.outline_cache
         {

@@ -135,6 +135,11 @@ impl Transform {
         p.x >= -0.5 && p.y >= -0.5 && p.x <= self.size[0] as f64 - 0.5 && p.y <= self.size[1] as f64 - 0.5
     }
 
+    /// A painter that draws only over the visible part of the image.
+    pub fn image_painter(&self, ui: &egui::Ui) -> egui::Painter {
+        ui.painter_at(self.rect.intersect(self.clip))
+    }
+
     /// A polyline in pixel coordinates.
     pub fn polyline(&self, painter: &egui::Painter, pts: &[DVec2], stroke: Stroke) {
         if pts.len() > 1 {
