@@ -111,7 +111,8 @@ impl MarkTab {
         };
         let scene = ops::set_diffuse_nodes(&state.dir, &list).with_context(|| format!("'{name}' was not {verb}"))?;
         state.replace(scene);
-        Ok(format!("{verb} '{name}'; scene.toml: proxy.diffuse_nodes = {list:?}"))
+        let still = if verb == "unmarked" && ops::marked(&state.scene, index) == Marked::Extras { " (the glTF extras still mark it)" } else { "" };
+        Ok(format!("{verb} '{name}'{still}; scene.toml: proxy.diffuse_nodes = {list:?}"))
     }
 
     fn load_env(&mut self, state: &SceneState) {
