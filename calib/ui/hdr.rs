@@ -150,6 +150,20 @@ impl HdrTab {
         Ok(format!("{n} exposures loaded"))
     }
 
+    /// Where the shown image was drawn last.
+    #[cfg(test)]
+    pub fn view_transform(&self) -> Option<super::view::Transform> {
+        self.view.last
+    }
+
+    /// Puts an image file into the first empty row, or a new one.
+    pub fn add_file(&mut self, path: &str) {
+        match self.rows.iter_mut().find(|r| r.path.trim().is_empty()) {
+            Some(r) => r.path = path.to_owned(),
+            None => self.rows.push(Exposure { path: path.to_owned(), time: String::new() }),
+        }
+    }
+
     fn image_size(&self) -> Option<(u32, u32)> {
         self.loaded.as_ref().and_then(|l| l.images.first()).map(|i| (i.width, i.height))
     }
@@ -227,7 +241,7 @@ impl HdrTab {
 
     fn controls_ui(&mut self, ui: &mut egui::Ui) {
         ui.heading("Bracketed exposures");
-        ui.label("The same view at three or more exposure times (tripod, fixed focus and white balance).");
+        ui.label("The same view at three or more exposure times (tripod, fixed focus and white balance). Drop the files on the window, or type their paths.");
         let mut remove = None;
         for (i, r) in self.rows.iter_mut().enumerate() {
             ui.horizontal(|ui| {
@@ -367,7 +381,8 @@ impl HdrTab {
             Draw::Nothing => {}
             Draw::Reflection => {
                 if response.drag_started_by(egui::PointerButton::Primary) {
-                    self.drag_from = pos;
+                    let origin = response.ctx.input(|i| i.pointer.press_origin());
+                    self.drag_from = origin.map(|p| t.pixel_from_screen(p)).or(pos);
                 }
                 if let (Some(a), Some(b)) = (self.drag_from, pos)
                     && response.dragged_by(egui::PointerButton::Primary)

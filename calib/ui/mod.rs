@@ -155,8 +155,41 @@ impl CalibApp {
         self.hdr.wait_for_job();
     }
 
+    /// Files dropped on the window: a scene folder opens; otherwise they fill the current tab's
+    /// inputs (a chessboard folder or video, pairs CSV or frame, exposures).
+    pub fn files_dropped(&mut self, paths: &[PathBuf]) {
+        if let Some(scene) = paths.iter().find(|p| p.join(heliar::scene::MANIFEST_FILE).is_file()) {
+            self.open_scene(&scene.clone());
+            return;
+        }
+        let ext = |p: &Path| p.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+        let is_image = |p: &Path| crate::ops::intrinsics::IMAGE_EXTENSIONS.contains(&ext(p).as_str()) || ext(p) == "exr";
+        for p in paths {
+            let text = p.display().to_string();
+            match self.tab {
+                Tab::Intrinsics if p.is_dir() => (self.intrinsics.folder, self.intrinsics.from_video) = (text, false),
+                Tab::Intrinsics if is_image(p) => {
+                    (self.intrinsics.folder, self.intrinsics.from_video) = (p.parent().map(|d| d.display().to_string()).unwrap_or_default(), false);
+                }
+                Tab::Intrinsics => (self.intrinsics.video, self.intrinsics.from_video) = (text, true),
+                Tab::Pose if ext(p) == "csv" => {
+                    self.pose.pairs_file = text;
+                    let r = self.pose.import(p);
+                    self.pose.messages.set_result(r);
+                }
+                Tab::Pose => self.pose.frame.other = text,
+                Tab::Mark => self.mark.frame.other = text,
+                Tab::Hdr => self.hdr.add_file(&text),
+            }
+        }
+    }
+
     /// The whole window.
     pub fn ui(&mut self, ui: &mut egui::Ui) {
+        let dropped: Vec<PathBuf> = ui.input(|i| i.raw.dropped_files.iter().map(|f| f.path().to_owned()).collect());
+        if !dropped.is_empty() {
+            self.files_dropped(&dropped);
+        }
         egui::Panel::top("scene_bar").show(ui, |ui| self.top_bar_ui(ui));
         egui::CentralPanel::default().show(ui, |ui| match self.tab {
             Tab::Intrinsics => self.intrinsics.ui(ui, self.scene.as_mut()),

@@ -328,7 +328,9 @@ impl PoseTab {
             pairs.iter().enumerate().filter_map(|(i, p)| p.pixel.map(|uv| (i, t.screen_from_pixel(uv).distance(pos)))).filter(|(_, d)| *d < GRAB_PT).min_by(|a, b| a.1.total_cmp(&b.1)).map(|(i, _)| i)
         };
         if response.drag_started_by(egui::PointerButton::Primary) {
-            self.dragging = response.interact_pointer_pos().and_then(|pos| near(&self.pairs, pos));
+            // Where the button went down, not where the drag was recognised a few points later.
+            let origin = response.ctx.input(|i| i.pointer.press_origin()).or(response.interact_pointer_pos());
+            self.dragging = origin.and_then(|pos| near(&self.pairs, pos));
             self.selected = self.dragging.or(self.selected);
         }
         if let (Some(i), Some(pos)) = (self.dragging, response.interact_pointer_pos())

@@ -58,6 +58,17 @@ fn click_at(h: &mut Harness<'_, CalibApp>, pos: Pos2) {
     h.run();
 }
 
+/// A primary-button drag from one screen position to another.
+fn drag(h: &mut Harness<'_, CalibApp>, from: Pos2, to: Pos2) {
+    h.hover_at(from);
+    h.event(Event::PointerButton { pos: from, button: PointerButton::Primary, pressed: true, modifiers: Modifiers::NONE });
+    for k in 1..=6 {
+        h.event(Event::PointerMoved(from + (to - from) * (k as f32 / 6.0)));
+    }
+    h.event(Event::PointerButton { pos: to, button: PointerButton::Primary, pressed: false, modifiers: Modifiers::NONE });
+    h.run();
+}
+
 fn click_button(h: &mut Harness<'_, CalibApp>, label: &str) {
     h.get_by_label(label).click();
     h.run();
@@ -69,6 +80,20 @@ fn click_and_wait(h: &mut Harness<'_, CalibApp>, label: &str) {
     h.step(); // the queued hover, press and release, one frame each
     h.state_mut().wait_for_jobs();
     h.run();
+}
+
+/// A file dropped on the window.
+#[derive(Debug)]
+struct Dropped(PathBuf);
+
+impl egui::DroppedFile for Dropped {
+    fn path(&self) -> &Path {
+        &self.0
+    }
+
+    fn bytes(&self) -> Result<Vec<u8>, String> {
+        std::fs::read(&self.0).map_err(|e| e.to_string())
+    }
 }
 
 fn errors(m: &super::Messages) -> Vec<String> {
@@ -243,6 +268,13 @@ fn three_pairs_are_refused_and_the_scene_is_untouched() {
     let mut h = harness(app);
     h.run();
     assert_eq!(click_pairs(&mut h, &truth, &CORNERS[..3]), 3);
+    // A point can be dragged to where it belongs.
+    let t = h.state().pose.view.last.unwrap();
+    let p0 = h.state().pose.pairs[0].pixel.unwrap();
+    drag(&mut h, t.screen_from_pixel(p0), t.screen_from_pixel(p0 + DVec2::new(4.0, 2.5)));
+    let moved = h.state().pose.pairs[0].pixel.unwrap();
+    assert!((moved - p0 - DVec2::new(4.0, 2.5)).length() < 0.01, "{p0} -> {moved}");
+    assert_eq!(h.state().pose.pairs.len(), 3, "a drag adds no pair");
     click_button(&mut h, "Solve");
     let e = errors(&h.state().pose.messages);
     assert!(e.len() == 1 && e[0].contains("at least 4"), "{e:?}");
@@ -349,16 +381,21 @@ fn the_hdr_tab_merges_bracketed_exposures_and_saves_them() {
     let times = ["1/250", "1/60", "1/15", "1/4"];
     let mut app = CalibApp::new(None);
     app.tab = Tab::Hdr;
-    app.hdr.rows.clear();
+    let mut h = harness(app);
+    h.run();
+    // The files are dropped on the window; their times are typed.
     for (i, t) in times.iter().enumerate() {
         let secs = crate::ops::hdr::parse_exposure_time(t).unwrap();
         let data: Vec<u8> = (0..h_px).flat_map(|y| (0..w).flat_map(move |x| [heliar::io::image::srgb_u8_from_linear(8.0 * secs * radiance(x, y)); 3])).collect();
         let p = tmp.join(format!("e{i}.png"));
         image::save_buffer(&p, &data, w, h_px, image::ExtendedColorType::Rgb8).unwrap();
-        app.hdr.rows.push(super::hdr::Exposure { path: p.display().to_string(), time: t.to_string() });
+        h.input_mut().dropped_files.push(std::sync::Arc::new(Dropped(p)));
     }
-    let mut h = harness(app);
     h.run();
+    assert_eq!(h.state().hdr.rows.len(), 4, "three empty rows filled, one added");
+    for (r, t) in h.state_mut().hdr.rows.iter_mut().zip(times) {
+        r.time = t.to_string();
+    }
     // A bad time is named, nothing merges.
     h.state_mut().hdr.rows[1].time = "fast".into();
     click_button(&mut h, "Merge (Debevec)");
@@ -369,6 +406,17 @@ fn the_hdr_tab_merges_bracketed_exposures_and_saves_them() {
     click_button(&mut h, "Merge (Debevec)");
     assert!(errors(&h.state().hdr.messages)[0].contains("clean rectangle"), "{:?}", h.state().hdr.messages);
     h.state_mut().hdr.reflection = None;
+    // The reflection's rectangle is dragged on the shown exposure, the clean patch placed by a click.
+    click_button(&mut h, "Load");
+    h.state_mut().hdr.drawing = super::hdr::Draw::Reflection;
+    h.run();
+    let t = h.state().hdr.view_transform().expect("the exposure is shown");
+    drag(&mut h, t.screen_from_pixel(DVec2::new(10.0, 10.0)), t.screen_from_pixel(DVec2::new(25.0, 22.0)));
+    assert_eq!(h.state().hdr.reflection, Some([10, 10, 16, 13]));
+    h.state_mut().hdr.drawing = super::hdr::Draw::Clean;
+    h.run();
+    click_at(&mut h, t.screen_from_pixel(DVec2::new(60.0, 30.0)));
+    assert_eq!(h.state().hdr.clean, Some([52, 24, 16, 13]));
 
     click_and_wait(&mut h, "Merge (Debevec)");
     assert!(errors(&h.state().hdr.messages).is_empty(), "{:?}", h.state().hdr.messages);
