@@ -39,10 +39,27 @@ pub struct Rgb8 {
 }
 
 impl Rgb8 {
-    /// Reads a PNG/JPEG (anything the `image` crate decodes) as RGB.
+    /// Reads an image file as RGB: PNG through the `image` crate, and JPEG, TIFF, BMP and the
+    /// other formats OpenCV's imgcodecs reads (phone and camera photographs) through OpenCV.
     pub fn open(path: &std::path::Path) -> Result<Self, CalibError> {
-        let img = image::open(path).map_err(|e| CalibError::Input(format!("{}: {e}", path.display())))?.to_rgb8();
-        Ok(Self { width: img.width(), height: img.height(), data: img.into_raw() })
+        match image::open(path) {
+            Ok(img) => {
+                let img = img.to_rgb8();
+                Ok(Self { width: img.width(), height: img.height(), data: img.into_raw() })
+            }
+            Err(image::ImageError::Unsupported(_)) if path.is_file() => Self::open_with_opencv(path),
+            Err(e) => Err(CalibError::Input(format!("{}: {e}", path.display()))),
+        }
+    }
+
+    fn open_with_opencv(path: &std::path::Path) -> Result<Self, CalibError> {
+        let m = opencv::imgcodecs::imread(path, opencv::imgcodecs::IMREAD_COLOR)?;
+        if m.empty() {
+            return Err(CalibError::Input(format!("{}: not an image file this build can read", path.display())));
+        }
+        let m = if m.is_continuous() { m } else { m.try_clone()? };
+        let px: &[Vec3b] = m.data_typed()?;
+        Ok(Self { width: m.cols() as u32, height: m.rows() as u32, data: px.iter().flat_map(|p| [p[2], p[1], p[0]]).collect() })
     }
 
     /// As an OpenCV BGR matrix (copied).

@@ -1,0 +1,77 @@
+//! HDR images from bracketed exposures: exposure times, the optional removal of a lens
+//! reflection, the merge, and the EXR and response files.
+
+use anyhow::{Context, Result, bail};
+use heliar::calib::Rgb8;
+use heliar::calib::hdr::{merge_debevec, remove_reflection};
+use heliar::io::image::{ExrPrecision, LinearImage};
+use std::path::{Path, PathBuf};
+
+/// A rectangle `x, y, w, h` in pixels.
+pub type Rect = [i32; 4];
+
+/// An exposure time in seconds from `0.004`, `1/250` or `4ms`.
+pub fn parse_exposure_time(s: &str) -> Result<f32> {
+    let t = s.trim();
+    let v = if let Some((n, d)) = t.split_once('/') {
+        let (n, d): (f64, f64) = (n.trim().parse()?, d.trim().parse()?);
+        n / d
+    } else if let Some(ms) = t.strip_suffix("ms") {
+        ms.trim().parse::<f64>()? / 1000.0
+    } else {
+        t.strip_suffix('s').unwrap_or(t).trim().parse::<f64>()?
+    };
+    if !(v.is_finite() && v > 0.0) {
+        bail!("must be a positive time");
+    }
+    Ok(v as f32)
+}
+
+/// Covers the lens reflection `reflection` with the clean patch `clean` (same size) in every
+/// exposure, then recovers the response and merges (Debevec–Malik). Returns the relative radiance
+/// and the response (256 rows, RGB).
+pub fn merge(images: &[Rgb8], times_s: &[f32], reflection: Option<(Rect, Rect)>) -> Result<(LinearImage, Vec<[f32; 3]>)> {
+    let cleaned: Vec<Rgb8>;
+    let images = match reflection {
+        Some((r, c)) => {
+            cleaned = images.iter().enumerate().map(|(i, im)| remove_reflection(im, r, c).with_context(|| format!("exposure {}", i + 1))).collect::<Result<_>>()?;
+            &cleaned
+        }
+        None => images,
+    };
+    Ok(merge_debevec(images, times_s)?)
+}
+
+/// Writes the merged image as a float EXR at `out` and the response beside it
+/// (`*.response.csv`, rows `r,g,b` per code 0…255), each atomically. Returns the CSV's path.
+pub fn write_outputs(out: &Path, merged: &LinearImage, response: &[[f32; 3]]) -> Result<PathBuf> {
+    if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).with_context(|| format!("creating {}", parent.display()))?;
+    }
+    let stem = out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = out.with_file_name(format!(".{stem}.tmp-{}.exr", std::process::id()));
+    if let Err(e) = merged.write_exr(&tmp, ExrPrecision::Float) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(e.into());
+    }
+    std::fs::rename(&tmp, out).with_context(|| format!("replacing {}", out.display()))?;
+    let csv: String = std::iter::once("r,g,b\n".to_string()).chain(response.iter().map(|r| format!("{},{},{}\n", r[0], r[1], r[2]))).collect();
+    let rpath = out.with_extension("response.csv");
+    crate::edit::write_atomic(&rpath, csv.as_bytes())?;
+    Ok(rpath)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exposure_times_in_the_usual_notations() {
+        for (s, t) in [("0.004", 0.004), ("1/250", 0.004), ("4ms", 0.004), (" 2 s", 2.0), ("1/4", 0.25)] {
+            assert!((parse_exposure_time(s).unwrap() - t).abs() < 1e-7, "{s}");
+        }
+        for s in ["", "0", "-1", "1/0", "fast", "nan"] {
+            assert!(parse_exposure_time(s).is_err(), "{s}");
+        }
+    }
+}
