@@ -62,6 +62,7 @@ pub mod estimate;
 pub mod geometry;
 pub mod io;
 pub mod irradiance;
+pub mod pipeline;
 pub mod render;
 pub mod report;
 pub mod scene;

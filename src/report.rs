@@ -28,6 +28,12 @@ impl JsonLines {
         Ok(Self { out: Box::new(std::io::BufWriter::new(f)), path: Some(path.to_owned()) })
     }
 
+    /// Lines appended to an existing file (created when absent).
+    pub fn append(path: &Path) -> std::io::Result<Self> {
+        let f = std::fs::OpenOptions::new().append(true).create(true).open(path)?;
+        Ok(Self { out: Box::new(std::io::BufWriter::new(f)), path: Some(path.to_owned()) })
+    }
+
     /// Lines to standard output.
     pub fn stdout() -> Self {
         Self { out: Box::new(std::io::stdout()), path: None }

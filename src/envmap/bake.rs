@@ -441,8 +441,24 @@ fn fill_flagged(rho: &mut [Vec3], valid: &[bool], node: &[u32], base: &[Vec3], w
 const FILES: [&str; 5] = ["albedo.exr", "normal.exr", "ambient.exr", "geometry.exr", "bake.json"];
 
 impl Baked {
-    /// Writes the maps, previews and `bake.json` into `dir` (created).
+    /// Writes the maps, previews and `bake.json` into `dir` (created). Every file is written
+    /// into a private temporary folder first and renamed into place, `bake.json` last, so a
+    /// reader (another process baking the same scene, or an interrupted run) never sees a
+    /// half-written file, and a bake whose `bake.json` is present is complete.
     pub fn save(&self, dir: &Path) -> Result<(), BakeError> {
+        let tmp = dir.join(format!(".tmp-{}-{:?}", std::process::id(), std::thread::current().id()).replace(['(', ')'], ""));
+        let result = self.save_files(&tmp).and_then(|names| {
+            for name in names {
+                let (from, to) = (tmp.join(name), dir.join(name));
+                std::fs::rename(&from, &to).map_err(|source| IoError::File { path: to.clone(), source })?;
+            }
+            Ok(())
+        });
+        std::fs::remove_dir_all(&tmp).ok();
+        result
+    }
+
+    fn save_files(&self, dir: &Path) -> Result<[&'static str; 8], BakeError> {
         std::fs::create_dir_all(dir).map_err(|source| IoError::File { path: dir.to_owned(), source })?;
         let img = |v: &[Vec3]| LinearImage { width: self.width, height: self.height, data: v.iter().map(|p| p.to_array()).collect() };
         img(&self.albedo).write_exr(&dir.join("albedo.exr"), ExrPrecision::Float)?;
@@ -459,7 +475,7 @@ impl Baked {
         let p = dir.join("bake.json");
         let text = serde_json::to_string_pretty(&self.info).map_err(|e| BakeError::Info { path: p.clone(), message: e.to_string() })?;
         std::fs::write(&p, text).map_err(|source| IoError::File { path: p.clone(), source })?;
-        Ok(())
+        Ok(["albedo.exr", "normal.exr", "ambient.exr", "geometry.exr", "albedo.png", "ambient.png", "normal.png", "bake.json"])
     }
 
     /// Loads a bake from `dir`; `Ok(None)` when `bake.json` is absent or from another format.

@@ -91,23 +91,7 @@ pub fn write_frame(
             out.write_exr(path, ExrPrecision::Half)
         }
         OutputKind::Png => {
-            let (bits, codes) = match &input.data {
-                FrameData::Ldr { bits, codes } => (*bits, Some(codes)),
-                FrameData::Hdr(_) => (8, None),
-            };
-            let max = if bits == 16 { 65535.0 } else { 255.0 };
-            let mut out: Vec<u16> = Vec::with_capacity((w * h * 3) as usize);
-            for i in 0..(w * h) as usize {
-                match codes {
-                    Some(c) if same(i) => out.extend_from_slice(&c[3 * i..3 * i + 3]),
-                    _ => {
-                        for ch in 0..3 {
-                            let e = code_from_linear(&photometry.response, image.data[i][ch] * photometry.exposure, ch);
-                            out.push((e * max + 0.5).floor().clamp(0.0, max) as u16);
-                        }
-                    }
-                }
-            }
+            let (bits, out) = encode_codes(image, precision, video, input, photometry);
             let res = if bits == 16 {
                 let bytes: Vec<u8> = out.iter().flat_map(|v| v.to_be_bytes()).collect();
                 ::image::save_buffer(path, &bytes, w, h, ::image::ExtendedColorType::Rgb16)
@@ -118,6 +102,41 @@ pub fn write_frame(
             res.map_err(|source| IoError::Png { path: path.to_owned(), source })
         }
     }
+}
+
+/// `image` (scene radiance) as integer codes through the camera response: pixels the compositor
+/// left unchanged keep the input's own codes (LDR input), the rest are encoded at the input's bit
+/// depth (8 bits for HDR input). Returns the bit depth and the RGB codes, row-major.
+pub fn encode_codes(image: &LinearImage, precision: f32, video: &VideoFrame, input: &Frame, photometry: &Photometry) -> (u32, Vec<u16>) {
+    let (w, h) = (image.width, image.height);
+    let same = |i: usize| {
+        let (o, v) = (image.data[i], video.rgba[i]);
+        (0..3).all(|c| (o[c] - v[c]).abs() <= precision * v[c].abs())
+    };
+    let (bits, codes) = match &input.data {
+        FrameData::Ldr { bits, codes } => (*bits, Some(codes)),
+        FrameData::Hdr(_) => (8, None),
+    };
+    let max = if bits == 16 { 65535.0 } else { 255.0 };
+    let mut out: Vec<u16> = Vec::with_capacity((w * h * 3) as usize);
+    for i in 0..(w * h) as usize {
+        match codes {
+            Some(c) if same(i) => out.extend_from_slice(&c[3 * i..3 * i + 3]),
+            _ => {
+                for ch in 0..3 {
+                    let e = code_from_linear(&photometry.response, image.data[i][ch] * photometry.exposure, ch);
+                    out.push((e * max + 0.5).floor().clamp(0.0, max) as u16);
+                }
+            }
+        }
+    }
+    (bits as u32, out)
+}
+
+/// [`encode_codes`] as 8-bit RGB bytes (16-bit codes are scaled down), for video files.
+pub fn encode_rgb8(image: &LinearImage, precision: f32, video: &VideoFrame, input: &Frame, photometry: &Photometry) -> Vec<u8> {
+    let (bits, codes) = encode_codes(image, precision, video, input, photometry);
+    if bits == 16 { codes.iter().map(|&v| ((v as u32 + 128) / 257).min(255) as u8).collect() } else { codes.iter().map(|&v| v as u8).collect() }
 }
 
 /// An 8-bit RGB image for contact sheets.

@@ -137,6 +137,11 @@ pub struct Scene {
     pub geo: GeoFrame,
     /// The calibrated camera.
     pub camera: Camera,
+    /// The camera file (`calib/camera.toml`), for messages.
+    pub camera_path: PathBuf,
+    /// The camera's own response and exposure (sequences may override the exposure): how
+    /// footage that is not one of the scene's sequences (video files, cameras) is read.
+    pub photometry: Photometry,
     /// The real proxy geometry.
     pub proxy: Mesh,
     /// Notes from loading the proxy.
@@ -467,6 +472,8 @@ impl Scene {
             observer,
             geo,
             camera,
+            photometry: Photometry { response: response.clone(), exposure: rs.exposure, saturation: rs.saturation, hdr_clip: rs.hdr_clip },
+            camera_path: camera_path.clone(),
             proxy,
             proxy_notes,
             virtual_objects,
