@@ -36,6 +36,9 @@ enum Command {
     Hdr(HdrArgs),
     /// Create a new scene folder from a proxy, a camera file and the place.
     New(NewArgs),
+    /// Photometric calibration of a VEM camera: a log-response fit `c = a + b·ln Y` from gray
+    /// patches (Havran et al. 2005, §5.1), optionally written into calib/fisheye.toml.
+    Photometric(PhotometricArgs),
     /// The calibration app: all of the above with the mouse (needs a display).
     Ui(UiArgs),
 }
@@ -54,6 +57,7 @@ fn main() {
         Command::Mark(a) => mark(a),
         Command::Hdr(a) => hdr(a),
         Command::New(a) => new_scene(a),
+        Command::Photometric(a) => photometric(a),
         Command::Ui(a) => ui::run(a.scene),
     };
     if let Err(e) = r {
@@ -232,6 +236,16 @@ struct HdrArgs {
     /// Output EXR (relative radiance); the recovered response goes beside it as CSV.
     #[arg(long, short)]
     output: PathBuf,
+    /// The back shot's bracketed exposures (same times): with --fisheye, the front (--images) and
+    /// back shots are merged and stitched into an equirect environment map in the world frame.
+    #[arg(long, value_delimiter = ',', requires = "fisheye")]
+    back: Vec<PathBuf>,
+    /// Fisheye calibration (calib/fisheye.toml: Kannala–Brandt lens, the front shot's orientation).
+    #[arg(long, requires = "back")]
+    fisheye: Option<PathBuf>,
+    /// Width of the stitched equirect map (height = width / 2).
+    #[arg(long, default_value_t = 1024)]
+    width: u32,
 }
 
 fn hdr(a: HdrArgs) -> Result<()> {
@@ -244,6 +258,30 @@ fn hdr(a: HdrArgs) -> Result<()> {
         Some((r, c))
     };
     let (merged, response) = ops::hdr::merge(&imgs, &a.times, reflection)?;
+    let merged = match &a.fisheye {
+        None => merged,
+        Some(calib) => {
+            let fe = heliar::vem::calib::FisheyeCalib::load(calib)?;
+            let lens = &fe.camera.lens;
+            if a.back.len() != a.images.len() {
+                bail!("--back has {} exposures but --images has {}: give the same brackets for both shots", a.back.len(), a.images.len());
+            }
+            let back_imgs = a.back.iter().map(|p| Rgb8::open(p)).collect::<Result<Vec<_>, _>>()?;
+            for (p, im) in a.images.iter().chain(&a.back).zip(imgs.iter().chain(&back_imgs)) {
+                if (im.width, im.height) != (lens.width, lens.height) {
+                    bail!("{}: {}×{} but the fisheye calibration {} is {}×{}", p.display(), im.width, im.height, calib.display(), lens.width, lens.height);
+                }
+            }
+            if a.width < 8 || a.width % 2 != 0 {
+                bail!("--width {}: must be an even number ≥ 8", a.width);
+            }
+            let (back, _) = ops::hdr::merge(&back_imgs, &a.times, reflection).context("merging the back shot")?;
+            let project = |d: glam::DVec3| lens.project(d).map(|uv| (uv.x, uv.y));
+            let pano = heliar::calib::hdr::stitch_fisheye_pair(&merged, &back, fe.camera.world_from_camera, a.width, &project);
+            eprintln!("stitched front and back into a {}×{} equirect map", a.width, a.width / 2);
+            pano
+        }
+    };
     let rpath = ops::hdr::write_outputs(&a.output, &merged, &response)?;
     eprintln!("wrote {} and {}", a.output.display(), rpath.display());
     Ok(())
@@ -289,4 +327,59 @@ fn new_scene(a: NewArgs) -> Result<()> {
     let s = ops::scene::create(&a.out, &n)?;
     eprintln!("created {} ({} proxy triangles, {} diffuse nodes)", a.out.display(), s.proxy.triangles.len(), s.proxy.nodes.iter().filter(|n| n.diffuse).count());
     Ok(())
+}
+
+#[derive(clap::Args)]
+struct PhotometricArgs {
+    /// Gray patches, CSV rows `code,luminance[,fit|check]` (codes as the camera writes them).
+    #[arg(long)]
+    patches: PathBuf,
+    /// The code of full scale (255 for 8-bit, 65535 for 16-bit frames).
+    #[arg(long, default_value_t = 255.0)]
+    code_max: f64,
+    /// Write the fit into this fisheye calibration's [response] (kind = "log", the patches file).
+    #[arg(long)]
+    calib: Option<PathBuf>,
+}
+
+fn photometric(a: PhotometricArgs) -> Result<()> {
+    use heliar::vem::photometric::LogResponse;
+    if !(a.code_max.is_finite() && a.code_max > 0.0) {
+        bail!("--code-max {}: must be positive", a.code_max);
+    }
+    let patches = heliar::vem::calib::read_patches(&a.patches, a.code_max)?;
+    let (fit, report) = LogResponse::fit(&patches).map_err(|m| anyhow::anyhow!("{}: {m}", a.patches.display()))?;
+    let v = serde_json::json!({"a": fit.a, "b": fit.b, "report": report, "dynamic_range_decades": (1.0 / fit.b) / std::f64::consts::LN_10});
+    println!("{}", serde_json::to_string_pretty(&v)?);
+    if let Some(calib) = &a.calib {
+        let text = std::fs::read_to_string(calib).with_context(|| format!("reading {}", calib.display()))?;
+        let mut doc: toml_edit::DocumentMut = text.parse().with_context(|| format!("{}: not valid TOML", calib.display()))?;
+        let dir = calib.parent().unwrap_or(std::path::Path::new("."));
+        let rel = pathdiff(&std::fs::canonicalize(&a.patches)?, &std::fs::canonicalize(dir)?);
+        let r = doc.entry("response").or_insert(toml_edit::table()).as_table_mut().context("[response] is not a table")?;
+        r["kind"] = toml_edit::value("log");
+        r["patches"] = toml_edit::value(rel);
+        r["code_max"] = toml_edit::value(a.code_max);
+        for k in ["a", "b", "table", "gamma"] {
+            r.remove(k);
+        }
+        // Validate the edited file before it replaces the old one.
+        let tmp = calib.with_file_name(format!(".{}.check-{}.toml", calib.file_stem().unwrap_or_default().to_string_lossy(), std::process::id()));
+        std::fs::write(&tmp, doc.to_string()).with_context(|| format!("writing {}", tmp.display()))?;
+        let checked = heliar::vem::calib::FisheyeCalib::load(&tmp);
+        std::fs::remove_file(&tmp).ok();
+        checked.with_context(|| format!("the edited {} would not load", calib.display()))?;
+        edit::write_atomic(calib, doc.to_string().as_bytes())?;
+        eprintln!("wrote the log response into {}", calib.display());
+    }
+    Ok(())
+}
+
+/// `path` relative to `base` (both absolute), with `..` where needed.
+fn pathdiff(path: &std::path::Path, base: &std::path::Path) -> String {
+    let (p, b): (Vec<_>, Vec<_>) = (path.components().collect(), base.components().collect());
+    let common = p.iter().zip(&b).take_while(|(x, y)| x == y).count();
+    let mut out: Vec<String> = std::iter::repeat_n("..".to_string(), b.len() - common).collect();
+    out.extend(p[common..].iter().map(|c| c.as_os_str().to_string_lossy().into_owned()));
+    out.join("/")
 }

@@ -161,3 +161,101 @@ fn hdr_from_bracketed_files() {
     assert!(!ok && err.contains("at least 3"), "{err}");
     std::fs::remove_dir_all(&tmp).ok();
 }
+
+#[test]
+fn fisheye_pair_hdr_and_photometric_fit() {
+    use heliar::io::image::{LinearImage, srgb_u8_from_linear};
+    use heliar::vem::calib::FisheyeCalib;
+    let tmp = std::env::temp_dir().join(format!("heliar-calib-fisheye-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&tmp);
+    std::fs::create_dir_all(&tmp).unwrap();
+    // An equidistant 190° fisheye, 200 px, looking north and level (image up = world up).
+    let f = 100.0 / 95f64.to_radians();
+    let calib = tmp.join("fisheye.toml");
+    std::fs::write(
+        &calib,
+        format!(
+            "width = 200\nheight = 200\nfx = {f}\nfy = {f}\ncx = 99.5\ncy = 99.5\nk = [0.0, 0.0, 0.0, 0.0]\nmax_theta_deg = 95.0\n\n\
+             [orientation]\noptical_axis = [0.0, 0.0, -1.0]\nimage_up = [0.0, 1.0, 0.0]\n\n[response]\nkind = \"linear\"\nexposure = 1.0\n"
+        ),
+    )
+    .unwrap();
+    let fe = FisheyeCalib::load(&calib).unwrap();
+    // The world: colour by direction, one decade brighter toward the zenith.
+    let radiance = |d: DVec3| -> [f32; 3] {
+        let s = 10f64.powf(0.5 * (d.y + 1.0)) as f32;
+        [(0.2 + 0.4 * (d.x * 0.5 + 0.5)) as f32 * s, (0.2 + 0.4 * (d.z * 0.5 + 0.5)) as f32 * s, 0.3 * s]
+    };
+    let times = [1.0f32 / 30.0, 1.0 / 8.0, 1.0 / 2.0];
+    let shot = |world_from_cam: DMat3, t: f32, path: &Path| {
+        let img = heliar::calib::Rgb8 {
+            width: 200,
+            height: 200,
+            data: (0..200u32 * 200)
+                .flat_map(|i| {
+                    let d = fe.camera.lens.unproject(glam::DVec2::new((i % 200) as f64, (i / 200) as f64));
+                    let l = d.map(|d| radiance(world_from_cam * d)).unwrap_or([0.0; 3]);
+                    l.map(|v| srgb_u8_from_linear(0.6 * t * v))
+                })
+                .collect(),
+        };
+        image::save_buffer(path, &img.data, 200, 200, image::ExtendedColorType::Rgb8).unwrap();
+    };
+    let front_rot = fe.camera.world_from_camera;
+    let back_rot = front_rot * DMat3::from_rotation_y(std::f64::consts::PI).transpose();
+    let (mut fronts, mut backs) = (Vec::new(), Vec::new());
+    for (i, t) in times.iter().enumerate() {
+        let (fp, bp) = (tmp.join(format!("front_{i}.png")), tmp.join(format!("back_{i}.png")));
+        shot(front_rot, *t, &fp);
+        shot(back_rot, *t, &bp);
+        fronts.push(fp.to_str().unwrap().to_owned());
+        backs.push(bp.to_str().unwrap().to_owned());
+    }
+    let out = tmp.join("pano.exr");
+    let times_s: Vec<String> = times.iter().map(|t| t.to_string()).collect();
+    let (ok, _, err) = calib(&[
+        "hdr", "--images", &fronts.join(","), "--back", &backs.join(","), "--times", &times_s.join(","), "--fisheye", calib.to_str().unwrap(), "--width", "128", "-o", out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    let pano = LinearImage::read_exr(&out).unwrap();
+    assert_eq!((pano.width, pano.height), (128, 64));
+    // Relative radiance: compare after the median ratio (Debevec's scale is arbitrary), away from
+    // the poles where both lenses' edges meet.
+    let mut ratios = Vec::new();
+    let mut pairs = Vec::new();
+    for y in 6..58 {
+        for x in 0..128 {
+            let d = heliar::envmap::dir_from_texel_centre(x, y, 128, 64).as_dvec3();
+            let (got, want) = (pano.get(x, y), radiance(d));
+            ratios.push((got[2] / want[2]) as f64);
+            pairs.push((got, want));
+        }
+    }
+    ratios.sort_by(|a, b| a.total_cmp(b));
+    let s = ratios[ratios.len() / 2] as f32;
+    let mean: f64 = pairs.iter().map(|(g, w)| (0..3).map(|c| ((g[c] / s - w[c]) / w[c]).abs() as f64).sum::<f64>() / 3.0).sum::<f64>() / pairs.len() as f64;
+    // Merge (< 5% on its own, see src/calib/hdr.rs) plus nearest-pixel stitching of a 200-px lens.
+    assert!(mean < 0.08, "mean relative error of the stitched map {mean}");
+    // A back shot of the wrong size is refused, naming the file.
+    let (ok, _, err) = calib(&["hdr", "--images", &fronts.join(","), "--back", "scenes/courtyard/preview.png,scenes/courtyard/preview.png,scenes/courtyard/preview.png", "--times", &times_s.join(","), "--fisheye", calib.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert!(!ok && err.contains("preview.png"), "{err}");
+
+    // Photometric calibration: gray patches of a log camera c = 0.15 + 0.05·ln Y (8-bit codes).
+    let lum = [0.1, 1.0, 10.0, 100.0, 1000.0, 10000.0, 30.0];
+    let rows: Vec<String> = lum.iter().enumerate().map(|(i, &y)| format!("{},{y},{}", (255.0 * (0.15 + 0.05 * f64::ln(y))).round(), if i == 6 { "check" } else { "fit" })).collect();
+    std::fs::write(tmp.join("patches.csv"), rows.join("\n")).unwrap();
+    let (ok, out, err) = calib(&["photometric", "--patches", tmp.join("patches.csv").to_str().unwrap(), "--calib", calib.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    // 8-bit rounding of the codes: a and b within half a code's worth.
+    assert!((v["a"].as_f64().unwrap() - 0.15).abs() < 0.003 && (v["b"].as_f64().unwrap() - 0.05).abs() < 0.001, "{v}");
+    assert!(v["report"]["check_max_rel_error"].as_f64().unwrap() < 0.1, "{v}");
+    let fe = FisheyeCalib::load(&calib).unwrap();
+    let (lr, report) = fe.log_response.expect("log response written");
+    assert!((lr.b - 0.05).abs() < 0.001 && report.is_some());
+    // Codes that fall with luminance are refused.
+    std::fs::write(tmp.join("bad.csv"), "200,1\n100,10\n50,100\n").unwrap();
+    let (ok, _, err) = calib(&["photometric", "--patches", tmp.join("bad.csv").to_str().unwrap()]);
+    assert!(!ok && err.contains("bad.csv"), "{err}");
+    std::fs::remove_dir_all(&tmp).ok();
+}

@@ -287,7 +287,8 @@ fn csv_numbers(line: &str) -> Option<Vec<&str>> {
     Some(line.split(',').map(str::trim).collect())
 }
 
-fn read_patches(path: &Path, code_max: f64) -> Result<Vec<Patch>, CalibError> {
+/// Reads gray patches `code,luminance[,fit|check]` (codes normalised by `code_max`).
+pub fn read_patches(path: &Path, code_max: f64) -> Result<Vec<Patch>, CalibError> {
     let text = read_text(path)?;
     let mut out = Vec::new();
     for (i, line) in text.lines().enumerate() {
