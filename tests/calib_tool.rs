@@ -171,16 +171,16 @@ fn fisheye_pair_hdr_and_photometric_fit() {
     std::fs::create_dir_all(&tmp).unwrap();
     // An equidistant 190° fisheye, 200 px, looking north and level (image up = world up).
     let f = 100.0 / 95f64.to_radians();
-    let calib = tmp.join("fisheye.toml");
+    let fcalib = tmp.join("fisheye.toml");
     std::fs::write(
-        &calib,
+        &fcalib,
         format!(
             "width = 200\nheight = 200\nfx = {f}\nfy = {f}\ncx = 99.5\ncy = 99.5\nk = [0.0, 0.0, 0.0, 0.0]\nmax_theta_deg = 95.0\n\n\
              [orientation]\noptical_axis = [0.0, 0.0, -1.0]\nimage_up = [0.0, 1.0, 0.0]\n\n[response]\nkind = \"linear\"\nexposure = 1.0\n"
         ),
     )
     .unwrap();
-    let fe = FisheyeCalib::load(&calib).unwrap();
+    let fe = FisheyeCalib::load(&fcalib).unwrap();
     // The world: colour by direction, one decade brighter toward the zenith.
     let radiance = |d: DVec3| -> [f32; 3] {
         let s = 10f64.powf(0.5 * (d.y + 1.0)) as f32;
@@ -214,7 +214,7 @@ fn fisheye_pair_hdr_and_photometric_fit() {
     let out = tmp.join("pano.exr");
     let times_s: Vec<String> = times.iter().map(|t| t.to_string()).collect();
     let (ok, _, err) = calib(&[
-        "hdr", "--images", &fronts.join(","), "--back", &backs.join(","), "--times", &times_s.join(","), "--fisheye", calib.to_str().unwrap(), "--width", "128", "-o", out.to_str().unwrap(),
+        "hdr", "--images", &fronts.join(","), "--back", &backs.join(","), "--times", &times_s.join(","), "--fisheye", fcalib.to_str().unwrap(), "--width", "128", "-o", out.to_str().unwrap(),
     ]);
     assert!(ok, "{err}");
     let pano = LinearImage::read_exr(&out).unwrap();
@@ -237,20 +237,20 @@ fn fisheye_pair_hdr_and_photometric_fit() {
     // Merge (< 5% on its own, see src/calib/hdr.rs) plus nearest-pixel stitching of a 200-px lens.
     assert!(mean < 0.08, "mean relative error of the stitched map {mean}");
     // A back shot of the wrong size is refused, naming the file.
-    let (ok, _, err) = calib(&["hdr", "--images", &fronts.join(","), "--back", "scenes/courtyard/preview.png,scenes/courtyard/preview.png,scenes/courtyard/preview.png", "--times", &times_s.join(","), "--fisheye", calib.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    let (ok, _, err) = calib(&["hdr", "--images", &fronts.join(","), "--back", "scenes/courtyard/preview.png,scenes/courtyard/preview.png,scenes/courtyard/preview.png", "--times", &times_s.join(","), "--fisheye", fcalib.to_str().unwrap(), "-o", out.to_str().unwrap()]);
     assert!(!ok && err.contains("preview.png"), "{err}");
 
     // Photometric calibration: gray patches of a log camera c = 0.15 + 0.05·ln Y (8-bit codes).
     let lum = [0.1, 1.0, 10.0, 100.0, 1000.0, 10000.0, 30.0];
     let rows: Vec<String> = lum.iter().enumerate().map(|(i, &y)| format!("{},{y},{}", (255.0 * (0.15 + 0.05 * f64::ln(y))).round(), if i == 6 { "check" } else { "fit" })).collect();
     std::fs::write(tmp.join("patches.csv"), rows.join("\n")).unwrap();
-    let (ok, out, err) = calib(&["photometric", "--patches", tmp.join("patches.csv").to_str().unwrap(), "--calib", calib.to_str().unwrap()]);
+    let (ok, out, err) = calib(&["photometric", "--patches", tmp.join("patches.csv").to_str().unwrap(), "--calib", fcalib.to_str().unwrap()]);
     assert!(ok, "{err}");
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
     // 8-bit rounding of the codes: a and b within half a code's worth.
     assert!((v["a"].as_f64().unwrap() - 0.15).abs() < 0.003 && (v["b"].as_f64().unwrap() - 0.05).abs() < 0.001, "{v}");
     assert!(v["report"]["check_max_rel_error"].as_f64().unwrap() < 0.1, "{v}");
-    let fe = FisheyeCalib::load(&calib).unwrap();
+    let fe = FisheyeCalib::load(&fcalib).unwrap();
     let (lr, report) = fe.log_response.expect("log response written");
     assert!((lr.b - 0.05).abs() < 0.001 && report.is_some());
     // Codes that fall with luminance are refused.
