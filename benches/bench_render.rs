@@ -55,16 +55,7 @@ fn courtyard() -> Scene {
 
 /// The courtyard camera scaled to `w × h` (same field of view horizontally).
 fn camera_at(scene: &Scene, w: u32, h: u32) -> Camera {
-    let mut c = scene.camera.clone();
-    let k = &mut c.intrinsics;
-    let s = w as f64 / k.width as f64;
-    k.fx *= s;
-    k.fy *= s;
-    k.cx = (k.cx + 0.5) * s - 0.5;
-    k.cy = (k.cy + 0.5) * s - 0.5 - (k.height as f64 * s - h as f64) / 2.0;
-    k.width = w;
-    k.height = h;
-    c
+    scene.camera.resized(w, h)
 }
 
 /// Frame 0 of the bundled HDR sequence, resampled (nearest) to `w × h`.

@@ -173,6 +173,25 @@ impl Pipeline {
     }
 }
 
+/// A skip reason with its numbers replaced by `#`, so that reasons of one kind count together
+/// ("sun moved 0.04° ≤ 0.05° since frame 9" and "… 0.02° … frame 3" are the same kind).
+pub fn reason_kind(reason: &str) -> String {
+    let mut out = String::with_capacity(reason.len());
+    let mut in_number = false;
+    for ch in reason.chars() {
+        let numeric = ch.is_ascii_digit() || (in_number && ch == '.');
+        if numeric {
+            if !in_number {
+                out.push('#');
+            }
+        } else {
+            out.push(ch);
+        }
+        in_number = numeric;
+    }
+    out
+}
+
 /// Counts over a run, for summaries: estimator statuses and skipped passes with their reasons.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct RunCounts {
@@ -180,7 +199,7 @@ pub struct RunCounts {
     pub statuses: std::collections::BTreeMap<String, usize>,
     /// Frames on which each pass ran.
     pub passes_ran: std::collections::BTreeMap<String, usize>,
-    /// Frames on which each pass was skipped, per reason.
+    /// Frames on which each pass was skipped, per kind of reason (numbers replaced by `#`).
     pub passes_skipped: std::collections::BTreeMap<String, std::collections::BTreeMap<String, usize>>,
     /// Frames whose relight hook ran.
     pub relights: usize,
@@ -195,8 +214,21 @@ impl RunCounts {
             *self.passes_ran.entry(p.to_string()).or_default() += 1;
         }
         for s in &passes.skipped {
-            *self.passes_skipped.entry(s.pass.to_string()).or_default().entry(s.reason.clone()).or_default() += 1;
+            *self.passes_skipped.entry(s.pass.to_string()).or_default().entry(reason_kind(&s.reason)).or_default() += 1;
         }
         self.relights += relight.ran as usize;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reasons_of_one_kind_count_together() {
+        assert_eq!(reason_kind("sun moved 0.0396° ≤ 0.05° since frame 9"), "sun moved #° ≤ #° since frame #");
+        assert_eq!(reason_kind("sun moved 0.02° ≤ 0.05° since frame 13"), reason_kind("sun moved 0.0396° ≤ 0.05° since frame 9"));
+        assert_eq!(reason_kind("Pd ≈ 0 (Pd/Pa = 0.036 < 0.05)"), "Pd ≈ # (Pd/Pa = # < #)");
+        assert_eq!(reason_kind("no numbers."), "no numbers.");
     }
 }

@@ -27,16 +27,9 @@ pub enum CalibError {
     Input(String),
 }
 
-/// An 8-bit RGB image, row-major.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Rgb8 {
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
-    /// `3 × width × height` bytes, R, G, B.
-    pub data: Vec<u8>,
-}
+/// An 8-bit RGB image, row-major (the compositor's type; the calibration adds file and OpenCV
+/// conversions).
+pub use crate::render::output::Rgb8;
 
 impl Rgb8 {
     /// Reads an image file as RGB: PNG through the `image` crate, and JPEG, TIFF, BMP and the

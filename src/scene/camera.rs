@@ -155,6 +155,23 @@ pub struct Camera {
 }
 
 impl Camera {
+    /// The same camera for frames of `width × height`: focal lengths and principal point scaled
+    /// by `width / current width` (the same horizontal field of view), then cropped or padded
+    /// vertically about the centre. Distortion coefficients are unchanged (they act on
+    /// normalised coordinates).
+    pub fn resized(&self, width: u32, height: u32) -> Camera {
+        let mut c = self.clone();
+        let k = &mut c.intrinsics;
+        let s = width as f64 / k.width as f64;
+        k.fx *= s;
+        k.fy *= s;
+        k.cx = (k.cx + 0.5) * s - 0.5;
+        k.cy = (k.cy + 0.5) * s - 0.5 - (k.height as f64 * s - height as f64) / 2.0;
+        k.width = width;
+        k.height = height;
+        c
+    }
+
     /// World-space ray (origin, unit direction) through the centre of pixel `(col, row)`.
     pub fn pixel_ray(&self, col: u32, row: u32) -> Option<(DVec3, DVec3)> {
         self.ray_at(DVec2::new(col as f64, row as f64))
@@ -243,6 +260,23 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn resized_camera_sees_the_same_points_at_scaled_pixels() {
+        let cam = Camera { intrinsics: intr([-0.1, 0.02, 0.0, 0.0, 0.0]), pose: Pose { rotation: glam::DMat3::IDENTITY, translation: DVec3::ZERO } };
+        // Twice the width and height: pixel edges scale by 2 (centres by 2·(u + ½) − ½).
+        let big = cam.resized(1280, 960);
+        // Same width, 80 rows fewer: cropped by 40 rows at the top.
+        let crop = cam.resized(640, 400);
+        for p in [DVec3::new(0.3, -0.2, 2.0), DVec3::new(-0.5, 0.4, 3.0), DVec3::new(0.0, 0.0, 1.0)] {
+            let a = cam.intrinsics.project(p).unwrap();
+            let b = big.intrinsics.project(p).unwrap();
+            assert!((b - (2.0 * (a + DVec2::splat(0.5)) - DVec2::splat(0.5))).length() < 1e-9, "{a} {b}");
+            let c = crop.intrinsics.project(p).unwrap();
+            assert!((c - (a - DVec2::new(0.0, 40.0))).length() < 1e-9, "{a} {c}");
+        }
+        assert_eq!(cam.resized(640, 480), cam);
     }
 
     #[test]
