@@ -122,7 +122,7 @@ fn sigterm_closes_the_video_and_resume_completes_it() {
     let output = d.join("out.mkv");
     let report = d.join("out.report.jsonl");
     let args = ["augment", "scenes/courtyard", "--input", input.to_str().unwrap(), "--output", output.to_str().unwrap(), "--start", START, "--exposure", "3.5"];
-    let mut child = Command::new(env!("CARGO_BIN_EXE_heliar")).args(args).current_dir(root()).stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap();
+    let child = Command::new(env!("CARGO_BIN_EXE_heliar")).args(args).current_dir(root()).stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap();
     // Wait for the first frame in the report, then ask it to stop.
     let t0 = std::time::Instant::now();
     while std::fs::read_to_string(&report).map(|s| s.lines().count()).unwrap_or(0) < 2 {
