@@ -35,6 +35,9 @@ const VEM_SHADOWS: u32 = 2u;
 // The glossy L/H split on.
 const VEM_GLOSSY: u32 = 4u;
 
+// A light without a shadow map (and the "no map read yet" state of the shading loops).
+const NO_SLOT: u32 = 0xffffffffu;
+
 // One orthographic shadow map of the atlas.
 struct ShadowView {
     // World → clip: x, y in [-1, 1] over the tile, z in [0, 1] from the casters' side nearest

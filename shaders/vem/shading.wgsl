@@ -6,8 +6,8 @@
 // specular lobe with the L/H split: lights of L inside the cone C around the mirror direction r
 // (from the list of r's region of S_L) plus lights of H outside C, never both. V_i is the
 // shadow-map visibility of the light's atlas slot.
-// Receivers: the differential ratio Σ E_i·max(n·l_i,0)·V_i / Σ E_i·max(n·l_i,0) that darkens the
-// background where the objects shadow it.
+// Receivers: the differential ratio Σ E_c·max(n·l_c,0)·V_c / Σ E_c·max(n·l_c,0) over the clustered
+// lights c (one per shadow map) that darkens the background where the objects shadow it.
 // Both passes write two targets: the objects' premultiplied radiance (alpha 1 where covered) and
 // the ratio (1 where there is no receiver). Paired with src/vem/gpu/shading.rs.
 
@@ -30,6 +30,9 @@ struct Material {
 @group(0) @binding(5) var<storage, read> l_lists: array<u32>;
 @group(0) @binding(6) var<storage, read> shadow_views: array<ShadowView>;
 @group(0) @binding(7) var shadow_atlas: texture_depth_2d;
+// One light per shadow map: the map's direction and the summed power of the lights of H that read
+// it (the clustered lights of Havran §4.3).
+@group(0) @binding(8) var<storage, read> shadow_lights: array<VemLight>;
 
 @group(1) @binding(0) var<uniform> material: Material;
 @group(1) @binding(1) var base_color_texture: texture_2d<f32>;
@@ -149,13 +152,19 @@ fn fs_object(in: VertexOut, @builtin(front_facing) front: bool) -> FragOut {
     let glossy = (frame.h.w & VEM_GLOSSY) != 0u;
     let cos_cone = frame.params.x;
     var radiance = vec3<f32>(0.0);
+    // Lists are grouped by shadow slot (src/vem/gpu/mod.rs), so each map is read once per run.
+    var slot = NO_SLOT;
+    var vis = 1.0;
     let hl = h_list(n);
     for (var k = 0u; k < hl.y; k += 1u) {
         let light = h_lights[h_id(hl, k)];
         if (dot(n, light.dir) <= 0.0) {
             continue;
         }
-        let vis = shadow_visibility(light.shadow, in.world, n);
+        if (light.shadow != slot) {
+            slot = light.shadow;
+            vis = shadow_visibility(slot, in.world, n);
+        }
         if (vis <= 0.0) {
             continue;
         }
@@ -167,13 +176,17 @@ fn fs_object(in: VertexOut, @builtin(front_facing) front: bool) -> FragOut {
         radiance += light.rgb * f * vis;
     }
     if (glossy) {
+        slot = NO_SLOT;
         let ll = l_list(r);
         for (var k = 0u; k < ll.y; k += 1u) {
             let light = l_lights[l_id(ll, k)];
             if (dot(light.dir, r) < cos_cone || dot(n, light.dir) <= 0.0) {
                 continue;
             }
-            let vis = shadow_visibility(light.shadow, in.world, n);
+            if (light.shadow != slot) {
+                slot = light.shadow;
+                vis = shadow_visibility(slot, in.world, n);
+            }
             radiance += light.rgb * brdf_cos_parts(s, n, v, light.dir).specular * vis;
         }
     }
@@ -197,16 +210,17 @@ fn fs_receiver(in: ReceiverOut) -> FragOut {
     }
     var lit = vec3<f32>(0.0);
     var total = vec3<f32>(0.0);
-    let hl = h_list(n);
-    for (var k = 0u; k < hl.y; k += 1u) {
-        let light = h_lights[h_id(hl, k)];
+    // The clustered lights, one per shadow map: visibility is per map anyway, and the ratio
+    // needs no more directional detail than the clusters carry.
+    for (var k = 0u; k < frame.atlas.z; k += 1u) {
+        let light = shadow_lights[k];
         let nl = dot(n, light.dir);
         if (nl <= 0.0) {
             continue;
         }
         let e = light.rgb * nl;
         total += e;
-        lit += e * shadow_visibility(light.shadow, in.world, n);
+        lit += e * shadow_visibility(k, in.world, n);
     }
     var out: FragOut;
     out.virtual_layer = vec4<f32>(0.0);

@@ -13,7 +13,7 @@
 //! |---|---|
 //! | [`shadow_atlas`] | up to 72 orthographic maps of 256² of the objects, one per clustered light (Havran §4.3) |
 //! | depth prepass | receivers (proxy or ground plane) and objects into depth (`shaders/depth_prepass.wgsl`) |
-//! | [`shading`] | objects: region-culled light loop (Havran §4.1), glossy L/H split (§4.2), shadow-map visibility; receivers: the differential ratio |
+//! | [`shading`] | objects: region-culled light loop (Havran §4.1), glossy L/H split (§4.2), shadow-map visibility; receivers: the differential ratio over the clustered lights |
 //! | [`composite`] | in the footage grid: objects + (1 − α)·background·ratio |
 //! | [`tonemap`] | global Reinhard with temporally smoothed parameters (Havran §5.1), sRGB 8-bit |
 //!
@@ -254,6 +254,29 @@ pub fn list_words(set: &RegionSet, lists: &RegionLists) -> Vec<u32> {
     w
 }
 
+/// Reorders `lights` by shadow slot (sequence order within a slot) and rewrites the ids of the
+/// list buffer `words` (`regions` regions after a LUT of `lut_len` texels) to the new order, each
+/// region's ids ascending: a region's list then visits the lights of one shadow map one after the
+/// other, and the shader reads each map once per run instead of once per light.
+pub fn group_by_slot(lights: &mut Vec<GpuLight>, words: &mut [u32], lut_len: usize, regions: usize) {
+    let mut perm: Vec<u32> = (0..lights.len() as u32).collect();
+    perm.sort_by_key(|&i| (lights[i as usize].shadow, i));
+    let mut new_of_old = vec![0u32; lights.len()];
+    for (new, &old) in perm.iter().enumerate() {
+        new_of_old[old as usize] = new as u32;
+    }
+    *lights = perm.iter().map(|&i| lights[i as usize]).collect();
+    let ids_at = lut_len + 2 * regions;
+    for r in 0..regions {
+        let (off, cnt) = (words[lut_len + 2 * r] as usize, words[lut_len + 2 * r + 1] as usize);
+        let ids = &mut words[ids_at + off..ids_at + off + cnt];
+        for id in ids.iter_mut() {
+            *id = new_of_old[*id as usize];
+        }
+        ids.sort_unstable();
+    }
+}
+
 fn light_bytes(lights: &[GpuLight]) -> Vec<u8> {
     let mut out = Vec::with_capacity(32 * lights.len().max(1));
     for l in lights {
@@ -391,14 +414,23 @@ impl VemRenderer {
         } else {
             None
         };
-        let views: Vec<ShadowView> = match (&no_shadows, self.bounds) {
+        let (views, shadow_lights): (Vec<ShadowView>, Vec<GpuLight>) = match (&no_shadows, self.bounds) {
             (None, Some((lo, hi))) => {
                 let dirs = shadow_atlas::shadow_directions(&h_gpu, &lights.clusters, self.cfg.shadow_slots);
                 shadow_atlas::assign_slots(&mut h_gpu, &dirs);
                 shadow_atlas::assign_slots(&mut l_gpu, &dirs);
-                dirs.iter().map(|d| shadow_atlas::fit_view(*d, lo, hi, self.cfg.tile)).collect()
+                let mut clustered: Vec<GpuLight> =
+                    dirs.iter().enumerate().map(|(k, d)| GpuLight { dir: d.to_array(), shadow: k as u32, rgb: [0.0; 3], index: k as u32 }).collect();
+                for l in &h_gpu {
+                    if let Some(c) = clustered.get_mut(l.shadow as usize) {
+                        for k in 0..3 {
+                            c.rgb[k] += l.rgb[k];
+                        }
+                    }
+                }
+                (dirs.iter().map(|d| shadow_atlas::fit_view(*d, lo, hi, self.cfg.tile)).collect(), clustered)
             }
-            _ => Vec::new(),
+            _ => (Vec::new(), Vec::new()),
         };
         report.shadow_maps = views.len();
         let glossy = lights.glossy.filter(|_| !l_gpu.is_empty());
@@ -419,8 +451,14 @@ impl VemRenderer {
             atlas: [tiles, self.cfg.tile, views.len() as u32, 0],
             params: [glossy.map_or(2.0, |(g, _)| g.cos_cone), self.cfg.ground_albedo, 0.0, 0.0],
         };
-        let h_words = list_words(h_set, h_lists);
-        let l_words = glossy.map_or_else(|| vec![0u32], |(g, l)| list_words(&g.regions, l));
+        let mut h_words = list_words(h_set, h_lists);
+        let mut l_words = glossy.map_or_else(|| vec![0u32], |(g, l)| list_words(&g.regions, l));
+        if !views.is_empty() {
+            group_by_slot(&mut h_gpu, &mut h_words, h_set.lut.texels.len(), h_set.len());
+            if let Some((g, _)) = glossy {
+                group_by_slot(&mut l_gpu, &mut l_words, g.regions.lut.texels.len(), g.regions.len());
+            }
+        }
         let prepare_ms = t_start.elapsed().as_secs_f64() * 1e3;
 
         let t = Instant::now();
@@ -434,6 +472,7 @@ impl VemRenderer {
         let l_lists_buf = storage("vem L lists", bytemuck::cast_slice(&l_words));
         let views_bytes: Vec<u8> = if views.is_empty() { vec![0u8; std::mem::size_of::<ShadowView>()] } else { bytemuck::cast_slice(&views).to_vec() };
         let views_buf = storage("vem shadow views", &views_bytes);
+        let shadow_lights_buf = storage("vem shadow lights", &light_bytes(&shadow_lights));
         let frame_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("vem shading frame"),
             layout: &self.shading.frame_layout,
@@ -446,6 +485,7 @@ impl VemRenderer {
                 wgpu::BindGroupEntry { binding: 5, resource: l_lists_buf.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 6, resource: views_buf.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::TextureView(&self.atlas.view) },
+                wgpu::BindGroupEntry { binding: 8, resource: shadow_lights_buf.as_entire_binding() },
             ],
         });
         let bg: Vec<[f32; 4]> = background.data.iter().map(|p| [p[0], p[1], p[2], 1.0]).collect();
@@ -541,11 +581,16 @@ impl VemRenderer {
                 ..Default::default()
             });
             pa.set_bind_group(0, &frame_bg, &[]);
-            pa.set_pipeline(&self.shading.receiver);
-            pa.set_vertex_buffer(0, self.receivers.vertices.slice(..));
-            pa.set_index_buffer(self.receivers.indices.slice(..), wgpu::IndexFormat::Uint32);
-            pa.draw_indexed(0..self.receivers.index_count, 0, 0..1);
-            report.ran.push(pass::RECEIVERS);
+            if views.is_empty() {
+                // Without shadow maps every ratio is 1: the cleared value.
+                report.skip(pass::RECEIVERS, "no shadow maps this frame: the ratio is 1 everywhere");
+            } else {
+                pa.set_pipeline(&self.shading.receiver);
+                pa.set_vertex_buffer(0, self.receivers.vertices.slice(..));
+                pa.set_index_buffer(self.receivers.indices.slice(..), wgpu::IndexFormat::Uint32);
+                pa.draw_indexed(0..self.receivers.index_count, 0, 0..1);
+                report.ran.push(pass::RECEIVERS);
+            }
             if has_objects {
                 pa.set_vertex_buffer(0, self.objects.vertices.slice(..));
                 pa.set_index_buffer(self.objects.indices.slice(..), wgpu::IndexFormat::Uint32);
