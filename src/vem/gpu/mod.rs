@@ -684,3 +684,64 @@ impl VemRenderer {
         read_texture(&self.gpu, &self.srgb.texture, 4)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::vem::Light;
+    use crate::vem::regions::{shade_lambert_all, shade_lambert_region};
+    use rand::{Rng, SeedableRng, rngs::SmallRng};
+
+    /// `shade_lambert_region` read from a list buffer (what the shader does).
+    fn shade_from_words(set: &RegionSet, words: &[u32], lights: &[GpuLight], n: Vec3) -> [f32; 3] {
+        let lut_len = set.lut.texels.len();
+        let r = lut_len + 2 * words[set.lut.texel(n)] as usize;
+        let ids_at = lut_len + 2 * set.len();
+        let mut e = [0.0f32; 3];
+        for &i in &words[ids_at + words[r] as usize..ids_at + (words[r] + words[r + 1]) as usize] {
+            let l = &lights[i as usize];
+            let c = n.dot(Vec3::from_array(l.dir)).max(0.0);
+            for k in 0..3 {
+                e[k] += l.rgb[k] * c;
+            }
+        }
+        e
+    }
+
+    #[test]
+    fn grouping_by_slot_keeps_every_list_and_groups_its_maps() {
+        let mut rng = SmallRng::seed_from_u64(3);
+        let lights: Vec<Light> = (0..300)
+            .map(|i| {
+                let d = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(0.05..1.0), rng.random_range(-1.0..1.0)).normalize();
+                Light { index: i, dir: d, rgb: [rng.random_range(0.1..1.0), 0.5, 0.2] }
+            })
+            .collect();
+        let set = RegionSet::lambertian(200, 16);
+        let mut lists = RegionLists::default();
+        set.build_lists(&lights, &mut lists);
+        let mut words = list_words(&set, &lists);
+        let mut gpu = lists.lights.clone();
+        let dirs = shadow_atlas::shadow_directions(&gpu, &[], 12);
+        shadow_atlas::assign_slots(&mut gpu, &dirs);
+        group_by_slot(&mut gpu, &mut words, set.lut.texels.len(), set.len());
+        assert!(gpu.windows(2).all(|w| w[0].shadow <= w[1].shadow), "lights ordered by slot");
+        for _ in 0..500 {
+            let n = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)).normalize_or(Vec3::Y);
+            let (a, b) = (shade_lambert_region(&set, &lists, n), shade_from_words(&set, &words, &gpu, n));
+            let all = shade_lambert_all(&lists.lights, n);
+            for k in 0..3 {
+                assert!((a[k] - b[k]).abs() <= 1e-4 * a[k].max(1.0) && (all[k] - b[k]).abs() <= 1e-4 * all[k].max(1.0));
+            }
+        }
+    }
+
+    #[test]
+    fn ground_radiance_closed_form() {
+        // One light straight above of irradiance 2, one below the horizon: ρ/π·2.
+        let up = GpuLight { dir: [0.0, 1.0, 0.0], shadow: u32::MAX, rgb: [2.0; 3], index: 0 };
+        let down = GpuLight { dir: [0.0, -1.0, 0.0], ..up };
+        let e = ground_radiance(&[up, down], 0.3);
+        assert!((e[0] - 0.6 / std::f32::consts::PI).abs() < 1e-6);
+    }
+}
