@@ -33,6 +33,8 @@ struct Material {
 // One light per shadow map: the map's direction and the summed power of the lights of H that read
 // it (the clustered lights of Havran §4.3).
 @group(0) @binding(8) var<storage, read> shadow_lights: array<VemLight>;
+// Nearest-texel comparison (LessEqual): a depth texture cannot be read with textureLoad on GL.
+@group(0) @binding(9) var shadow_sampler: sampler_comparison;
 
 @group(1) @binding(0) var<uniform> material: Material;
 @group(1) @binding(1) var base_color_texture: texture_2d<f32>;
@@ -132,8 +134,10 @@ fn shadow_visibility(slot: u32, p: vec3<f32>, n: vec3<f32>) -> f32 {
     let tile = frame.atlas.y;
     let origin = vec2<u32>(slot % frame.atlas.x, slot / frame.atlas.x) * tile;
     let texel = min(vec2<u32>(uv * f32(tile)), vec2<u32>(tile - 1u));
-    let stored = textureLoad(shadow_atlas, vec2<i32>(origin + texel), 0);
-    return select(1.0, 0.0, stored < min(q.z, 1.0) - view.bias.x);
+    // The centre of that texel: the comparison reads exactly one texel, 1 when the point is not
+    // farther from the light than the stored depth (within the bias).
+    let at = (vec2<f32>(origin + texel) + vec2<f32>(0.5)) / f32(frame.atlas.x * tile);
+    return textureSampleCompareLevel(shadow_atlas, shadow_sampler, at, min(q.z, 1.0) - view.bias.x);
 }
 
 @fragment

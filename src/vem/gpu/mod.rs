@@ -199,6 +199,7 @@ pub struct VemRenderer {
     hdr: Tex,
     srgb: Tex,
     sampler: wgpu::Sampler,
+    shadow_sampler: wgpu::Sampler,
     tone: ToneMapper,
 }
 
@@ -340,7 +341,15 @@ impl VemRenderer {
             min_filter: wgpu::FilterMode::Linear,
             ..Default::default()
         });
+        let shadow_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("vem shadow atlas"),
+            mag_filter: wgpu::FilterMode::Nearest,
+            min_filter: wgpu::FilterMode::Nearest,
+            compare: Some(wgpu::CompareFunction::LessEqual),
+            ..Default::default()
+        });
         Ok(Self {
+            shadow_sampler,
             depth: Tex::new(device, "vem depth", cs, shading::DEPTH_FORMAT, 1, wgpu::TextureUsages::RENDER_ATTACHMENT),
             virtual_layer: Tex::new(device, "vem objects", cs, LAYER_FORMAT, 1, rt),
             ratio_layer: Tex::new(device, "vem ratio", cs, RATIO_FORMAT, 1, rt),
@@ -486,6 +495,7 @@ impl VemRenderer {
                 wgpu::BindGroupEntry { binding: 6, resource: views_buf.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::TextureView(&self.atlas.view) },
                 wgpu::BindGroupEntry { binding: 8, resource: shadow_lights_buf.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 9, resource: wgpu::BindingResource::Sampler(&self.shadow_sampler) },
             ],
         });
         let bg: Vec<[f32; 4]> = background.data.iter().map(|p| [p[0], p[1], p[2], 1.0]).collect();

@@ -103,6 +103,12 @@ impl ShadingPass {
                     count: None,
                 },
                 storage_entry(8),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 9,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison),
+                    count: None,
+                },
             ],
         });
         let prepass_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("vem prepass"), bind_group_layouts: &[Some(camera_layout)], immediate_size: 0 });

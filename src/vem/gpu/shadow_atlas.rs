@@ -13,7 +13,8 @@
 //!   caster between it and the light (lit), and a point beyond the far side compares against
 //!   depth 1, so any caster in front of it shadows it. The whole tile resolution goes to the
 //!   objects.
-//! - **Lookup** (in `shaders/vem/shading.wgsl`): one texel, with a normal offset of
+//! - **Lookup** (in `shaders/vem/shading.wgsl`): one texel, read through a nearest-texel
+//!   comparison sampler (GL cannot `textureLoad` a depth texture), with a normal offset of
 //!   [`NORMAL_OFFSET_TEXELS`] texels and a depth bias of [`DEPTH_BIAS_TEXELS`] texels against
 //!   self-shadowing acne.
 
