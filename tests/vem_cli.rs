@@ -145,6 +145,8 @@ fn scene_compositing_writes_frames_report_and_contact_sheet() {
     assert_eq!(report["frames"], 14);
     assert_eq!(report["receivers"], "proxy");
     assert_eq!(report["passes_run"]["shading"], 14);
+    assert_eq!(report["median_lights"], 64.0);
+    assert!(report["median_shadow_maps"].as_f64().unwrap() >= 1.0);
     // Without --scene, --output is still the JSON-lines file.
     let (ok, _, err) = heliar(&["vem", "--input", s(&d.join("frames")), "--calib", s(&d.join("calib/fisheye.toml")), "--output", s(&dir.join("l.jsonl"))]);
     assert!(ok && dir.join("l.jsonl").is_file(), "{err}");
