@@ -85,7 +85,11 @@ fn brdf_cos_parts(s: Surface, n: vec3<f32>, v: vec3<f32>, l: vec3<f32>) -> BrdfP
     let alpha = max(s.roughness * s.roughness, MIN_ALPHA);
     let a2 = alpha * alpha;
     let f0 = fresnel_f0(s);
-    let fresnel = f0 + (vec3<f32>(1.0) - f0) * pow(1.0 - vh, 5.0);
+    // (1 - v.h)^5 by multiplication: pow is exp2(5 log2 x) in a software rasteriser, and this
+    // function runs once per light and pixel.
+    let m = 1.0 - vh;
+    let m2 = m * m;
+    let fresnel = f0 + (vec3<f32>(1.0) - f0) * (m2 * m2 * m);
     let c_diff = mix(s.base_color, vec3<f32>(0.0), s.metallic);
     let t = nh * nh * (a2 - 1.0) + 1.0;
     let d = a2 / (PI * t * t);
