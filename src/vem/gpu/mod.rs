@@ -24,17 +24,19 @@
 //! Not modelled: shadows of the real proxy on the virtual objects (the atlas holds the objects
 //! only), MSAA (one sample per pixel), and the paper's cap on the number of glossy cone lights.
 
+pub mod background;
 pub mod composite;
+pub mod lists;
 pub mod shading;
 pub mod shadow_atlas;
 pub mod tonemap;
 
 use super::Status;
 use super::glossy::GlossyRegions;
-use super::polar::{PolarMap, luminance, polar_from_dir};
+use super::polar::luminance;
 use super::regions::{GpuLight, RegionLists, RegionSet};
 use super::tonemap::{ToneMapper, ToneParams};
-use crate::geometry::{Material, Mesh};
+use crate::geometry::Mesh;
 use crate::io::image::LinearImage;
 use crate::render::RenderError;
 use crate::render::camera::{Canvas, camera_layout};
@@ -47,6 +49,8 @@ use glam::Vec3;
 use serde::Serialize;
 use shading::{FLAG_CULLING, FLAG_GLOSSY, FLAG_SHADOWS, RATIO_FORMAT, ShadingPass, VemFrameUniform};
 use shadow_atlas::{ATLAS_FORMAT, ShadowAtlasPass, ShadowView};
+pub use background::{environment_background, ground_plane, ground_radiance};
+use lists::{group_by_slot, light_bytes, list_words};
 use std::sync::Arc;
 use std::time::Instant;
 use wgpu::util::DeviceExt;
@@ -69,8 +73,6 @@ pub mod pass {
 
 /// Default albedo of the ground plane used when the scene has no proxy.
 pub const GROUND_ALBEDO: f32 = 0.3;
-/// Half side of that ground plane, metres.
-const GROUND_HALF_SIDE_M: f32 = 200.0;
 
 /// Settings of the VEM renderer.
 #[derive(Clone, Debug, PartialEq)]
@@ -206,90 +208,6 @@ pub struct VemRenderer {
 /// Union of the bounds of `meshes`.
 fn bounds_of(meshes: &[&Mesh]) -> Option<(Vec3, Vec3)> {
     meshes.iter().filter_map(|m| m.bounds()).reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
-}
-
-/// A ground quad at height `y` around `centre` (the receiver when the scene has no proxy).
-pub fn ground_plane(centre: Vec3, y: f32, albedo: f32) -> Mesh {
-    let mut m = Mesh::default();
-    let mat = m.add_material(Material::diffuse("ground", [albedo; 3]));
-    let node = m.add_node("ground", true);
-    let s = GROUND_HALF_SIDE_M;
-    m.push_quad(Vec3::new(centre.x - s, y, centre.z - s), Vec3::Z * (2.0 * s), Vec3::X * (2.0 * s), node, mat);
-    m
-}
-
-/// Radiance of a horizontal Lambertian ground of `albedo` lit by `lights` (no shadows):
-/// `ρ/π · Σ rgb·max(l_y, 0)`.
-pub fn ground_radiance(lights: &[GpuLight], albedo: f32) -> [f32; 3] {
-    let mut e = [0.0f32; 3];
-    for l in lights {
-        let c = l.dir[1].max(0.0);
-        for k in 0..3 {
-            e[k] += l.rgb[k] * c;
-        }
-    }
-    e.map(|v| albedo / std::f32::consts::PI * v)
-}
-
-/// The VEM seen through `camera` (nearest texel of the polar map), `below` for rays under the
-/// horizon and black where the lens model has no ray.
-pub fn environment_background(map: &PolarMap, camera: &Camera, below: [f32; 3]) -> LinearImage {
-    let (w, h) = (camera.intrinsics.width, camera.intrinsics.height);
-    LinearImage::from_fn(w, h, |x, y| match camera.pixel_ray(x, y) {
-        Some((_, d)) => match polar_from_dir(d.as_vec3(), map.width, map.height) {
-            Some((px, py)) => map.get((px.max(0.0) as u32).min(map.width - 1), (py.max(0.0) as u32).min(map.height - 1)),
-            None => below,
-        },
-        None => [0.0; 3],
-    })
-}
-
-/// The list buffer of `set` (see `shaders/common/vem_lights.wgsl`): LUT, ranges, ids.
-pub fn list_words(set: &RegionSet, lists: &RegionLists) -> Vec<u32> {
-    let mut w = Vec::with_capacity(set.lut.texels.len() + 2 * lists.ranges.len() + lists.ids.len());
-    w.extend_from_slice(&set.lut.texels);
-    for r in &lists.ranges {
-        w.extend([r.offset, r.count]);
-    }
-    w.extend_from_slice(&lists.ids);
-    w
-}
-
-/// Reorders `lights` by shadow slot (sequence order within a slot) and rewrites the ids of the
-/// list buffer `words` (`regions` regions after a LUT of `lut_len` texels) to the new order, each
-/// region's ids ascending: a region's list then visits the lights of one shadow map one after the
-/// other, and the shader reads each map once per run instead of once per light.
-pub fn group_by_slot(lights: &mut Vec<GpuLight>, words: &mut [u32], lut_len: usize, regions: usize) {
-    let mut perm: Vec<u32> = (0..lights.len() as u32).collect();
-    perm.sort_by_key(|&i| (lights[i as usize].shadow, i));
-    let mut new_of_old = vec![0u32; lights.len()];
-    for (new, &old) in perm.iter().enumerate() {
-        new_of_old[old as usize] = new as u32;
-    }
-    *lights = perm.iter().map(|&i| lights[i as usize]).collect();
-    let ids_at = lut_len + 2 * regions;
-    for r in 0..regions {
-        let (off, cnt) = (words[lut_len + 2 * r] as usize, words[lut_len + 2 * r + 1] as usize);
-        let ids = &mut words[ids_at + off..ids_at + off + cnt];
-        for id in ids.iter_mut() {
-            *id = new_of_old[*id as usize];
-        }
-        ids.sort_unstable();
-    }
-}
-
-fn light_bytes(lights: &[GpuLight]) -> Vec<u8> {
-    let mut out = Vec::with_capacity(32 * lights.len().max(1));
-    for l in lights {
-        out.extend(bytemuck::cast_slice::<f32, u8>(&l.dir));
-        out.extend(l.shadow.to_le_bytes());
-        out.extend(bytemuck::cast_slice::<f32, u8>(&l.rgb));
-        out.extend(l.index.to_le_bytes());
-    }
-    if out.is_empty() {
-        out.resize(32, 0);
-    }
-    out
 }
 
 impl VemRenderer {
@@ -692,66 +610,5 @@ impl VemRenderer {
         }
         self.gpu.queue.submit([enc.finish()]);
         read_texture(&self.gpu, &self.srgb.texture, 4)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::vem::Light;
-    use crate::vem::regions::{shade_lambert_all, shade_lambert_region};
-    use rand::{Rng, SeedableRng, rngs::SmallRng};
-
-    /// `shade_lambert_region` read from a list buffer (what the shader does).
-    fn shade_from_words(set: &RegionSet, words: &[u32], lights: &[GpuLight], n: Vec3) -> [f32; 3] {
-        let lut_len = set.lut.texels.len();
-        let r = lut_len + 2 * words[set.lut.texel(n)] as usize;
-        let ids_at = lut_len + 2 * set.len();
-        let mut e = [0.0f32; 3];
-        for &i in &words[ids_at + words[r] as usize..ids_at + (words[r] + words[r + 1]) as usize] {
-            let l = &lights[i as usize];
-            let c = n.dot(Vec3::from_array(l.dir)).max(0.0);
-            for k in 0..3 {
-                e[k] += l.rgb[k] * c;
-            }
-        }
-        e
-    }
-
-    #[test]
-    fn grouping_by_slot_keeps_every_list_and_groups_its_maps() {
-        let mut rng = SmallRng::seed_from_u64(3);
-        let lights: Vec<Light> = (0..300)
-            .map(|i| {
-                let d = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(0.05..1.0), rng.random_range(-1.0..1.0)).normalize();
-                Light { index: i, dir: d, rgb: [rng.random_range(0.1..1.0), 0.5, 0.2] }
-            })
-            .collect();
-        let set = RegionSet::lambertian(200, 16);
-        let mut lists = RegionLists::default();
-        set.build_lists(&lights, &mut lists);
-        let mut words = list_words(&set, &lists);
-        let mut gpu = lists.lights.clone();
-        let dirs = shadow_atlas::shadow_directions(&gpu, &[], 12);
-        shadow_atlas::assign_slots(&mut gpu, &dirs);
-        group_by_slot(&mut gpu, &mut words, set.lut.texels.len(), set.len());
-        assert!(gpu.windows(2).all(|w| w[0].shadow <= w[1].shadow), "lights ordered by slot");
-        for _ in 0..500 {
-            let n = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)).normalize_or(Vec3::Y);
-            let (a, b) = (shade_lambert_region(&set, &lists, n), shade_from_words(&set, &words, &gpu, n));
-            let all = shade_lambert_all(&lists.lights, n);
-            for k in 0..3 {
-                assert!((a[k] - b[k]).abs() <= 1e-4 * a[k].max(1.0) && (all[k] - b[k]).abs() <= 1e-4 * all[k].max(1.0));
-            }
-        }
-    }
-
-    #[test]
-    fn ground_radiance_closed_form() {
-        // One light straight above of irradiance 2, one below the horizon: ρ/π·2.
-        let up = GpuLight { dir: [0.0, 1.0, 0.0], shadow: u32::MAX, rgb: [2.0; 3], index: 0 };
-        let down = GpuLight { dir: [0.0, -1.0, 0.0], ..up };
-        let e = ground_radiance(&[up, down], 0.3);
-        assert!((e[0] - 0.6 / std::f32::consts::PI).abs() < 1e-6);
     }
 }
