@@ -305,3 +305,27 @@ fn tone_mapping_matches_the_cpu_and_dark_frames_skip_shadows() {
     assert!(why.contains("no power") && why.contains("dark"), "{why}");
     assert!(out.hdr.data.iter().all(|p| p.iter().all(|c| c.is_finite())));
 }
+
+#[test]
+fn tone_parameters_are_smoothed_over_frames() {
+    // The background flickers ±30% every frame at 21 Hz: the log-average luminance the GPU pass
+    // uses moves far less than the frames' own (vem::tonemap, time constant 0.5 s).
+    let camera = support::camera([0.0, 1.4, 4.0], [0.0, 0.8, 0.0], 64, 48, [0.0; 5]);
+    let obj = support::icosphere(Vec3::new(0.0, 0.8, 0.0), 0.6, 1, material([0.5; 3], 0.0, 0.5, "ball"), "ball");
+    let mut r = renderer(&camera, None, &[&obj], VemRenderConfig { shadows: false, ..Default::default() });
+    let set = RegionSet::lambertian(200, 32);
+    let mut lists = RegionLists::default();
+    set.build_lists(&lights_of_map(&sky(), SamplerKind::Havran, Pattern::RelaxedHalton, 64), &mut lists);
+    let lights = VemLights { status: Status::Ok, h: (&set, &lists), glossy: None, clusters: vec![] };
+    let mut used = Vec::new();
+    for t in 0..60 {
+        let s = if t % 2 == 0 { 1.3f32 } else { 0.7 };
+        let bg = LinearImage::from_fn(64, 48, |x, _| [s * (0.5 + 0.01 * x as f32); 3]);
+        used.push(r.render(&lights, &bg, 1.0 / 21.0).unwrap().report.tone.unwrap().log_average);
+    }
+    let tail = &used[40..];
+    let (lo, hi) = tail.iter().fold((f64::MAX, f64::MIN), |a, &x| (a.0.min(x), a.1.max(x)));
+    // The frames' own log averages differ by 1.3/0.7 = 1.86×; the smoothed ones by < 6% (the
+    // bound of vem::tonemap's own test for the same flicker).
+    assert!(hi / lo - 1.0 < 0.06, "smoothed swing {}", hi / lo - 1.0);
+}
