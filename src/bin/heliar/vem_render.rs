@@ -135,7 +135,7 @@ impl VemCompositing {
         let png = self.out_dir.join(format!("frame_{i:04}.png"));
         image::save_buffer(&png, &rgb, w, h, image::ExtendedColorType::Rgb8).with_context(|| format!("writing {}", png.display()))?;
         let stride = total.div_ceil(SHEET_FRAMES).max(1);
-        if i % stride == 0 {
+        if i.is_multiple_of(stride) {
             self.sheet.push((i, Rgb8 { width: w, height: h, data: rgb }.shrink_to(SHEET_TILE_WIDTH)));
         }
         self.frames += 1;

@@ -28,8 +28,8 @@ pub fn ground_radiance(lights: &[GpuLight], albedo: f32) -> [f32; 3] {
     let mut e = [0.0f32; 3];
     for l in lights {
         let c = l.dir[1].max(0.0);
-        for k in 0..3 {
-            e[k] += l.rgb[k] * c;
+        for (e, rgb) in e.iter_mut().zip(l.rgb) {
+            *e += rgb * c;
         }
     }
     e.map(|v| albedo / std::f32::consts::PI * v)

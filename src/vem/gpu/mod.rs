@@ -336,7 +336,7 @@ impl VemRenderer {
             Some("shadows are off".to_owned())
         } else if !has_objects {
             Some("the scene has no virtual objects".to_owned())
-        } else if !(power > 0.0) {
+        } else if power.is_nan() || power <= 0.0 {
             Some(format!("the lights carry no power (status {})", if lights.status == Status::Dark { "dark" } else { "ok" }))
         } else {
             None
