@@ -110,3 +110,70 @@ fn bench_vem_writes_tables_and_plots() {
     assert_eq!(coh.lines().count(), 1 + 4 * 5 * 5);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn scene_compositing_writes_frames_report_and_contact_sheet() {
+    // 14 generated frames over the bundled courtyard (12 footage frames): footage backgrounds,
+    // then the VEM seen through the camera.
+    let dir = temp_dir("scene");
+    let (ok, _, err) = run(env!("CARGO_BIN_EXE_gen-vem"), &["--out", s(&dir), "--size", "64", "--frames", "14"]);
+    assert!(ok, "{err}");
+    let d = dir.join("outdoor");
+    let out = dir.join("composited");
+    let (ok, _, err) = heliar(&[
+        "vem", "--scene", "scenes/courtyard", "--input", s(&d.join("frames")), "--calib", s(&d.join("calib/fisheye.toml")), "--lights", "64",
+        "--output", s(&out),
+    ]);
+    assert!(ok, "{err}");
+    for i in 0..14 {
+        let img = image::open(out.join(format!("frame_{i:04}.png"))).unwrap();
+        assert_eq!((img.width(), img.height()), (320, 240));
+    }
+    assert!(out.join("contact_sheet.png").is_file());
+    let lines: Vec<serde_json::Value> = std::fs::read_to_string(out.join("frames.jsonl")).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(lines.len(), 14);
+    for (i, v) in lines.iter().enumerate() {
+        let r = &v["render"];
+        assert_eq!(r["background"], if i < 12 { "footage" } else { "environment" }, "frame {i}");
+        let ran: Vec<&str> = r["ran"].as_array().unwrap().iter().map(|p| p.as_str().unwrap()).collect();
+        assert_eq!(ran, ["shadow_atlas", "depth_prepass", "receivers", "shading", "composite", "tonemap"]);
+        assert!(r["shadow_maps"].as_u64().unwrap() >= 1 && r["shadow_maps"].as_u64().unwrap() <= 72);
+        assert!(r["timings"]["total_ms"].as_f64().unwrap() > 0.0);
+        assert_eq!(v["lights"].as_array().unwrap().len(), 64);
+    }
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["frames"], 14);
+    assert_eq!(report["receivers"], "proxy");
+    assert_eq!(report["passes_run"]["shading"], 14);
+    assert_eq!(report["median_lights"], 64.0);
+    assert!(report["median_shadow_maps"].as_f64().unwrap() >= 1.0);
+    // Without --scene, --output is still the JSON-lines file.
+    let (ok, _, err) = heliar(&["vem", "--input", s(&d.join("frames")), "--calib", s(&d.join("calib/fisheye.toml")), "--output", s(&dir.join("l.jsonl"))]);
+    assert!(ok && dir.join("l.jsonl").is_file(), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn dark_frames_skip_the_shadow_pass_with_a_reason() {
+    let dir = temp_dir("scenedark");
+    let frames = dir.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    for i in 0..2 {
+        heliar::io::image::LinearImage::new(360, 90).write_exr(&frames.join(format!("{i}.exr")), heliar::io::image::ExrPrecision::Half).unwrap();
+    }
+    let out = dir.join("out");
+    let (ok, _, err) = heliar(&["vem", "--scene", "scenes/courtyard", "--input", s(&frames), "--lights", "8", "--output", s(&out)]);
+    assert!(ok, "{err}");
+    for l in std::fs::read_to_string(out.join("frames.jsonl")).unwrap().lines() {
+        let v: serde_json::Value = serde_json::from_str(l).unwrap();
+        assert_eq!(v["status"], "dark");
+        let skipped = v["render"]["skipped"].as_array().unwrap();
+        let atlas = skipped.iter().find(|s| s["pass"] == "shadow_atlas").expect("shadow pass skipped");
+        assert!(atlas["reason"].as_str().unwrap().contains("dark"), "{atlas}");
+    }
+    let report = std::fs::read_to_string(out.join("report.json")).unwrap();
+    assert!(report.contains("the lights carry no power (status dark)"), "{report}");
+    let (ok, _, err) = heliar(&["vem", "--scene", "scenes/courtyard", "--input", s(&frames)]);
+    assert!(!ok && err.contains("--output"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}

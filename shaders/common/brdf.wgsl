@@ -61,3 +61,40 @@ fn ambient_radiance(s: Surface, nv: f32, e_n: vec3<f32>, e_r: vec3<f32>) -> vec3
     let c_diff = mix(s.base_color, vec3<f32>(0.0), s.metallic);
     return c_diff / PI * e_n * (vec3<f32>(1.0) - spec_albedo) + spec_albedo * e_r / PI;
 }
+
+// brdf_cos split into its diffuse and specular lobes (their sum is brdf_cos): the VEM shading
+// takes the diffuse lobe from the light set H and the specular one from the L/H split of
+// Havran §4.2 (shaders/vem/shading.wgsl).
+struct BrdfParts {
+    diffuse: vec3<f32>,
+    specular: vec3<f32>,
+}
+
+fn brdf_cos_parts(s: Surface, n: vec3<f32>, v: vec3<f32>, l: vec3<f32>) -> BrdfParts {
+    var out: BrdfParts;
+    out.diffuse = vec3<f32>(0.0);
+    out.specular = vec3<f32>(0.0);
+    let nl = dot(n, l);
+    if (nl <= 0.0) {
+        return out;
+    }
+    let nv = max(dot(n, v), 1e-4);
+    let h = normalize(l + v);
+    let nh = max(dot(n, h), 0.0);
+    let vh = max(dot(v, h), 0.0);
+    let alpha = max(s.roughness * s.roughness, MIN_ALPHA);
+    let a2 = alpha * alpha;
+    let f0 = fresnel_f0(s);
+    // (1 - v.h)^5 by multiplication: pow is exp2(5 log2 x) in a software rasteriser, and this
+    // function runs once per light and pixel.
+    let m = 1.0 - vh;
+    let m2 = m * m;
+    let fresnel = f0 + (vec3<f32>(1.0) - f0) * (m2 * m2 * m);
+    let c_diff = mix(s.base_color, vec3<f32>(0.0), s.metallic);
+    let t = nh * nh * (a2 - 1.0) + 1.0;
+    let d = a2 / (PI * t * t);
+    let vis = 0.5 / (nl * sqrt(nv * nv * (1.0 - a2) + a2) + nv * sqrt(nl * nl * (1.0 - a2) + a2));
+    out.diffuse = (vec3<f32>(1.0) - fresnel) * c_diff / PI * nl;
+    out.specular = fresnel * d * vis * nl;
+    return out;
+}

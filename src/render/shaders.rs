@@ -17,12 +17,17 @@ pub const SOURCES: &[(&str, &str)] = &[
     ("common/fullscreen.wgsl", include_str!("../../shaders/common/fullscreen.wgsl")),
     ("common/lighting.wgsl", include_str!("../../shaders/common/lighting.wgsl")),
     ("common/sh.wgsl", include_str!("../../shaders/common/sh.wgsl")),
+    ("common/vem_lights.wgsl", include_str!("../../shaders/common/vem_lights.wgsl")),
     ("composite.wgsl", include_str!("../../shaders/composite.wgsl")),
     ("depth_prepass.wgsl", include_str!("../../shaders/depth_prepass.wgsl")),
     ("shadow_mask.wgsl", include_str!("../../shaders/shadow_mask.wgsl")),
     ("shadow_volume.wgsl", include_str!("../../shaders/shadow_volume.wgsl")),
     ("shadow_volume/extrude.wgsl", include_str!("../../shaders/shadow_volume/extrude.wgsl")),
     ("stencil_resolve.wgsl", include_str!("../../shaders/stencil_resolve.wgsl")),
+    ("vem/composite.wgsl", include_str!("../../shaders/vem/composite.wgsl")),
+    ("vem/shading.wgsl", include_str!("../../shaders/vem/shading.wgsl")),
+    ("vem/shadow_atlas.wgsl", include_str!("../../shaders/vem/shadow_atlas.wgsl")),
+    ("vem/tonemap.wgsl", include_str!("../../shaders/vem/tonemap.wgsl")),
     ("virtual_shading.wgsl", include_str!("../../shaders/virtual_shading.wgsl")),
 ];
 

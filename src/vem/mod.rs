@@ -34,6 +34,7 @@ pub mod calib;
 pub mod cluster;
 pub mod fisheye;
 pub mod glossy;
+pub mod gpu;
 pub mod input;
 pub mod metrics;
 pub mod pattern;

@@ -721,7 +721,7 @@ pub fn run(a: AugmentArgs) -> Result<()> {
 
     // Close everything, whatever happened: the output and its reports cover frames 0..i.
     drop(report);
-    #[allow(unused_mut)]
+    #[cfg_attr(not(feature = "opencv"), allow(unused_mut))]
     let mut close_err: Option<anyhow::Error> = None;
     #[cfg(feature = "opencv")]
     if let Sink::Video { sink, partial } = &mut sink {

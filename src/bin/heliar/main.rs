@@ -9,6 +9,7 @@ mod common;
 mod estimate;
 mod sun;
 mod vem;
+mod vem_render;
 
 use clap::{Parser, Subcommand};
 
@@ -33,7 +34,8 @@ enum Command {
     Relight(bake::RelightArgs),
     /// Irradiance from the irradiance volume at a point and normal, as JSON.
     Irradiance(bake::IrradianceArgs),
-    /// Directional lights from captured HDR video environment maps (JSON lines).
+    /// Directional lights from captured HDR video environment maps (JSON lines); with --scene,
+    /// the scene's virtual objects lit, shadowed and composited with them on the GPU.
     Vem(vem::VemArgs),
     /// Composite the scene's virtual objects into a frame sequence (estimate → relight → composite).
     Augment(augment::AugmentArgs),

@@ -1,6 +1,6 @@
-//! `heliar vem`: captured HDR video environment maps → directional lights, one JSON line per frame.
-//!
-//! Compositing (`--scene`) needs the GPU compositor and is not here yet.
+//! `heliar vem`: captured HDR video environment maps → directional lights, one JSON line per frame;
+//! with `--scene`, the scene's virtual objects composited with those lights on the GPU
+//! ([`crate::vem_render`]).
 
 use crate::common::frame_bar;
 use anyhow::{Context, Result, bail};
@@ -12,7 +12,9 @@ use heliar::vem::pattern::Pattern;
 use heliar::vem::polar::PolarMap;
 use heliar::vem::resample::ResampleStats;
 use heliar::vem::sampling::SamplerKind;
+use heliar::vem::gpu::VemRenderConfig;
 use heliar::vem::{Decomposer, FrameSummary, Light, Status, VemConfig};
+use crate::vem_render::VemCompositing;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -47,12 +49,31 @@ pub struct VemArgs {
     /// and 4:1 frames polar maps, in the world frame.
     #[arg(long)]
     calib: Option<PathBuf>,
-    /// Number of lights.
-    #[arg(long)]
+    /// Number of lights (the set H).
+    #[arg(long, default_value_t = 300)]
     lights: usize,
-    /// JSON-lines output file (default: stdout).
+    /// JSON-lines output file (default: stdout); with --scene, the output folder (frames,
+    /// frames.jsonl, report.json, contact_sheet.png).
     #[arg(long, short)]
     output: Option<PathBuf>,
+    /// Composite this scene's virtual objects (scene folder) with every frame's lights.
+    #[arg(long)]
+    scene: Option<PathBuf>,
+    /// Also decompose into a denser glossy set L of this many lights (Havran §4.2).
+    #[arg(long)]
+    glossy_lights: Option<usize>,
+    /// Shadow maps in the atlas (at most this many clustered lights cast shadows).
+    #[arg(long, default_value_t = heliar::vem::gpu::shadow_atlas::DEFAULT_SLOTS)]
+    shadow_maps: usize,
+    /// Shadow-map tile size, texels.
+    #[arg(long, default_value_t = heliar::vem::gpu::shadow_atlas::DEFAULT_TILE)]
+    shadow_tile: u32,
+    /// Visit every light in the shader instead of the region's list (the culling baseline).
+    #[arg(long)]
+    no_culling: bool,
+    /// No shadow maps.
+    #[arg(long)]
+    no_shadows: bool,
     /// Capture rate in Hz (designs the temporal filter; the paper's taps at 21).
     #[arg(long, default_value_t = 21.0)]
     rate_hz: f64,
@@ -91,6 +112,8 @@ struct Record<'a> {
     region_list_fraction: f64,
     decode_ms: f64,
     decompose_ms: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    render: Option<crate::vem_render::FrameRender>,
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32)> {
@@ -108,8 +131,15 @@ pub fn run(a: VemArgs) -> Result<()> {
         pattern: if a.no_relax { Pattern::Halton } else { Pattern::RelaxedHalton },
         rate_hz: a.rate_hz,
         clusters: a.clusters,
+        glossy_lights: a.glossy_lights,
         ..VemConfig::default()
     };
+    if a.scene.is_some() && a.output.is_none() {
+        bail!("--scene needs --output OUT_DIR (the folder for frames, report and contact sheet)");
+    }
+    if a.shadow_maps == 0 || a.shadow_tile == 0 {
+        bail!("--shadow-maps and --shadow-tile must be positive");
+    }
     if !(0.0..=1.0).contains(&a.max_invalid_fraction) {
         bail!("--max-invalid-fraction {} must be in [0, 1]", a.max_invalid_fraction);
     }
@@ -129,7 +159,19 @@ pub fn run(a: VemArgs) -> Result<()> {
     }
     let mut dec = Decomposer::new(cfg)?;
     let delay = dec.filter_design().delay_frames();
-    let mut out = match &a.output {
+    let mut compositing = match (&a.scene, &a.output) {
+        (Some(scene), Some(dir)) => {
+            let rcfg = VemRenderConfig { shadow_slots: a.shadow_maps, tile: a.shadow_tile, culling: !a.no_culling, shadows: !a.no_shadows, ..Default::default() };
+            Some(VemCompositing::new(scene, dir, rcfg, a.rate_hz)?)
+        }
+        _ => None,
+    };
+    let jsonl = match (&a.scene, &a.output) {
+        (Some(_), Some(dir)) => Some(dir.join("frames.jsonl")),
+        (None, p) => p.clone(),
+        _ => None,
+    };
+    let mut out = match &jsonl {
         Some(p) => JsonLines::create(p).with_context(|| format!("creating {}", p.display()))?,
         None => JsonLines::stdout(),
     };
@@ -151,6 +193,10 @@ pub fn run(a: VemArgs) -> Result<()> {
         filt_pts.push((ts, summary.filtered_power));
         decode.push(decode_ms);
         decompose.push(decompose_ms);
+        let render = match &mut compositing {
+            Some(c) => Some(c.frame(i, input.len(), &map, &dec, summary.status)?),
+            None => None,
+        };
         let (_, lists) = dec.region_lists();
         out.write(&Record {
             frame: i,
@@ -163,6 +209,7 @@ pub fn run(a: VemArgs) -> Result<()> {
             region_list_fraction: lists.mean_fraction(),
             decode_ms,
             decompose_ms,
+            render,
         })?;
         pb.inc(1);
     }
@@ -179,6 +226,9 @@ pub fn run(a: VemArgs) -> Result<()> {
     eprint!("{t}");
     if let Some(p) = out.path() {
         eprintln!("wrote {}", p.display());
+    }
+    if let Some(c) = compositing {
+        eprintln!("wrote {}", c.finish()?.display());
     }
     if let Some(path) = &a.plot {
         let series = vec![
