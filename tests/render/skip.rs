@@ -132,7 +132,8 @@ fn switched_off_passes_are_reported_and_change_the_picture_as_they_should() {
     assert!(r.ran(pass::VIRTUAL_VOLUMES) && r.ran(pass::REAL_VOLUMES), "{r:?}");
     let masks = all.masks.clone().unwrap();
     let shadowed = masks.iter().filter(|m| m[0] > 0).count();
-    assert!(shadowed > 50, "the sphere casts a virtual shadow ({shadowed} px)");
+    // Most of the sphere's shadow falls into the wall's (25 px stay outside at 160×120).
+    assert!(shadowed > 10, "the sphere casts a virtual shadow ({shadowed} px)");
 
     // Virtual shadows off: the volume pass is skipped with the reason, no virtual shadow mask,
     // and the sphere itself stays drawn.
@@ -149,11 +150,13 @@ fn switched_off_passes_are_reported_and_change_the_picture_as_they_should() {
     assert!(r.volumes.reused, "{r:?}");
     assert_eq!(r.skip_reason(pass::VIRTUAL_VOLUMES), Some(WHY), "{r:?}");
 
-    // Real shadows off.
+    // Real shadows off: the virtual shadow now covers the part inside the wall's shadow too.
     comp.set_switches(PassSwitches { real_volumes: false, ..Default::default() }, WHY);
-    let (_, r) = comp.render(&v, &l).unwrap();
+    let (f, r) = comp.render(&v, &l).unwrap();
     assert_eq!(r.skip_reason(pass::REAL_VOLUMES), Some(WHY), "{r:?}");
     assert!(r.ran(pass::VIRTUAL_VOLUMES) && !r.volumes.reused, "a change of switches rebuilds: {r:?}");
+    let without_real = f.masks.unwrap().iter().filter(|m| m[0] > 0).count();
+    assert!(without_real > shadowed + 20, "{without_real} vs {shadowed} px");
 
     // Virtual objects off: the footage passes through unchanged.
     comp.set_switches(PassSwitches { virtual_objects: false, ..Default::default() }, WHY);
