@@ -721,7 +721,8 @@ pub fn run(a: AugmentArgs) -> Result<()> {
 
     // Close everything, whatever happened: the output and its reports cover frames 0..i.
     drop(report);
-    let mut close_err = None;
+    #[cfg_attr(not(feature = "opencv"), allow(unused_mut))]
+    let mut close_err: Option<anyhow::Error> = None;
     #[cfg(feature = "opencv")]
     if let Sink::Video { sink, partial } = &mut sink {
         if let Err(e) = sink.finish() {
