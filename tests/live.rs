@@ -315,3 +315,26 @@ fn heliar_live_plays_a_video_file_headless() {
     eprintln!("{stderr}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn the_vem_panel_decomposes_with_the_slider_s_light_count() {
+    use heliar::live::vem::VemPanel;
+    let vem = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/vem/outdoor");
+    let mut panel = VemPanel::open(&vem.join("frames"), Some(&vem.join("calib/fisheye.toml")), 64).unwrap();
+    panel.advance().unwrap();
+    assert_eq!(panel.lights().len(), 64);
+    // The synthetic outdoor sky has a sun well above the horizon: every light is in the upper
+    // hemisphere, and the brightest ones cluster together.
+    assert!(panel.lights().iter().all(|l| l.dir.y >= -1e-3 && (l.dir.length() - 1.0).abs() < 1e-3));
+    let mut h = Harness::builder().with_size([400.0, 600.0]).build_ui_state(|ui, p: &mut VemPanel| p.ui(ui), panel);
+    h.run();
+    h.get_by_label_contains("64 lights, frame 1 of 24");
+    // What the slider does: the decomposer re-runs on the same map with the new count.
+    h.state_mut().set_light_count(300).unwrap();
+    h.run();
+    assert_eq!(h.state().lights().len(), 300);
+    h.get_by_label_contains("300 lights, frame 1 of 24");
+    h.state_mut().advance().unwrap();
+    h.run();
+    h.get_by_label_contains("300 lights, frame 2 of 24");
+}

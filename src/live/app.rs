@@ -152,6 +152,8 @@ pub struct LiveApp {
     started: Instant,
     quit: Option<Arc<AtomicBool>>,
     title: String,
+    /// The VEM panel (`--vem-input`).
+    pub vem: Option<super::vem::VemPanel>,
 }
 
 impl LiveApp {
@@ -181,6 +183,7 @@ impl LiveApp {
             started: Instant::now(),
             quit: None,
             title: title.to_owned(),
+            vem: None,
         }
     }
 
@@ -361,6 +364,11 @@ impl LiveApp {
                 self.estimator_ui(ui);
                 ui.separator();
                 self.passes_ui(ui);
+                if let Some(v) = &mut self.vem {
+                    ui.separator();
+                    v.tick();
+                    v.ui(ui);
+                }
             });
         });
         egui::Panel::bottom("live_plots").default_size(200.0).show(ui, |ui| self.plots_ui(ui));

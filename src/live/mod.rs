@@ -23,10 +23,13 @@
 //!   and the ambient source; the estimator's status, fallback, condition number, `Pd`/`Pa`,
 //!   relight, frame rate and dropped frames; plots of `Pd`, `Pa` and the residual over the last
 //!   five minutes (egui_plot).
+//! - **VEM** ([`vem`], `--vem-input`): a captured video environment map sequence decomposed
+//!   into lights, drawn on a polar plot, with a slider for the light count.
 
 pub mod app;
 pub mod slot;
 pub mod source;
+pub mod vem;
 
 pub use app::{AmbientChoice, FrameClock, LiveApp, TURNED_OFF};
 pub use slot::LatestSlot;

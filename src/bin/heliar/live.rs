@@ -52,6 +52,16 @@ pub struct LiveArgs {
     /// software rasteriser).
     #[arg(long, default_value_t = 1)]
     samples: u32,
+    /// A captured VEM sequence (fisheye/equirect/polar frames) to decompose into lights in a
+    /// panel of the window.
+    #[arg(long)]
+    vem_input: Option<PathBuf>,
+    /// The VEM sequence's calibration (calib/fisheye.toml).
+    #[arg(long, requires = "vem_input")]
+    vem_calib: Option<PathBuf>,
+    /// Initial light count of the VEM panel.
+    #[arg(long, default_value_t = 64, requires = "vem_input")]
+    vem_lights: usize,
     /// Run without a window for this many frames and print the timings.
     #[arg(long)]
     headless_frames: Option<usize>,
@@ -179,6 +189,9 @@ mod imp {
         let capture = Capture::start(opener, Arc::new(LatestSlot::new()), options);
         let title = format!("heliar live — {}", scene.manifest.name);
         let mut app = LiveApp::new(&title, pipe, other, photometry, clock, capture).quit_on(stop.clone());
+        if let Some(v) = &a.vem_input {
+            app.vem = Some(heliar::live::vem::VemPanel::open(v, a.vem_calib.as_deref(), a.vem_lights)?);
+        }
 
         if let Some(n) = a.headless_frames {
             return headless(&mut app, n, &stop);
