@@ -176,7 +176,8 @@ pub fn scratch_courtyard(name: &str) -> std::path::PathBuf {
     let dst = std::env::temp_dir().join(format!("heliar-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dst);
     std::fs::create_dir_all(dst.join("calib")).expect("temp dir");
-    for f in ["scene.toml", "proxy.glb", "calib/camera.toml", "env.exr", "truth.csv"] {
+    std::fs::create_dir_all(dst.join("objects")).expect("temp dir");
+    for f in ["scene.toml", "proxy.glb", "calib/camera.toml", "env.exr", "truth.csv", "objects/statue.glb"] {
         std::fs::copy(src.join(f), dst.join(f)).expect("copy");
     }
     let m = std::fs::read_to_string(dst.join("scene.toml")).expect("manifest");
