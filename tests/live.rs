@@ -287,6 +287,17 @@ fn a_stalled_stream_is_abandoned_and_reopened_by_the_watchdog() {
     assert!(cap.status().captured >= 3);
     drop(held);
     cap.stop();
+
+    // A file paced slower than the stall time is not a stall: 2 frames/s against 200 ms.
+    let frame = Frame { width: 4, height: 2, data: heliar::io::frames::FrameData::Ldr { bits: 8, codes: vec![100; 24] } };
+    let opener: heliar::live::Opener = Box::new(move || Ok(Box::new(Script { frames: vec![frame.clone()], next: 0, fps: 2.0, fail_after: None }) as Box<dyn FrameSource>));
+    let mut cap = Capture::start(opener, Arc::new(LatestSlot::new()), CaptureOptions { stall: Duration::from_millis(200), ..Default::default() });
+    let t = Instant::now();
+    while t.elapsed() < Duration::from_millis(1300) {
+        assert!(!cap.watchdog(), "a slow file is not stalled: {:?}", cap.status());
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert!(cap.status().captured >= 2 && cap.status().losses == 0, "{:?}", cap.status());
 }
 
 #[test]

@@ -373,9 +373,9 @@ impl LiveApp {
         });
         egui::Panel::bottom("live_plots").default_size(200.0).show(ui, |ui| self.plots_ui(ui));
         egui::CentralPanel::default().show(ui, |ui| self.feed_ui(ui));
-        if self.capture.status().state != SourceState::Ended {
-            ui.ctx().request_repaint_after(Duration::from_millis(5));
-        }
+        // Poll for frames; after the end of a file, slowly (Ctrl-C and the VEM panel still act).
+        let ended = self.capture.status().state == SourceState::Ended;
+        ui.ctx().request_repaint_after(Duration::from_millis(if ended { 200 } else { 5 }));
     }
 
     fn upload_texture(&mut self, ctx: &egui::Context) {

@@ -196,6 +196,8 @@ pub struct CaptureStatus {
     pub last_frame: Option<Instant>,
     /// Times the source was lost.
     pub losses: u32,
+    /// The interval a paced file is read at (the watchdog waits that much longer).
+    pub frame_interval: Option<Duration>,
 }
 
 struct Shared {
@@ -248,7 +250,7 @@ impl Capture {
     /// Starts capturing from what `opener` opens into `slot`.
     pub fn start(opener: Opener, slot: Arc<LatestSlot<Captured>>, options: CaptureOptions) -> Self {
         let shared = Arc::new(Shared {
-            status: Mutex::new(CaptureStatus { state: SourceState::Opening, label: String::new(), captured: 0, last_frame: None, losses: 0 }),
+            status: Mutex::new(CaptureStatus { state: SourceState::Opening, label: String::new(), captured: 0, last_frame: None, losses: 0, frame_interval: None }),
             stop: AtomicBool::new(false),
             generation: AtomicU64::new(0),
             captured: AtomicU64::new(0),
@@ -284,12 +286,14 @@ impl Capture {
     }
 
     /// Restarts a capture whose source stalled (running, but no frame for
-    /// [`CaptureOptions::stall`]): the old thread is abandoned and a new one reopens the source.
+    /// [`CaptureOptions::stall`] plus, for a paced file, its frame interval): the old thread is
+    /// abandoned and a new one reopens the source.
     /// Returns true when it restarted. Call it regularly (the window does, every frame).
     pub fn watchdog(&mut self) -> bool {
         let stalled = {
             let s = self.shared.status();
-            s.state == SourceState::Running && s.last_frame.is_some_and(|t| t.elapsed() > self.options.stall)
+            let limit = self.options.stall + s.frame_interval.unwrap_or_default();
+            s.state == SourceState::Running && s.last_frame.is_some_and(|t| t.elapsed() > limit)
         };
         if !stalled {
             return false;
@@ -342,7 +346,10 @@ fn capture_loop(shared: &Shared, slot: &LatestSlot<Captured>, opener: &Mutex<Ope
                 };
                 match opened {
                     Ok(s) => {
-                        shared.status().label = s.label();
+                        let mut st = shared.status();
+                        st.label = s.label();
+                        st.frame_interval = s.pace_fps().map(|f| Duration::from_secs_f64(1.0 / f));
+                        drop(st);
                         (play_start, k) = (Instant::now(), 0);
                         source.insert(s)
                     }
