@@ -146,6 +146,16 @@ fn the_feed_is_composited_with_status_and_switched_passes_are_reported() {
     assert!(r.ran(pass::REAL_VOLUMES), "{r:?}");
     h.get_by_label_contains(&format!("skipped {}: {TURNED_OFF}", pass::VIRTUAL_VOLUMES));
 
+    // The darkening model follows the window's choice on the next frame.
+    h.get_by_label("constant").click();
+    h.run_steps(2);
+    assert!(h.state_mut().process_next(Duration::from_secs(10)));
+    assert_eq!(h.state().pipe.compositor.config().darkening, heliar::render::Darkening::Constant);
+    // No irradiance volume was given: the ambient choice stays on the uniform sky.
+    assert!(!h.state().can_switch_ambient());
+    assert!(!h.state_mut().set_ambient(heliar::live::AmbientChoice::Volume));
+    assert_eq!(h.state().ambient(), heliar::live::AmbientChoice::Uniform);
+
     // The objects off: the footage comes through unchanged and every object pass is skipped.
     h.get_by_label("Virtual objects").click();
     h.run_steps(2);
@@ -162,7 +172,7 @@ fn the_feed_is_composited_with_status_and_switched_passes_are_reported() {
     assert!(differ.is_empty(), "with the objects off the feed is the footage: {} pixels differ, e.g. {:?}", differ.len(), &differ[..differ.len().min(8)]);
 
     // The plots got one point per frame.
-    assert_eq!(h.state().history().len(), 3);
+    assert_eq!(h.state().history().len(), 4);
     assert!(h.state().history().iter().all(|p| p.pd.is_some_and(|v| v > 1.0) && p.pa.is_some_and(|v| v > 0.3)));
 }
 
