@@ -359,3 +359,68 @@ fn the_vem_panel_decomposes_with_the_slider_s_light_count() {
     h.run();
     h.get_by_label_contains("300 lights, frame 2 of 24");
 }
+
+#[test]
+fn the_ambient_source_switches_between_the_irradiance_volume_and_the_uniform_sky() {
+    use heliar::live::AmbientChoice;
+    use heliar::render::probes::VolumeProbes;
+    // A scratch copy without sequences: the bake is cached into the scene folder.
+    let src = bundled();
+    let dst = std::env::temp_dir().join(format!("heliar-live-ambient-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dst);
+    for d in ["calib", "objects"] {
+        std::fs::create_dir_all(dst.join(d)).unwrap();
+    }
+    for f in ["scene.toml", "proxy.glb", "calib/camera.toml", "env.exr", "objects/statue.glb"] {
+        std::fs::copy(src.join(f), dst.join(f)).unwrap();
+    }
+    let m = std::fs::read_to_string(dst.join("scene.toml")).unwrap();
+    std::fs::write(dst.join("scene.toml"), &m[..m.find("[[sequences]]").unwrap()]).unwrap();
+
+    let scene = Scene::load(&dst).unwrap();
+    let ray = Arc::new(RayScene::new(scene.proxy.clone()));
+    let baked = heliar::pipeline::cached_bake(&scene, ray.clone(), &|_, _, _| {}).unwrap();
+    let volume = Box::new(VolumeProbes::new(&scene, ray.clone(), &baked));
+    let est = Estimator::new(&scene, ray.clone()).unwrap();
+    let comp = Compositor::for_scene(gpu(), &scene, ray, CompositorConfig::for_scene(&scene)).unwrap();
+    let pipe = Pipeline::new(est, comp, volume);
+    let ldr = self::scene();
+    let seq = ldr.sequence(Some("ldr")).unwrap();
+    let frames = vec![ldr_frame(0)];
+    let opener: heliar::live::Opener = Box::new(move || Ok(Box::new(Script { frames: frames.clone(), next: 0, fps: 50.0, fail_after: None }) as Box<dyn FrameSource>));
+    let capture = Capture::start(opener, Arc::new(LatestSlot::new()), CaptureOptions::default());
+    let mut app = LiveApp::new("test", pipe, Some(Box::new(UniformSky::for_scene(&scene))), seq.photometry.clone(), FrameClock::Start { t0: seq.times[0], fps: 25.0 }, capture);
+    app.process_in_ui = false;
+    let mut h = harness(app);
+
+    let relight = |h: &Harness<'_, LiveApp>| h.state().last().unwrap().record.relight.clone();
+    assert!(h.state_mut().process_next(Duration::from_secs(20)));
+    assert_eq!(h.state().ambient(), AmbientChoice::Volume);
+    assert_eq!(relight(&h).source, "irradiance_volume");
+    let with_volume = h.state().last().unwrap().composited.clone();
+
+    // The uniform sky from the window: the next frame relights with it.
+    h.run_steps(2);
+    h.get_by_label("uniform sky").click();
+    h.run_steps(2);
+    assert_eq!(h.state().ambient(), AmbientChoice::Uniform);
+    assert!(h.state_mut().process_next(Duration::from_secs(10)));
+    let r = relight(&h);
+    assert!(r.ran && r.source == "uniform_sky", "{r:?}");
+    // The statue's ambient light differs between the two (the volume has the wall's occlusion
+    // and the ground's bounce).
+    let window = statue_window(&scene);
+    let now = &h.state().last().unwrap().composited;
+    let diff: i32 = window.iter().map(|&i| (0..3).map(|c| (now.data[3 * i + c] as i32 - with_volume.data[3 * i + c] as i32).abs()).sum::<i32>()).sum();
+    // Measured: 4529 over the 25 pixels (≈ 60 codes per channel; the uniform sky is 20–33% off
+    // on the statue, DEVELOPERS.md). Ask for a mean of 5 codes per channel.
+    assert!(diff > 25 * 3 * 5, "the two ambient sources give nearly the same statue: {diff}");
+
+    // And back.
+    assert!(h.state_mut().set_ambient(AmbientChoice::Volume));
+    assert!(h.state_mut().process_next(Duration::from_secs(10)));
+    let r = relight(&h);
+    assert!(r.ran && r.source == "irradiance_volume", "{r:?}");
+    drop(h);
+    std::fs::remove_dir_all(&dst).ok();
+}
