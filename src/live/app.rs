@@ -553,3 +553,44 @@ fn linear_of(v: &VideoFrame) -> LinearImage {
 fn snake<T: serde::Serialize + std::fmt::Debug>(v: &T) -> String {
     serde_json::to_value(v).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_else(|| format!("{v:?}"))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::frames::{Frame, FrameData};
+
+    fn captured(index: u64, ts_ms: Option<f64>, age: Duration) -> Captured {
+        let frame = Frame { width: 1, height: 1, data: FrameData::Ldr { bits: 8, codes: vec![0; 3] } };
+        Captured { frame, index, ts_ms, at: Instant::now() - age }
+    }
+
+    fn t(s: &str) -> DateTime<FixedOffset> {
+        DateTime::parse_from_rfc3339(s).unwrap()
+    }
+
+    #[test]
+    fn frame_clocks_give_wall_shifted_file_and_sequence_times() {
+        // A camera with --start: a frame captured now is at the start; one captured 2 s ago,
+        // 2 s before it; --time-offset shifts both.
+        let start = t("2024-06-21T15:30:00+02:00");
+        for offset_s in [0.0, 90.0] {
+            let clock = FrameClock::wall(Some(start), offset_s);
+            for age_s in [0.0, 2.0] {
+                let got = clock.time(&captured(0, None, Duration::from_secs_f64(age_s)));
+                let want = start + chrono::Duration::milliseconds(((offset_s - age_s) * 1e3) as i64);
+                assert!((got - want).num_milliseconds().abs() < 500, "offset {offset_s}, age {age_s}: {got} vs {want}");
+            }
+        }
+        // Without --start: the wall clock itself.
+        let got = FrameClock::wall(None, 0.0).time(&captured(0, None, Duration::ZERO));
+        assert!((got - chrono::Utc::now().fixed_offset()).num_milliseconds().abs() < 500);
+        // A file: its timestamps from the start, else index / fps.
+        let clock = FrameClock::Start { t0: start, fps: 4.0 };
+        assert_eq!(clock.time(&captured(9, Some(1500.0), Duration::ZERO)), t("2024-06-21T15:30:01.5+02:00"));
+        assert_eq!(clock.time(&captured(6, None, Duration::ZERO)), t("2024-06-21T15:30:01.5+02:00"));
+        // A scene sequence: its own times, starting over when the file loops.
+        let clock = FrameClock::List(vec![start, t("2024-06-21T15:30:10+02:00")]);
+        assert_eq!(clock.time(&captured(1, None, Duration::ZERO)), t("2024-06-21T15:30:10+02:00"));
+        assert_eq!(clock.time(&captured(2, None, Duration::ZERO)), start);
+    }
+}
