@@ -62,6 +62,8 @@ pub mod estimate;
 pub mod geometry;
 pub mod io;
 pub mod irradiance;
+#[cfg(feature = "opencv")]
+pub mod live;
 pub mod pipeline;
 pub mod render;
 pub mod report;

@@ -46,7 +46,7 @@ pub mod virtual_shading;
 pub mod volume;
 pub mod volume_compute;
 
-pub use compositor::{Builder, Compositor, CompositorConfig, RenderedFrame, SceneParts};
+pub use compositor::{Builder, Compositor, CompositorConfig, PassSwitches, RenderedFrame, SceneParts};
 pub use frame::{Darkening, FrameLighting, PassReport, VideoFrame};
 pub use gpu::{Gpu, GpuOptions};
 

@@ -2,9 +2,10 @@
 //! ([`Compositor::render`] reads it back); [`WindowTarget`] presents to a window surface with
 //! the same passes, only the composite's output format and exposure differ.
 //!
-//! The window target takes any `wgpu::Surface` (a winit window in the coming live mode, created
-//! with `gpu.instance.create_surface(window)`); it is compiled here and exercised only where a
-//! display exists.
+//! The window target takes any `wgpu::Surface` (created with
+//! `gpu.instance.create_surface(window)`); it is compiled here and exercised only where a display
+//! exists. `heliar live` does not use it today: it shows the read-back frame as an egui texture
+//! (see `crate::live`); presenting straight to a surface is the route for a real GPU.
 
 use super::frame::{FrameLighting, PassReport, VideoFrame};
 use super::{Compositor, Gpu, RenderError};

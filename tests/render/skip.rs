@@ -119,3 +119,58 @@ fn no_virtual_objects_pass_the_footage_through() {
     let changed = frame.image.data.iter().zip(&v.rgba).filter(|(a, b)| (0..3).any(|c| (a[c] - b[c]).abs() > frame.precision * b[c])).count();
     assert_eq!(changed, 0);
 }
+
+#[test]
+fn switched_off_passes_are_reported_and_change_the_picture_as_they_should() {
+    use heliar::render::PassSwitches;
+    const WHY: &str = "turned off in the live view";
+    let s = setup(statue_near_wall());
+    let mut comp = s.compositor(config());
+    let v = video(160, 120);
+    let l = lighting(courtyard_sun(), 3.0);
+    let (all, r) = comp.render(&v, &l).unwrap();
+    assert!(r.ran(pass::VIRTUAL_VOLUMES) && r.ran(pass::REAL_VOLUMES), "{r:?}");
+    let masks = all.masks.clone().unwrap();
+    let shadowed = masks.iter().filter(|m| m[0] > 0).count();
+    // Most of the sphere's shadow falls into the wall's (25 px stay outside at 160×120).
+    assert!(shadowed > 10, "the sphere casts a virtual shadow ({shadowed} px)");
+
+    // Virtual shadows off: the volume pass is skipped with the reason, no virtual shadow mask,
+    // and the sphere itself stays drawn.
+    comp.set_switches(PassSwitches { virtual_volumes: false, ..Default::default() }, WHY);
+    let (f, r) = comp.render(&v, &l).unwrap();
+    assert_eq!(r.skip_reason(pass::VIRTUAL_VOLUMES), Some(WHY), "{r:?}");
+    assert!(r.ran(pass::REAL_VOLUMES) && r.ran(pass::VIRTUAL_SHADING), "{r:?}");
+    let m = f.masks.unwrap();
+    assert_eq!(m.iter().filter(|m| m[0] > 0).count(), 0, "no virtual shadow with its volumes off");
+    assert!(m.iter().filter(|m| m[3] > 0).count() > 50, "the sphere is still drawn");
+
+    // A second frame with the same switches reuses the stencil and still names the switch.
+    let (_, r) = comp.render(&v, &l).unwrap();
+    assert!(r.volumes.reused, "{r:?}");
+    assert_eq!(r.skip_reason(pass::VIRTUAL_VOLUMES), Some(WHY), "{r:?}");
+
+    // Real shadows off: the virtual shadow now covers the part inside the wall's shadow too.
+    comp.set_switches(PassSwitches { real_volumes: false, ..Default::default() }, WHY);
+    let (f, r) = comp.render(&v, &l).unwrap();
+    assert_eq!(r.skip_reason(pass::REAL_VOLUMES), Some(WHY), "{r:?}");
+    assert!(r.ran(pass::VIRTUAL_VOLUMES) && !r.volumes.reused, "a change of switches rebuilds: {r:?}");
+    let without_real = f.masks.unwrap().iter().filter(|m| m[0] > 0).count();
+    assert!(without_real > shadowed + 20, "{without_real} vs {shadowed} px");
+
+    // Virtual objects off: the footage passes through unchanged.
+    comp.set_switches(PassSwitches { virtual_objects: false, ..Default::default() }, WHY);
+    let (f, r) = comp.render(&v, &l).unwrap();
+    for p in [pass::DEPTH_PREPASS, pass::VIRTUAL_SHADING, pass::VIRTUAL_VOLUMES, pass::SUN_TERM] {
+        assert_eq!(r.skip_reason(p), Some(WHY), "{p}: {r:?}");
+    }
+    for (i, px) in f.image.data.iter().enumerate() {
+        assert!((0..3).all(|c| (px[c] - v.rgba[i][c]).abs() <= f.precision * v.rgba[i][c]), "pixel {i} changed with the objects off");
+    }
+
+    // All on again: the same picture as the first frame.
+    comp.set_switches(PassSwitches::default(), WHY);
+    let (f, r) = comp.render(&v, &l).unwrap();
+    assert!(r.skipped.iter().all(|s| s.reason != WHY), "{r:?}");
+    assert_eq!(f.image.data, all.image.data);
+}

@@ -7,6 +7,7 @@ mod bench_irradiance;
 mod bench_vem;
 mod common;
 mod estimate;
+mod live;
 mod sun;
 mod vem;
 mod vem_render;
@@ -39,6 +40,8 @@ enum Command {
     Vem(vem::VemArgs),
     /// Composite the scene's virtual objects into a frame sequence (estimate → relight → composite).
     Augment(augment::AugmentArgs),
+    /// Composite live: a camera, stream or file played as one, in a window (feature `opencv`).
+    Live(live::LiveArgs),
 }
 
 fn main() {
@@ -52,6 +55,7 @@ fn main() {
         Command::Irradiance(a) => bake::run_irradiance(a),
         Command::Vem(a) => vem::run(a),
         Command::Augment(a) => augment::run(a),
+        Command::Live(a) => live::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -26,7 +26,9 @@ impl Compositor {
             return Err(RenderError::FrameSize { got: (video.width, video.height), want: (self.canvas.out_width, self.canvas.out_height) });
         }
         let mut report = PassReport::default();
-        let has_virtual = self.virt.index_count > 0;
+        let sw = self.switches;
+        let off = if self.switched_off_reason.is_empty() { "switched off".to_owned() } else { self.switched_off_reason.clone() };
+        let has_virtual = self.virt.index_count > 0 && sw.virtual_objects;
         let l = lighting.sun_dir.normalize_or_zero();
         let (pd_l, pa_l) = (luma(lighting.pd), luma(lighting.pa));
         let no_sun: Option<String> = if !lighting.above_horizon {
@@ -70,8 +72,9 @@ impl Compositor {
 
         // Volumes.
         if !has_virtual {
+            let why = if self.virt.index_count == 0 { "the scene has no virtual objects".to_owned() } else { off.clone() };
             for p in [pass::VOLUME_BUILD, pass::DEPTH_PREPASS, pass::REAL_VOLUMES, pass::VIRTUAL_VOLUMES, pass::VIRTUAL_SHADING, pass::SHADOW_MASK, pass::SUN_TERM] {
-                report.skip(p, "the scene has no virtual objects");
+                report.skip(p, why.clone());
             }
         } else if let Some(why) = &no_sun {
             for p in [pass::VOLUME_BUILD, pass::REAL_VOLUMES, pass::VIRTUAL_VOLUMES, pass::SUN_TERM] {
@@ -79,6 +82,8 @@ impl Compositor {
             }
         } else if reuse {
             report.skip(pass::VOLUME_BUILD, reuse_reason());
+        } else if !sw.virtual_volumes && !sw.real_volumes {
+            report.skip(pass::VOLUME_BUILD, off.clone());
         } else {
             let b = self.volumes.build(&self.gpu, &mut encoder, l, &self.virtual_bounds, self.config.cap_offset_m);
             report.ran.push(pass::VOLUME_BUILD);
@@ -147,7 +152,8 @@ impl Compositor {
             pd: lighting.pd.extend(0.0).to_array(),
             pa: lighting.pa.extend(0.0).to_array(),
             params: [
-                self.config.darkening.shader_code(),
+                // Objects switched off: no differential region either, so the footage passes.
+                if has_virtual { self.config.darkening.shader_code() } else { Darkening::Normal.shader_code() },
                 if self.config.sun_bounce { 1.0 } else { 0.0 },
                 output_scale,
                 0.0,
@@ -183,7 +189,9 @@ impl Compositor {
             }
             report.ran.push(pass::DEPTH_PREPASS);
             if sun_on {
-                if self.volumes.has_real() {
+                if !sw.real_volumes {
+                    report.skip(pass::REAL_VOLUMES, off.clone());
+                } else if self.volumes.has_real() {
                     pa.set_pipeline(&self.shadow.real);
                     self.volumes.draw_real(&mut pa);
                     self.resolve.record_real(&mut pa);
@@ -191,17 +199,21 @@ impl Compositor {
                 } else {
                     report.skip(pass::REAL_VOLUMES, "no part of the real proxy can shadow the virtual objects or the surfaces their shadows fall on");
                 }
-                pa.set_pipeline(&self.shadow.virtual_);
-                self.volumes.draw_virtual(&mut pa);
-                self.resolve.record_virtual(&mut pa);
-                report.ran.push(pass::VIRTUAL_VOLUMES);
+                if sw.virtual_volumes {
+                    pa.set_pipeline(&self.shadow.virtual_);
+                    self.volumes.draw_virtual(&mut pa);
+                    self.resolve.record_virtual(&mut pa);
+                    report.ran.push(pass::VIRTUAL_VOLUMES);
+                } else {
+                    report.skip(pass::VIRTUAL_VOLUMES, off.clone());
+                }
             }
         } else if reuse {
             let why = reuse_reason();
             report.skip(pass::DEPTH_PREPASS, why.clone());
             if sun_on {
-                report.skip(pass::REAL_VOLUMES, why.clone());
-                report.skip(pass::VIRTUAL_VOLUMES, why);
+                report.skip(pass::REAL_VOLUMES, if sw.real_volumes { why.clone() } else { off.clone() });
+                report.skip(pass::VIRTUAL_VOLUMES, if sw.virtual_volumes { why } else { off.clone() });
             }
         }
 
@@ -240,6 +252,13 @@ impl Compositor {
             report.ran.push(pass::VIRTUAL_SHADING);
             if sun_on {
                 report.ran.push(pass::SUN_TERM);
+            }
+        }
+
+        // Objects switched off: clear the layers an earlier frame left, which the composite reads.
+        if !has_virtual && self.virt.index_count > 0 {
+            for attachment in [self.res.layer.attachment(), self.res.masks.attachment()] {
+                encoder.begin_render_pass(&wgpu::RenderPassDescriptor { label: Some("clear switched-off layers"), color_attachments: &[Some(attachment)], ..Default::default() });
             }
         }
 

@@ -134,6 +134,25 @@ impl CompositorConfig {
     }
 }
 
+/// Passes a viewer can switch off (all on by default). A pass switched off is listed in the
+/// frame's [`PassReport::skipped`] with the reason given to [`Compositor::set_switches`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PassSwitches {
+    /// The virtual objects and everything they need (off: the footage passes through).
+    pub virtual_objects: bool,
+    /// The virtual objects' shadow volumes: their shadows on real surfaces and on themselves.
+    pub virtual_volumes: bool,
+    /// The real proxy's shadow volumes: real shadows on the virtual objects (and real shadow
+    /// that keeps a virtual shadow from darkening twice).
+    pub real_volumes: bool,
+}
+
+impl Default for PassSwitches {
+    fn default() -> Self {
+        Self { virtual_objects: true, virtual_volumes: true, real_volumes: true }
+    }
+}
+
 /// A composited frame read back to the CPU.
 #[derive(Clone, Debug)]
 pub struct RenderedFrame {
@@ -208,6 +227,8 @@ pub struct Compositor {
     composite_bg: wgpu::BindGroup,
     composites: HashMap<wgpu::TextureFormat, Composite>,
     stencil: Option<StencilState>,
+    switches: PassSwitches,
+    switched_off_reason: String,
     warnings: Vec<String>,
     frames: u64,
     /// The proxy and the virtual objects in one BVH (for `c_v`, `b_v`).
@@ -331,6 +352,8 @@ impl Compositor {
             composite_bg,
             composites,
             stencil: None,
+            switches: PassSwitches::default(),
+            switched_off_reason: String::new(),
             warnings,
             frames: 0,
             with_ray,
@@ -383,9 +406,27 @@ impl Compositor {
     pub fn config(&self) -> &CompositorConfig {
         &self.config
     }
-    /// Changes the darkening model (takes effect on the next frame).
+    /// Changes the darkening model (takes effect on the next frame, which rebuilds its stencil
+    /// so that the per-pixel data the new model needs is computed).
     pub fn set_darkening(&mut self, d: Darkening) {
-        self.config.darkening = d;
+        if self.config.darkening != d {
+            self.config.darkening = d;
+            self.invalidate();
+        }
+    }
+    /// Switches passes on or off from the next frame on; the passes switched off are reported
+    /// as skipped with `reason` (e.g. "turned off in the live view"). A change rebuilds the
+    /// stencil on the next frame.
+    pub fn set_switches(&mut self, switches: PassSwitches, reason: &str) {
+        if self.switches != switches {
+            self.switches = switches;
+            self.invalidate();
+        }
+        self.switched_off_reason = reason.to_owned();
+    }
+    /// The pass switches.
+    pub fn switches(&self) -> PassSwitches {
+        self.switches
     }
     /// The shadow volumes.
     pub fn volumes(&self) -> &Volumes {

@@ -1,0 +1,596 @@
+//! The live window's state and its egui drawing: the composited feed, the pass switches, the
+//! estimator's status and the live plots.
+//!
+//! [`LiveApp::process`] runs one captured frame through the [`Pipeline`] (estimate → relight →
+//! probes → composite offscreen → read back) and turns the result into 8-bit RGB through the
+//! camera's response ([`encode_rgb8`]: untouched pixels keep their own codes), which the window
+//! shows as an egui texture. [`LiveApp::ui`] takes the newest frame from the capture slot,
+//! processes it and draws; it is a plain function of the state, so the tests drive it headless
+//! with egui_kittest.
+
+use super::slot::LatestSlot;
+use super::source::{Capture, CaptureStatus, Captured, SourceState};
+use crate::estimate::FrameEstimate;
+use crate::io::frames::Linearizer;
+use crate::io::image::LinearImage;
+use crate::pipeline::{FrameRecord, Pipeline};
+use crate::render::frame::luma;
+use crate::render::output::{Rgb8, encode_rgb8};
+use crate::render::probes::ProbeSource;
+use crate::render::{Darkening, PassReport, PassSwitches, VideoFrame};
+use crate::scene::Photometry;
+use chrono::{DateTime, FixedOffset};
+use egui::{Color32, RichText};
+use std::collections::VecDeque;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// The reason the pass report gives for a pass switched off in the window.
+pub const TURNED_OFF: &str = "turned off in the live view";
+/// How much history the plots keep, seconds.
+pub const HISTORY_SECS: f64 = 300.0;
+/// The window over which the frame rate is measured, seconds.
+const FPS_WINDOW_SECS: f64 = 2.0;
+
+/// The time of each frame.
+#[derive(Clone, Debug)]
+pub enum FrameClock {
+    /// The wall clock at capture plus an offset (cameras; `--start` or `--time-offset` set it).
+    Wall {
+        /// Added to the wall clock.
+        offset: chrono::Duration,
+    },
+    /// A start time plus the source's timestamps (files), or the frame index over `fps`.
+    Start {
+        /// Time of the first frame.
+        t0: DateTime<FixedOffset>,
+        /// Frame rate for frames without a timestamp.
+        fps: f64,
+    },
+    /// A scene sequence's times, by frame index (a looped file starts over).
+    List(Vec<DateTime<FixedOffset>>),
+}
+
+impl FrameClock {
+    /// A wall clock whose first reading is `start` (when given), shifted by `offset_secs`.
+    pub fn wall(start: Option<DateTime<FixedOffset>>, offset_secs: f64) -> Self {
+        let now = chrono::Utc::now().fixed_offset();
+        let base = start.map(|s| s - now).unwrap_or_else(chrono::Duration::zero);
+        Self::Wall { offset: base + chrono::Duration::microseconds((offset_secs * 1e6).round() as i64) }
+    }
+
+    /// The time of a captured frame.
+    pub fn time(&self, c: &Captured) -> DateTime<FixedOffset> {
+        match self {
+            FrameClock::Wall { offset } => {
+                let age = chrono::Duration::from_std(c.at.elapsed()).unwrap_or_else(|_| chrono::Duration::zero());
+                chrono::Utc::now().fixed_offset() - age + *offset
+            }
+            FrameClock::Start { t0, fps } => {
+                let ms = c.ts_ms.filter(|v| v.is_finite() && *v >= 0.0).unwrap_or(c.index as f64 * 1e3 / fps);
+                *t0 + chrono::Duration::microseconds((ms * 1e3).round() as i64)
+            }
+            FrameClock::List(times) => times[c.index as usize % times.len().max(1)],
+        }
+    }
+}
+
+/// One point of the plots.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HistoryPoint {
+    /// Seconds since the window opened.
+    pub t_s: f64,
+    /// `Pd` and `Pa` luminance of the frame's own fit (`None` when it had none).
+    pub pd: Option<f64>,
+    /// See `pd`.
+    pub pa: Option<f64>,
+    /// `Pd` and `Pa` luminance the compositor used (smoothed).
+    pub pd_used: f64,
+    /// See `pd_used`.
+    pub pa_used: f64,
+    /// Mean of the three channels' residual RMS.
+    pub residual_rms: Option<f64>,
+}
+
+/// What the window shows of the newest processed frame.
+#[derive(Clone, Debug)]
+pub struct Shown {
+    /// Capture index.
+    pub index: u64,
+    /// Its time.
+    pub time: DateTime<FixedOffset>,
+    /// Estimate, lighting, relight and timings.
+    pub record: FrameRecord,
+    /// The compositor's report.
+    pub passes: PassReport,
+    /// The composited frame, 8-bit RGB through the camera response.
+    pub composited: Rgb8,
+    /// The input frame, the same way.
+    pub input: Rgb8,
+    /// Processing time (estimate to read-back and encoding), ms.
+    pub frame_ms: f64,
+    /// From capture to shown, ms.
+    pub latency_ms: f64,
+}
+
+/// Which probe source lights the virtual objects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AmbientChoice {
+    /// The uniform sky of the frame's `Pa`.
+    Uniform,
+    /// The baked irradiance volume, relit per frame.
+    Volume,
+}
+
+/// The live view.
+pub struct LiveApp {
+    /// The pipeline.
+    pub pipe: Pipeline,
+    /// The probe source not in use (the other [`AmbientChoice`]), when there is one.
+    other_probes: Option<Box<dyn ProbeSource + Send>>,
+    photometry: Photometry,
+    lin: Linearizer,
+    clock: FrameClock,
+    capture: Capture,
+    /// Pass switches applied to the next frame.
+    pub switches: PassSwitches,
+    /// Darkening model applied to the next frame.
+    pub darkening: Darkening,
+    /// Show the input instead of the composite.
+    pub show_input: bool,
+    /// Take and process frames inside [`Self::ui`] (the window); tests may drive
+    /// [`Self::process_next`] themselves instead.
+    pub process_in_ui: bool,
+    last: Option<Shown>,
+    history: VecDeque<HistoryPoint>,
+    shown_at: VecDeque<Instant>,
+    processed: u64,
+    error: Option<String>,
+    texture: Option<egui::TextureHandle>,
+    texture_dirty: bool,
+    started: Instant,
+    quit: Option<Arc<AtomicBool>>,
+    title: String,
+    /// The VEM panel (`--vem-input`).
+    pub vem: Option<super::vem::VemPanel>,
+}
+
+impl LiveApp {
+    /// The live view over `capture`'s frames. `other_probes` is the probe source for the other
+    /// ambient choice (e.g. the uniform sky when the pipeline uses the irradiance volume).
+    pub fn new(title: &str, pipe: Pipeline, other_probes: Option<Box<dyn ProbeSource + Send>>, photometry: Photometry, clock: FrameClock, capture: Capture) -> Self {
+        let darkening = pipe.compositor.config().darkening;
+        let switches = pipe.compositor.switches();
+        Self {
+            pipe,
+            other_probes,
+            lin: photometry.linearizer(),
+            photometry,
+            clock,
+            capture,
+            switches,
+            darkening,
+            show_input: false,
+            process_in_ui: true,
+            last: None,
+            history: VecDeque::new(),
+            shown_at: VecDeque::new(),
+            processed: 0,
+            error: None,
+            texture: None,
+            texture_dirty: false,
+            started: Instant::now(),
+            quit: None,
+            title: title.to_owned(),
+            vem: None,
+        }
+    }
+
+    /// Closes the window when `flag` is set (Ctrl-C).
+    pub fn quit_on(mut self, flag: Arc<AtomicBool>) -> Self {
+        self.quit = Some(flag);
+        self
+    }
+
+    /// The newest processed frame.
+    pub fn last(&self) -> Option<&Shown> {
+        self.last.as_ref()
+    }
+
+    /// The plot history.
+    pub fn history(&self) -> &VecDeque<HistoryPoint> {
+        &self.history
+    }
+
+    /// Frames processed.
+    pub fn processed(&self) -> u64 {
+        self.processed
+    }
+
+    /// Frames the capture replaced before the pipeline took them.
+    pub fn dropped(&self) -> u64 {
+        self.capture.slot().counts().dropped
+    }
+
+    /// The capture's state.
+    pub fn capture_status(&self) -> CaptureStatus {
+        self.capture.status()
+    }
+
+    /// The capture slot.
+    pub fn slot(&self) -> &Arc<LatestSlot<Captured>> {
+        self.capture.slot()
+    }
+
+    /// The last processing error, if the newest frame failed.
+    pub fn error(&self) -> Option<&str> {
+        self.error.as_deref()
+    }
+
+    /// The ambient source in use.
+    pub fn ambient(&self) -> AmbientChoice {
+        if self.pipe.probes.name() == "irradiance_volume" { AmbientChoice::Volume } else { AmbientChoice::Uniform }
+    }
+
+    /// True when the other ambient source is available.
+    pub fn can_switch_ambient(&self) -> bool {
+        self.other_probes.is_some()
+    }
+
+    /// Switches the ambient source (relights on the next frame); false when that source is not
+    /// available.
+    pub fn set_ambient(&mut self, a: AmbientChoice) -> bool {
+        if a == self.ambient() {
+            return true;
+        }
+        match self.other_probes.as_mut() {
+            Some(other) => {
+                std::mem::swap(other, &mut self.pipe.probes);
+                self.pipe.force_relight();
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Frames shown per second over the last two seconds.
+    pub fn fps(&self) -> f64 {
+        match (self.shown_at.front(), self.shown_at.back()) {
+            (Some(a), Some(b)) if self.shown_at.len() > 1 && *b > *a => (self.shown_at.len() - 1) as f64 / (*b - *a).as_secs_f64(),
+            _ => 0.0,
+        }
+    }
+
+    /// Waits up to `timeout` for a frame and processes it; false when none came.
+    pub fn process_next(&mut self, timeout: Duration) -> bool {
+        match self.capture.slot().take_timeout(timeout) {
+            Some(c) => {
+                self.process(c);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Runs one captured frame through the pipeline with the current switches.
+    pub fn process(&mut self, c: Captured) {
+        let t = Instant::now();
+        let canvas = self.pipe.compositor.canvas();
+        let (w, h) = (canvas.out_width, canvas.out_height);
+        if (c.frame.width, c.frame.height) != (w, h) {
+            self.error = Some(format!("frame {} is {}×{} but the camera calibration is {w}×{h}", c.index, c.frame.width, c.frame.height));
+            return;
+        }
+        self.pipe.compositor.set_switches(self.switches, TURNED_OFF);
+        self.pipe.compositor.set_darkening(self.darkening);
+        let time = self.clock.time(&c);
+        let (rendered, passes, record, video) = match self.pipe.process(c.index as usize, &time, &c.frame, &self.lin) {
+            Ok(x) => x,
+            Err(e) => {
+                self.error = Some(format!("frame {}: {e:#}", c.index));
+                return;
+            }
+        };
+        self.error = None;
+        let composited = rgb8(encode_rgb8(&rendered.image, rendered.precision, &video, &c.frame, &self.photometry), w, h);
+        let input = rgb8(encode_rgb8(&linear_of(&video), 0.0, &video, &c.frame, &self.photometry), w, h);
+        self.push_history(&record);
+        let now = Instant::now();
+        self.shown_at.push_back(now);
+        while self.shown_at.front().is_some_and(|a| (now - *a).as_secs_f64() > FPS_WINDOW_SECS) {
+            self.shown_at.pop_front();
+        }
+        self.processed += 1;
+        self.last = Some(Shown { index: c.index, time, record, passes, composited, input, frame_ms: t.elapsed().as_secs_f64() * 1e3, latency_ms: c.at.elapsed().as_secs_f64() * 1e3 });
+        self.texture_dirty = true;
+    }
+
+    fn push_history(&mut self, r: &FrameRecord) {
+        let l = |v: Option<[f64; 3]>| v.map(|v| 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2]);
+        let e: &FrameEstimate = &r.estimate;
+        let t_s = self.started.elapsed().as_secs_f64();
+        self.history.push_back(HistoryPoint {
+            t_s,
+            pd: l(e.pd),
+            pa: l(e.pa),
+            pd_used: luma(r.lighting.pd) as f64,
+            pa_used: luma(r.lighting.pa) as f64,
+            residual_rms: e.residual_rms.map(|v| (v[0] + v[1] + v[2]) / 3.0),
+        });
+        while self.history.front().is_some_and(|p| t_s - p.t_s > HISTORY_SECS) {
+            self.history.pop_front();
+        }
+    }
+
+    /// The status line of the estimator ("status ok", "status no_direct_sun (fallback held_split)").
+    pub fn estimator_status(&self) -> Option<String> {
+        let e = &self.last.as_ref()?.record.estimate;
+        let mut s = format!("status {}", snake(&e.status));
+        if let Some(f) = &e.fallback {
+            s += &format!(" (fallback {})", snake(f));
+        }
+        Some(s)
+    }
+
+    /// The capture line ("running", "lost: … — retrying every 1 s", "ended").
+    pub fn source_line(&self) -> String {
+        let s = self.capture.status();
+        match &s.state {
+            SourceState::Opening => format!("opening {}", s.label),
+            SourceState::Running => format!("running: {}", s.label),
+            SourceState::Lost { reason, retries } => format!("camera lost, retrying ({} attempts): {reason}", retries + 1),
+            SourceState::Ended => format!("ended: {} (all {} frames shown or dropped)", s.label, s.captured),
+        }
+    }
+
+    /// The whole window.
+    pub fn ui(&mut self, ui: &mut egui::Ui) {
+        if self.quit.as_ref().is_some_and(|q| q.load(Ordering::SeqCst)) {
+            ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
+        }
+        self.capture.watchdog();
+        if self.process_in_ui
+            && let Some(c) = self.capture.slot().take()
+        {
+            self.process(c);
+        }
+        self.upload_texture(ui.ctx());
+        egui::Panel::top("live_status").show(ui, |ui| self.status_bar_ui(ui));
+        egui::Panel::right("live_controls").default_size(330.0).show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| {
+                self.switches_ui(ui);
+                ui.separator();
+                self.estimator_ui(ui);
+                ui.separator();
+                self.passes_ui(ui);
+                if let Some(v) = &mut self.vem {
+                    ui.separator();
+                    v.tick();
+                    v.ui(ui);
+                }
+            });
+        });
+        egui::Panel::bottom("live_plots").default_size(200.0).show(ui, |ui| self.plots_ui(ui));
+        egui::CentralPanel::default().show(ui, |ui| self.feed_ui(ui));
+        // Poll for frames; after the end of a file, slowly (Ctrl-C and the VEM panel still act).
+        let ended = self.capture.status().state == SourceState::Ended;
+        ui.ctx().request_repaint_after(Duration::from_millis(if ended { 200 } else { 5 }));
+    }
+
+    fn upload_texture(&mut self, ctx: &egui::Context) {
+        if !self.texture_dirty {
+            return;
+        }
+        let Some(shown) = &self.last else { return };
+        let img = if self.show_input { &shown.input } else { &shown.composited };
+        let color = egui::ColorImage::from_rgb([img.width as usize, img.height as usize], &img.data);
+        match &mut self.texture {
+            Some(t) => t.set(color, egui::TextureOptions::LINEAR),
+            None => self.texture = Some(ctx.load_texture("live_feed", color, egui::TextureOptions::LINEAR)),
+        }
+        self.texture_dirty = false;
+    }
+
+    fn status_bar_ui(&mut self, ui: &mut egui::Ui) {
+        let status = self.capture.status();
+        ui.horizontal(|ui| {
+            ui.label(RichText::new(&self.title).strong());
+            let line = self.source_line();
+            let colour = match status.state {
+                SourceState::Lost { .. } => Color32::from_rgb(235, 80, 70),
+                SourceState::Ended => Color32::from_rgb(230, 170, 40),
+                _ => ui.visuals().text_color(),
+            };
+            ui.label(RichText::new(line).color(colour));
+        });
+        ui.horizontal(|ui| {
+            ui.label(format!("{:.1} fps", self.fps()));
+            ui.label(format!("processed {}", self.processed));
+            ui.label(format!("dropped {}", self.dropped()));
+            if let Some(s) = &self.last {
+                ui.label(format!("frame {:.0} ms, latency {:.0} ms", s.frame_ms, s.latency_ms));
+                ui.label(format!("time {}", s.time.format("%Y-%m-%d %H:%M:%S%:z")));
+            }
+            if status.losses > 0 {
+                ui.label(format!("lost {} times", status.losses));
+            }
+        });
+        if let Some(e) = &self.error {
+            ui.label(RichText::new(format!("Error: {e}")).color(Color32::from_rgb(235, 80, 70)));
+        }
+    }
+
+    fn switches_ui(&mut self, ui: &mut egui::Ui) {
+        ui.heading("Passes");
+        ui.checkbox(&mut self.switches.virtual_objects, "Virtual objects");
+        ui.add_enabled_ui(self.switches.virtual_objects, |ui| {
+            ui.checkbox(&mut self.switches.virtual_volumes, "Virtual shadows (shadow volumes)");
+            ui.checkbox(&mut self.switches.real_volumes, "Real shadows on the objects");
+        });
+        ui.label("Darkening of real pixels:");
+        ui.horizontal(|ui| {
+            ui.radio_value(&mut self.darkening, Darkening::Differential, "differential");
+            ui.radio_value(&mut self.darkening, Darkening::Normal, "normal");
+            ui.radio_value(&mut self.darkening, Darkening::Constant, "constant");
+        });
+        ui.label("Ambient light of the objects:");
+        let mut a = self.ambient();
+        ui.add_enabled_ui(self.can_switch_ambient(), |ui| {
+            ui.horizontal(|ui| {
+                ui.radio_value(&mut a, AmbientChoice::Uniform, "uniform sky");
+                ui.radio_value(&mut a, AmbientChoice::Volume, "irradiance volume");
+            });
+        });
+        if a != self.ambient() {
+            self.set_ambient(a);
+        }
+        if ui.checkbox(&mut self.show_input, "Show the input").changed() {
+            self.texture_dirty = true;
+        }
+    }
+
+    fn estimator_ui(&mut self, ui: &mut egui::Ui) {
+        ui.heading("Estimator");
+        let Some(s) = &self.last else {
+            ui.label("waiting for the first frame");
+            return;
+        };
+        let e = &s.record.estimate;
+        ui.label(RichText::new(self.estimator_status().unwrap_or_default()).strong());
+        let rgb = |v: glam::Vec3| format!("{:.3}, {:.3}, {:.3}", v.x, v.y, v.z);
+        egui::Grid::new("estimator").num_columns(2).show(ui, |ui| {
+            ui.label("Pd (used)");
+            ui.label(rgb(s.record.lighting.pd));
+            ui.end_row();
+            ui.label("Pa (used)");
+            ui.label(rgb(s.record.lighting.pa));
+            ui.end_row();
+            ui.label("condition number");
+            ui.label(e.condition_number.map_or("—".into(), |c| format!("{c:.1}")));
+            ui.end_row();
+            ui.label("residual RMS");
+            ui.label(e.residual_rms.map_or("—".into(), |r| format!("{:.3}, {:.3}, {:.3}", r[0], r[1], r[2])));
+            ui.end_row();
+            ui.label("samples");
+            ui.label(format!("{} inliers of {} usable", e.samples.inliers, e.samples.usable));
+            ui.end_row();
+            ui.label("relight");
+            ui.label(format!("{} ({}, {})", if s.record.relight.ran { "yes" } else { "no" }, s.record.relight.source, s.record.relight.reason));
+            ui.end_row();
+            ui.label("sun");
+            ui.label(format!("zenith {:.2}°, azimuth {:.2}°", e.sun.position.zenith_deg, e.sun.position.azimuth_deg));
+            ui.end_row();
+            ui.label("times");
+            ui.label(format!("estimate {:.1} ms, composite {:.1} ms", s.record.estimate_ms, s.record.composite_ms));
+            ui.end_row();
+        });
+    }
+
+    fn passes_ui(&mut self, ui: &mut egui::Ui) {
+        ui.heading("Pass report");
+        let Some(s) = &self.last else { return };
+        ui.label(format!("ran: {}", s.passes.ran.join(", ")));
+        for k in &s.passes.skipped {
+            ui.label(format!("skipped {}: {}", k.pass, k.reason));
+        }
+        let t = &s.passes.timings;
+        ui.label(format!("volumes {:.1} ms, upload {:.1} ms, GPU {:.1} ms, read-back {:.1} ms", t.volume_build_ms, t.upload_ms, t.gpu_ms, t.readback_ms));
+    }
+
+    fn plots_ui(&mut self, ui: &mut egui::Ui) {
+        use egui_plot::{Legend, Line, Plot, PlotPoints};
+        let series = |f: &dyn Fn(&HistoryPoint) -> Option<f64>| -> PlotPoints<'static> { self.history.iter().filter_map(|p| f(p).map(|y| [p.t_s, y])).collect::<Vec<_>>().into() };
+        let h = (ui.available_height() - 8.0).max(60.0);
+        ui.columns(2, |cols| {
+            Plot::new("live_irradiance").height(h).legend(Legend::default()).x_axis_label("s").include_y(0.0).show(&mut cols[0], |p| {
+                p.line(Line::new("Pd (fit)", series(&|q| q.pd)));
+                p.line(Line::new("Pa (fit)", series(&|q| q.pa)));
+                p.line(Line::new("Pd (used)", series(&|q| Some(q.pd_used))));
+                p.line(Line::new("Pa (used)", series(&|q| Some(q.pa_used))));
+            });
+            Plot::new("live_residual").height(h).legend(Legend::default()).x_axis_label("s").include_y(0.0).show(&mut cols[1], |p| {
+                p.line(Line::new("residual RMS", series(&|q| q.residual_rms)));
+            });
+        });
+    }
+
+    fn feed_ui(&mut self, ui: &mut egui::Ui) {
+        let status = self.capture.status();
+        if let SourceState::Lost { reason, .. } = &status.state {
+            let every = self.capture.options().retry;
+            let every = if every >= Duration::from_secs(1) { format!("{:.0} s", every.as_secs_f64()) } else { format!("{} ms", every.as_millis()) };
+            ui.label(RichText::new(format!("Camera lost — retrying every {every}. {reason}")).color(Color32::from_rgb(235, 80, 70)).strong());
+        }
+        match (&self.texture, &self.last) {
+            (Some(t), Some(s)) => {
+                let (w, h) = (s.composited.width as f32, s.composited.height as f32);
+                let avail = ui.available_size();
+                let k = (avail.x / w).min(avail.y / h).max(0.1);
+                ui.add(egui::Image::new((t.id(), egui::vec2(w * k, h * k))));
+            }
+            _ => {
+                ui.label("waiting for frames…");
+            }
+        }
+    }
+}
+
+impl eframe::App for LiveApp {
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        LiveApp::ui(self, ui);
+    }
+}
+
+fn rgb8(data: Vec<u8>, width: u32, height: u32) -> Rgb8 {
+    Rgb8 { width, height, data }
+}
+
+fn linear_of(v: &VideoFrame) -> LinearImage {
+    LinearImage { width: v.width, height: v.height, data: v.rgba.iter().map(|p| [p[0], p[1], p[2]]).collect() }
+}
+
+fn snake<T: serde::Serialize + std::fmt::Debug>(v: &T) -> String {
+    serde_json::to_value(v).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_else(|| format!("{v:?}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::frames::{Frame, FrameData};
+
+    fn captured(index: u64, ts_ms: Option<f64>, age: Duration) -> Captured {
+        let frame = Frame { width: 1, height: 1, data: FrameData::Ldr { bits: 8, codes: vec![0; 3] } };
+        Captured { frame, index, ts_ms, at: Instant::now() - age }
+    }
+
+    fn t(s: &str) -> DateTime<FixedOffset> {
+        DateTime::parse_from_rfc3339(s).unwrap()
+    }
+
+    #[test]
+    fn frame_clocks_give_wall_shifted_file_and_sequence_times() {
+        // A camera with --start: a frame captured now is at the start; one captured 2 s ago,
+        // 2 s before it; --time-offset shifts both.
+        let start = t("2024-06-21T15:30:00+02:00");
+        for offset_s in [0.0, 90.0] {
+            let clock = FrameClock::wall(Some(start), offset_s);
+            for age_s in [0.0, 2.0] {
+                let got = clock.time(&captured(0, None, Duration::from_secs_f64(age_s)));
+                let want = start + chrono::Duration::milliseconds(((offset_s - age_s) * 1e3) as i64);
+                assert!((got - want).num_milliseconds().abs() < 500, "offset {offset_s}, age {age_s}: {got} vs {want}");
+            }
+        }
+        // Without --start: the wall clock itself.
+        let got = FrameClock::wall(None, 0.0).time(&captured(0, None, Duration::ZERO));
+        assert!((got - chrono::Utc::now().fixed_offset()).num_milliseconds().abs() < 500);
+        // A file: its timestamps from the start, else index / fps.
+        let clock = FrameClock::Start { t0: start, fps: 4.0 };
+        assert_eq!(clock.time(&captured(9, Some(1500.0), Duration::ZERO)), t("2024-06-21T15:30:01.5+02:00"));
+        assert_eq!(clock.time(&captured(6, None, Duration::ZERO)), t("2024-06-21T15:30:01.5+02:00"));
+        // A scene sequence: its own times, starting over when the file loops.
+        let clock = FrameClock::List(vec![start, t("2024-06-21T15:30:10+02:00")]);
+        assert_eq!(clock.time(&captured(1, None, Duration::ZERO)), t("2024-06-21T15:30:10+02:00"));
+        assert_eq!(clock.time(&captured(2, None, Duration::ZERO)), start);
+    }
+}

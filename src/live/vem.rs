@@ -1,0 +1,126 @@
+//! The VEM panel of the live window (`--vem-input FRAMES --vem-calib calib/fisheye.toml`): a
+//! captured video environment map sequence played at its capture rate through the
+//! [`Decomposer`] (Havran et al. 2005), its lights drawn as dots on a polar plot of the upper
+//! hemisphere, and a slider for the light count that re-runs the decomposer on the current map.
+//!
+//! The lights are not yet fed to the compositor (the VEM shaders and shadow-map atlas do not
+//! exist yet); the panel shows what the decomposition gives, live.
+
+use crate::vem::input::VemInput;
+use crate::vem::polar::PolarMap;
+use crate::vem::{Decomposer, Light, VemConfig};
+use anyhow::{Context, Result};
+use egui::{Color32, Pos2, Sense, Stroke, Vec2};
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+/// Largest light count the slider offers.
+pub const MAX_LIGHTS: usize = 1024;
+
+/// A VEM sequence being decomposed for the window.
+pub struct VemPanel {
+    input: VemInput,
+    map: PolarMap,
+    dec: Decomposer,
+    /// The slider's light count.
+    pub light_count: usize,
+    frame: Option<usize>,
+    last: Option<Instant>,
+    interval: Duration,
+    decompose_ms: f64,
+    error: Option<String>,
+}
+
+impl VemPanel {
+    /// Opens the sequence (and its fisheye calibration) for `lights` lights.
+    pub fn open(frames: &Path, calib: Option<&Path>, lights: usize) -> Result<Self> {
+        let cfg = VemConfig { lights: lights.clamp(1, MAX_LIGHTS), ..VemConfig::default() };
+        let input = VemInput::open(frames, calib, cfg.polar_width, cfg.polar_height).with_context(|| format!("opening the VEM sequence {}", frames.display()))?;
+        let map = PolarMap::new(cfg.polar_width, cfg.polar_height);
+        let interval = Duration::from_secs_f64(1.0 / cfg.rate_hz.max(1e-3));
+        let light_count = cfg.lights;
+        let dec = Decomposer::new(cfg)?;
+        Ok(Self { input, map, dec, light_count, frame: None, last: None, interval, decompose_ms: 0.0, error: None })
+    }
+
+    /// Loads and decomposes the next frame (the sequence loops).
+    pub fn advance(&mut self) -> Result<()> {
+        let i = self.frame.map_or(0, |f| (f + 1) % self.input.len().max(1));
+        self.input.load(i, &mut self.map).with_context(|| format!("VEM frame {i}"))?;
+        self.frame = Some(i);
+        self.decompose();
+        Ok(())
+    }
+
+    /// Changes the light count and re-runs the decomposer on the current map.
+    pub fn set_light_count(&mut self, n: usize) -> Result<()> {
+        let n = n.clamp(1, MAX_LIGHTS);
+        self.dec.set_lights(n)?;
+        self.light_count = n;
+        if self.frame.is_some() {
+            self.decompose();
+        }
+        Ok(())
+    }
+
+    fn decompose(&mut self) {
+        let t = Instant::now();
+        self.dec.process(&self.map);
+        self.decompose_ms = t.elapsed().as_secs_f64() * 1e3;
+    }
+
+    /// The current lights.
+    pub fn lights(&self) -> &[Light] {
+        self.dec.lights()
+    }
+
+    /// Advances when a capture interval has passed (the window calls it every repaint).
+    pub fn tick(&mut self) {
+        if self.last.is_none_or(|t| t.elapsed() >= self.interval) {
+            self.last = Some(Instant::now());
+            if let Err(e) = self.advance() {
+                self.error = Some(format!("{e:#}"));
+            }
+        }
+    }
+
+    /// The panel: slider, numbers and the polar plot.
+    pub fn ui(&mut self, ui: &mut egui::Ui) {
+        ui.heading("VEM lights");
+        let mut n = self.light_count;
+        if ui.add(egui::Slider::new(&mut n, 1..=MAX_LIGHTS).logarithmic(true).text("lights")).changed()
+            && let Err(e) = self.set_light_count(n)
+        {
+            self.error = Some(format!("{e:#}"));
+        }
+        ui.label(format!("{} lights, frame {} of {}, decomposed in {:.2} ms", self.lights().len(), self.frame.map_or(0, |f| f + 1), self.input.len(), self.decompose_ms));
+        if let Some(e) = &self.error {
+            ui.label(egui::RichText::new(format!("Error: {e}")).color(Color32::from_rgb(235, 80, 70)));
+        }
+        self.polar_ui(ui);
+    }
+
+    /// The lights seen from above: the centre is the zenith, the rim the horizon, −Z up.
+    fn polar_ui(&self, ui: &mut egui::Ui) {
+        let side = ui.available_width().clamp(120.0, 300.0);
+        let (rect, _) = ui.allocate_exact_size(Vec2::splat(side), Sense::hover());
+        let p = ui.painter_at(rect);
+        let (c, r) = (rect.center(), side / 2.0 - 4.0);
+        p.circle_filled(c, r, Color32::from_gray(20));
+        for k in [1.0, 2.0 / 3.0, 1.0 / 3.0] {
+            p.circle_stroke(c, r * k, Stroke::new(1.0, Color32::from_gray(70)));
+        }
+        let lum = |l: &Light| 0.2126 * l.rgb[0] + 0.7152 * l.rgb[1] + 0.0722 * l.rgb[2];
+        let max = self.lights().iter().map(lum).fold(0.0f32, f32::max).max(1e-12);
+        for l in self.lights() {
+            let elevation = l.dir.y.clamp(-1.0, 1.0).asin();
+            let rho = r * (1.0 - elevation / std::f32::consts::FRAC_PI_2).clamp(0.0, 1.0);
+            let horiz = Vec2::new(l.dir.x, l.dir.z);
+            let d = if horiz.length() > 1e-6 { horiz.normalized() } else { Vec2::ZERO };
+            let pos = Pos2::new(c.x + d.x * rho, c.y + d.y * rho);
+            let s = (lum(l) / max).sqrt();
+            let v = (80.0 + 175.0 * s) as u8;
+            p.circle_filled(pos, 1.5 + 3.5 * s, Color32::from_rgb(v, v, (v as f32 * 0.8) as u8));
+        }
+    }
+}
