@@ -45,8 +45,8 @@ pub trait ProbeSource {
     fn name(&self) -> &'static str;
 }
 
-/// Every probe holds the irradiance of an unoccluded uniform sky of the frame's `Pa` (the
-/// stand-in until the irradiance volume is baked).
+/// Every probe holds the irradiance of an unoccluded uniform sky of the frame's `Pa` (for
+/// scenes without an `[envmap]`, or `--ambient uniform`).
 #[derive(Clone, Copy, Debug)]
 pub struct UniformSky {
     /// Grid minimum corner (the scene's `[irradiance]` bounds).
