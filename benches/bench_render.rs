@@ -8,7 +8,7 @@
 //! reports the median of that stage over full frames. Target: ≥ 30 fps at 640×480.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use glam::{DVec2, Vec2, Vec3};
+use glam::{DVec2, Vec3};
 use heliar::geometry::raycast::RayScene;
 use heliar::geometry::{Material, Mesh};
 use heliar::io::frames::Frame;
@@ -23,29 +23,12 @@ use std::path::Path;
 use std::sync::Arc;
 use std::time::Duration;
 
-/// A closed torus of `2·rings·segments` triangles around +Y at `centre`.
+/// A closed brass torus of `2·rings·segments` triangles around +Y at `centre`.
 fn torus(centre: Vec3, major: f32, minor: f32, rings: u32, segments: u32) -> Mesh {
     let mut m = Mesh::default();
     let mat = m.add_material(Material { name: "brass".into(), base_color: [0.9, 0.7, 0.3, 1.0], base_color_texture: None, metallic: 1.0, roughness: 0.35 });
     let node = m.add_node("torus", false);
-    for i in 0..rings {
-        let u = i as f32 / rings as f32 * std::f32::consts::TAU;
-        for j in 0..segments {
-            let v = j as f32 / segments as f32 * std::f32::consts::TAU;
-            let r = major + minor * v.cos();
-            m.positions.push(centre + Vec3::new(r * u.cos(), minor * v.sin(), r * u.sin()));
-            m.uvs.push(Vec2::ZERO);
-        }
-    }
-    let idx = |i: u32, j: u32| (i % rings) * segments + (j % segments);
-    for i in 0..rings {
-        for j in 0..segments {
-            let (a, b, c, d) = (idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1));
-            m.triangles.extend([[a, c, b], [a, d, c]]);
-            m.tri_node.extend([node, node]);
-            m.tri_material.extend([mat, mat]);
-        }
-    }
+    m.push_torus(centre, major, minor, rings, segments, node, mat);
     m
 }
 

@@ -144,7 +144,7 @@ impl Pipeline {
         let relight = if !self.relit_once || estimate.relight {
             let t = std::time::Instant::now();
             let grid = self.probes.relight(&estimate, lighting.pd, lighting.pa);
-            self.compositor.set_probes(&grid);
+            self.compositor.set_probes(grid);
             self.relights += 1;
             let reason = if !self.relit_once { "first frame".to_owned() } else { format!("{:?}", estimate.change) };
             self.relit_once = true;

@@ -157,10 +157,25 @@ fn sigterm_closes_the_video_and_resume_completes_it() {
     for (k, l) in lines.iter().enumerate() {
         assert_eq!(l["frame"].as_u64().unwrap() as usize, k);
     }
-    // The estimator was replayed: the first resumed frame's smoothed lighting continues the
-    // interrupted run's (same lighting as frame k − 12, the same footage one loop earlier, to
-    // within the smoothing's memory).
     assert!(!output.with_extension("partial.mkv").exists());
+    // The estimator was replayed over the frames kept: every line of the resumed run's report
+    // has the lighting of an uninterrupted run of the same video (a fresh estimator at the first
+    // resumed frame would restart its temporal smoothing there and differ).
+    let whole = d.join("whole.mkv");
+    let (ok, err) = heliar(&[&args[..4], &["--output", whole.to_str().unwrap()], &args[6..]].concat());
+    assert!(ok, "{err}");
+    let reference = report_lines(&d.join("whole.report.jsonl"));
+    assert_eq!(reference.len(), n);
+    for (k, (a, b)) in lines.iter().zip(&reference).enumerate() {
+        assert_eq!(a["status"], b["status"], "frame {k}");
+        for key in ["pd", "pa"] {
+            let (x, y) = (a[key].as_array().unwrap(), b[key].as_array().unwrap());
+            for c in 0..3 {
+                let (x, y) = (x[c].as_f64().unwrap(), y[c].as_f64().unwrap());
+                assert!((x - y).abs() <= 1e-6 * y.abs().max(1e-3), "frame {k} {key}: resumed {x}, uninterrupted {y}");
+            }
+        }
+    }
     std::fs::remove_dir_all(&d).ok();
 }
 

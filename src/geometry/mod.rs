@@ -186,6 +186,31 @@ impl Mesh {
         self.push_quad(lo, y, x, node, material); // -Z
     }
 
+    /// Appends a closed torus of `2·rings·segments` outward-facing triangles around +Y at
+    /// `centre` (tube radius `minor` at distance `major` from the axis): a smooth, closed test
+    /// object whose triangle count is set by `rings` and `segments`.
+    pub fn push_torus(&mut self, centre: Vec3, major: f32, minor: f32, rings: u32, segments: u32, node: u32, material: u32) {
+        let base = self.positions.len() as u32;
+        for i in 0..rings {
+            let u = i as f32 / rings as f32 * std::f32::consts::TAU;
+            for j in 0..segments {
+                let v = j as f32 / segments as f32 * std::f32::consts::TAU;
+                let r = major + minor * v.cos();
+                self.positions.push(centre + Vec3::new(r * u.cos(), minor * v.sin(), r * u.sin()));
+                self.uvs.push(Vec2::ZERO);
+            }
+        }
+        let idx = |i: u32, j: u32| base + (i % rings) * segments + (j % segments);
+        for i in 0..rings {
+            for j in 0..segments {
+                let (a, b, c, d) = (idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1));
+                self.triangles.extend([[a, c, b], [a, d, c]]);
+                self.tri_node.extend([node, node]);
+                self.tri_material.extend([material, material]);
+            }
+        }
+    }
+
     /// Appends another mesh (its node, material and texture indices are shifted).
     pub fn append(&mut self, other: &Mesh) {
         let (v0, n0, m0, t0) = (

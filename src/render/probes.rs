@@ -40,26 +40,23 @@ pub struct ProbeGridHeader {
 pub trait ProbeSource {
     /// A grid for the lighting of `estimate` (called only when `estimate.relight` is true, and
     /// for the first frame). `pd`, `pa` are the values the compositor uses for the frame.
-    fn relight(&mut self, estimate: &FrameEstimate, pd: Vec3, pa: Vec3) -> ProbeGrid;
+    /// The grid is the source's own, updated in place (no copy per relight).
+    fn relight(&mut self, estimate: &FrameEstimate, pd: Vec3, pa: Vec3) -> &ProbeGrid;
     /// Short name for reports.
     fn name(&self) -> &'static str;
 }
 
 /// Every probe holds the irradiance of an unoccluded uniform sky of the frame's `Pa` (for
 /// scenes without an `[envmap]`, or `--ambient uniform`).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct UniformSky {
-    /// Grid minimum corner (the scene's `[irradiance]` bounds).
-    pub min: Vec3,
-    /// Grid maximum corner.
-    pub max: Vec3,
-    /// Spacing, metres.
-    pub spacing: f32,
+    grid: ProbeGrid,
 }
 
 impl ProbeSource for UniformSky {
-    fn relight(&mut self, _estimate: &FrameEstimate, _pd: Vec3, pa: Vec3) -> ProbeGrid {
-        ProbeGrid::filled(self.min, self.max, self.spacing, sh::uniform_upper_sky(pa))
+    fn relight(&mut self, _estimate: &FrameEstimate, _pd: Vec3, pa: Vec3) -> &ProbeGrid {
+        self.grid.coeffs.fill(sh::uniform_upper_sky(pa));
+        &self.grid
     }
     fn name(&self) -> &'static str {
         "uniform_sky"
@@ -83,7 +80,12 @@ impl UniformSky {
     /// The stand-in over the scene's probe-grid bounds ([`grid_bounds`]).
     pub fn for_scene(scene: &Scene) -> Self {
         let (min, max, spacing) = grid_bounds(scene);
-        Self { min, max, spacing }
+        Self::new(min, max, spacing)
+    }
+
+    /// The stand-in over `[min, max]` with probes `spacing` apart.
+    pub fn new(min: Vec3, max: Vec3, spacing: f32) -> Self {
+        Self { grid: ProbeGrid::filled(min, max, spacing, [[0.0; 3]; sh::N]) }
     }
 }
 
@@ -140,8 +142,8 @@ impl VolumeProbes {
 }
 
 impl ProbeSource for VolumeProbes {
-    fn relight(&mut self, estimate: &FrameEstimate, pd: Vec3, pa: Vec3) -> ProbeGrid {
-        self.update(Vec3::from(estimate.sun.dir_world), estimate.sun.above_horizon, pd, pa).clone()
+    fn relight(&mut self, estimate: &FrameEstimate, pd: Vec3, pa: Vec3) -> &ProbeGrid {
+        self.update(Vec3::from(estimate.sun.dir_world), estimate.sun.above_horizon, pd, pa)
     }
     fn name(&self) -> &'static str {
         "irradiance_volume"

@@ -12,7 +12,7 @@
 //! (decode and estimate only) so its temporal smoothing continues as if never interrupted, and
 //! compositing starts at the first missing frame.
 
-use crate::common::{build_estimator, frame_bar, load_scene, spinner};
+use crate::common::{build_estimator, frame_bar, load_scene, pick_sequence, spinner};
 use anyhow::{Context, Result, anyhow, bail};
 use chrono::{DateTime, FixedOffset};
 use clap::{Args, ValueEnum};
@@ -56,6 +56,40 @@ pub enum AmbientArg {
     Volume,
     /// A uniform, unoccluded sky of the frame's `Pa` everywhere.
     Uniform,
+}
+
+impl From<DarkeningArg> for Darkening {
+    fn from(d: DarkeningArg) -> Self {
+        match d {
+            DarkeningArg::Differential => Darkening::Differential,
+            DarkeningArg::Normal => Darkening::Normal,
+            DarkeningArg::Constant => Darkening::Constant,
+        }
+    }
+}
+
+impl From<AmbientArg> for Ambient {
+    fn from(a: AmbientArg) -> Self {
+        match a {
+            AmbientArg::Auto => Ambient::Auto,
+            AmbientArg::Volume => Ambient::Volume,
+            AmbientArg::Uniform => Ambient::Uniform,
+        }
+    }
+}
+
+/// The GPU and the compositor for `scene` with `config`, behind a spinner; prints the adapter
+/// and the compositor's warnings (open meshes and the like).
+pub fn gpu_compositor(scene: &Scene, ray: Arc<heliar::geometry::raycast::RayScene>, samples: u32, config: CompositorConfig) -> Result<(Arc<Gpu>, Compositor)> {
+    let pb = spinner("GPU set-up: adapter, pipelines, per-pixel proxy data");
+    let gpu = Arc::new(Gpu::new(GpuOptions { samples: samples.max(1) })?);
+    let comp = Compositor::for_scene(gpu.clone(), scene, ray, config).with_context(|| format!("setting up the compositor for {}", scene.root.display()))?;
+    pb.finish_and_clear();
+    eprintln!("GPU: {} ({} MSAA samples, depth {:?})", gpu.describe(), gpu.samples, gpu.depth_format);
+    for w in comp.warnings() {
+        eprintln!("warning: {w}");
+    }
+    Ok((gpu, comp))
 }
 
 /// Shadow-volume builder.
@@ -204,13 +238,7 @@ fn positive_fps(fps: f64, what: &str) -> Result<f64> {
 }
 
 fn resolve_input(scene: &Scene, a: &AugmentArgs) -> Result<Input> {
-    let borrowed = match &a.sequence {
-        Some(name) => Some(scene.sequences.iter().find(|s| &s.name == name).ok_or_else(|| {
-            let names: Vec<&str> = scene.sequences.iter().map(|s| s.name.as_str()).collect();
-            anyhow!("--sequence {name}: the scene has no such sequence (it has: {})", names.join(", "))
-        })?),
-        None => None,
-    };
+    let borrowed = a.sequence.as_deref().map(|n| pick_sequence(scene, Some(n)).context("--sequence")).transpose()?;
     let photometry = borrowed.map(|s| s.photometry.clone()).unwrap_or_else(|| scene.photometry.clone());
     if !a.input.exists() {
         bail!("{}: input not found", a.input.display());
@@ -508,33 +536,18 @@ pub fn run(a: AugmentArgs) -> Result<()> {
 
     // Set-up: estimator, GPU, probes.
     let estimator = build_estimator(&scene, ray.clone())?;
-    let pb = spinner("GPU set-up: adapter, pipelines, per-pixel proxy data");
-    let gpu = Arc::new(Gpu::new(GpuOptions { samples: a.samples.max(1) })?);
     let mut config = CompositorConfig::for_scene(&scene);
-    config.darkening = match a.darkening {
-        DarkeningArg::Differential => Darkening::Differential,
-        DarkeningArg::Normal => Darkening::Normal,
-        DarkeningArg::Constant => Darkening::Constant,
-    };
+    config.darkening = a.darkening.into();
     config.sun_bounce = config.sun_bounce && !a.no_sun_bounce;
     config.builder = match a.volumes {
         VolumesArg::Cpu => Builder::Cpu,
         VolumesArg::Compute => Builder::Compute,
     };
-    let comp = Compositor::for_scene(gpu.clone(), &scene, ray.clone(), config).with_context(|| format!("setting up the compositor for {}", scene.root.display()))?;
-    pb.finish_and_clear();
-    eprintln!("GPU: {} ({} MSAA samples, depth {:?})", gpu.describe(), gpu.samples, gpu.depth_format);
-    for w in comp.warnings() {
-        eprintln!("warning: {w}");
-    }
+    let (gpu, comp) = gpu_compositor(&scene, ray.clone(), a.samples, config)?;
     if scene.virtual_objects.is_empty() {
         eprintln!("note: {} has no [[virtual_objects]]: the footage passes through", scene.root.join(heliar::scene::MANIFEST_FILE).display());
     }
-    let ambient = match a.ambient {
-        AmbientArg::Auto => Ambient::Auto,
-        AmbientArg::Volume => Ambient::Volume,
-        AmbientArg::Uniform => Ambient::Uniform,
-    };
+    let ambient: Ambient = a.ambient.into();
     if ambient == Ambient::Auto && scene.manifest.envmap.is_none() {
         eprintln!("note: {} has no [envmap]: ambient light from a uniform sky of the estimated Pa (no irradiance volume)", scene.root.join(heliar::scene::MANIFEST_FILE).display());
     }

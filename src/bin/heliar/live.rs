@@ -80,14 +80,13 @@ pub fn run(a: LiveArgs) -> anyhow::Result<()> {
 #[cfg(feature = "opencv")]
 mod imp {
     use super::LiveArgs;
-    use crate::augment::{AmbientArg, DarkeningArg};
-    use crate::common::{build_estimator, load_scene, spinner};
+    use crate::common::{build_estimator, load_scene};
     use anyhow::{Context, Result, anyhow, bail};
     use heliar::live::source::opener_for;
     use heliar::live::{Capture, CaptureOptions, FrameClock, LatestSlot, LiveApp};
     use heliar::pipeline::{Ambient, Pipeline, probe_source};
     use heliar::render::probes::{ProbeSource, UniformSky};
-    use heliar::render::{Compositor, CompositorConfig, Darkening, Gpu, GpuOptions};
+    use heliar::render::CompositorConfig;
     use heliar::report::median;
     use heliar::scene::{Scene, parse_time};
     use std::path::Path;
@@ -97,13 +96,7 @@ mod imp {
 
     /// Photometry, clock and playback rate of the input.
     fn timing(scene: &Scene, a: &LiveArgs) -> Result<(heliar::scene::Photometry, FrameClock, Option<f64>)> {
-        let borrowed = match &a.sequence {
-            Some(name) => Some(scene.sequences.iter().find(|s| &s.name == name).ok_or_else(|| {
-                let names: Vec<&str> = scene.sequences.iter().map(|s| s.name.as_str()).collect();
-                anyhow!("--sequence {name}: the scene has no such sequence (it has: {})", names.join(", "))
-            })?),
-            None => None,
-        };
+        let borrowed = a.sequence.as_deref().map(|n| crate::common::pick_sequence(scene, Some(n)).context("--sequence")).transpose()?;
         let start = a.start.as_deref().map(|s| parse_time(Path::new("--start"), "start", s)).transpose()?;
         if let Some(f) = a.fps
             && !(f.is_finite() && f > 0.0)
@@ -150,25 +143,10 @@ mod imp {
         let opener = opener_for(a.input.as_deref(), a.camera.as_deref(), fps)?;
 
         let estimator = build_estimator(&scene, ray.clone())?;
-        let pb = spinner("GPU set-up: adapter, pipelines, per-pixel proxy data");
-        let gpu = Arc::new(Gpu::new(GpuOptions { samples: a.samples.max(1) })?);
         let mut config = CompositorConfig::for_scene(&scene);
-        config.darkening = match a.darkening {
-            DarkeningArg::Differential => Darkening::Differential,
-            DarkeningArg::Normal => Darkening::Normal,
-            DarkeningArg::Constant => Darkening::Constant,
-        };
-        let comp = Compositor::for_scene(gpu.clone(), &scene, ray.clone(), config).with_context(|| format!("setting up the compositor for {}", scene.root.display()))?;
-        pb.finish_and_clear();
-        eprintln!("GPU: {} ({} MSAA samples)", gpu.describe(), gpu.samples);
-        for w in comp.warnings() {
-            eprintln!("warning: {w}");
-        }
-        let ambient = match a.ambient {
-            AmbientArg::Auto => Ambient::Auto,
-            AmbientArg::Volume => Ambient::Volume,
-            AmbientArg::Uniform => Ambient::Uniform,
-        };
+        config.darkening = a.darkening.into();
+        let (_gpu, comp) = crate::augment::gpu_compositor(&scene, ray.clone(), a.samples, config)?;
+        let ambient: Ambient = a.ambient.into();
         let probes = probe_source(&scene, ray.clone(), ambient, |s, r| crate::bake::bake_with_progress(s, r, false))?;
         // The uniform sky is always at hand as the other choice of the volume.
         let other: Option<Box<dyn ProbeSource + Send>> = (probes.name() != "uniform_sky").then(|| Box::new(UniformSky::for_scene(&scene)) as Box<dyn ProbeSource + Send>);
