@@ -61,6 +61,8 @@ fn ms(t: std::time::Instant) -> f64 {
 
 struct Setup {
     scene: Scene,
+    /// The scene's `[irradiance]` grid (required by `run`).
+    grid: heliar::scene::GridSpec,
     ray: Arc<RayScene>,
     lighting: Lighting,
     points: Vec<(Vec3, Vec3)>,
@@ -88,7 +90,7 @@ struct Measure {
 }
 
 fn measure(s: &Setup, baked: &Baked, spacing: f32, directions: usize, reference: &[Vec3], bake_ms: f64) -> Measure {
-    let g = s.scene.manifest.irradiance.as_ref().expect("grid checked");
+    let g = &s.grid;
     let t = std::time::Instant::now();
     let transfer = ProbeTransfer::build(v3(g.min), v3(g.max), spacing, baked, &s.ray, directions);
     let transfer_ms = ms(t);
@@ -174,7 +176,7 @@ pub fn run(a: IrradianceSweep) -> Result<()> {
         let n = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)).normalize_or(Vec3::Y);
         points.push((p, n));
     }
-    let setup = Setup { scene: scene.clone(), ray: ray.clone(), lighting, points };
+    let setup = Setup { scene: scene.clone(), grid: g.clone(), ray: ray.clone(), lighting, points };
     let mut ref_scene = scene.clone();
     ref_scene.bake.ambient.paths = 1024;
     let reference_bake = bake_with_map(&ref_scene, ray.clone(), Some(env.clone()), &quiet)?;
