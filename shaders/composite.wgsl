@@ -10,9 +10,11 @@
 //   constant:     Pa / (Pa + Pd), Jensen's one ratio for every pixel.
 //   differential: L_with / L_without of the estimator's model at the pixel, with
 //                 L_without = c*Pa + (s*max(n.l,0) + b)*Pd and
-//                 L_with    = c_v*Pa + (max(s - coverage, 0)*max(n.l,0) + b_v)*Pd, with s the
-//                 pixel's sunlit fraction (real shadows) and coverage its part in virtual but not
-//                 real shadow, where c_v, b_v are
+//                 L_with    = c_v*Pa + (s*(1 - q)*max(n.l,0) + b_v)*Pd, with s the pixel's
+//                 sunlit fraction (real shadows, traced on the CPU) and q the share of its
+//                 sunlit real samples that the virtual shadow covers (masks r / (1 - a - g): the
+//                 GPU's own samples, so q = 1 wherever the virtual shadow covers all of the
+//                 pixel's sunlit part), where c_v, b_v are
 //                 c and b with the virtual objects in the scene: the virtual shadow, and the sky
 //                 and bounce light the objects take from surfaces near them (Debevec 1998's
 //                 differential rendering, with the estimator's model as the local scene);
@@ -70,8 +72,21 @@ fn canvas_sample(px: vec2<i32>) -> CanvasSample {
     return out;
 }
 
-// The differential model (see the file's head).
-fn differential(px: vec2<i32>, v: vec4<f32>, n: vec3<f32>, coverage: f32) -> vec3<f32> {
+// Below this share of sunlit real samples a pixel is taken as all in real shadow.
+const MIN_LIT_SAMPLES: f32 = 1e-3;
+
+// The share of a pixel's sunlit real samples in virtual shadow, from the warped masks.
+fn lit_share_covered(m: vec4<f32>) -> f32 {
+    let lit = 1.0 - m.a - m.g;
+    if (lit <= MIN_LIT_SAMPLES) {
+        return 0.0;
+    }
+    return clamp(m.r / lit, 0.0, 1.0);
+}
+
+// The differential model (see the file's head); `coverage` is the masks' r, `q` the share of
+// the sunlit real samples it covers.
+fn differential(px: vec2<i32>, v: vec4<f32>, n: vec3<f32>, coverage: f32, q: f32) -> vec3<f32> {
     let present = textureLoad(surface_ambient_with, px, 0);
     if (present.w < 0.5 && coverage <= 0.0) {
         return v.rgb;
@@ -89,26 +104,26 @@ fn differential(px: vec2<i32>, v: vec4<f32>, n: vec3<f32>, coverage: f32) -> vec
     if (lighting.sun_dir.w > 0.5) {
         pd = lighting.pd.rgb;
     }
-    // a.w: the pixel's sunlit fraction (real shadows only); `coverage` is the part in virtual but
-    // not real shadow, so the part that stays lit is what is left of both.
+    // a.w: the pixel's sunlit fraction (real shadows only); the virtual shadow takes `q` of it.
     let cos_l = max(dot(n, lighting.sun_dir.xyz), 0.0);
     let l0 = a.rgb * lighting.pa.rgb + (a.w * cos_l + use_b * b) * pd;
-    let l1 = c_v * lighting.pa.rgb + (max(a.w - coverage, 0.0) * cos_l + use_b * b_v) * pd;
+    let l1 = c_v * lighting.pa.rgb + (a.w * (1.0 - q) * cos_l + use_b * b_v) * pd;
     if (v.a > 0.5) {
         return select(v.rgb, v.rgb * l1 / l0, l0 > vec3<f32>(0.0));
     }
     return textureLoad(surface_albedo, px, 0).rgb / PI * l1;
 }
 
-// Radiance of a real pixel after the virtual shadow covering `coverage` of it.
-fn real_radiance(px: vec2<i32>, coverage: f32) -> vec3<f32> {
+// Radiance of a real pixel after the virtual shadow covering `coverage` of it (`q` of its
+// sunlit real samples).
+fn real_radiance(px: vec2<i32>, coverage: f32, q: f32) -> vec3<f32> {
     let v = textureLoad(video, px, 0);
     let s = textureLoad(surface_normal, px, 0);
     if (s.w < 0.5) {
         return v.rgb;
     }
     if (lighting.params.x > 1.5) {
-        return differential(px, v, s.xyz, coverage);
+        return differential(px, v, s.xyz, coverage, q);
     }
     if (coverage <= 0.0 || lighting.sun_dir.w < 0.5) {
         return v.rgb;
@@ -140,7 +155,7 @@ fn fs_composite(in: FullscreenOut) -> @location(0) vec4<f32> {
     if (c.virtual_rgba.a <= 0.0 && c.masks.r <= 0.0 && (lighting.params.x < 1.5 || textureLoad(surface_ambient_with, px, 0).w < 0.5)) {
         return vec4<f32>(textureLoad(video, px, 0).rgb * lighting.params.z, 1.0);
     }
-    let real = real_radiance(px, c.masks.r);
+    let real = real_radiance(px, c.masks.r, lit_share_covered(c.masks));
     let out = c.virtual_rgba.rgb + (1.0 - c.virtual_rgba.a) * real;
     return vec4<f32>(out * lighting.params.z, 1.0);
 }

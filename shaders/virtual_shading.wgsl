@@ -1,10 +1,11 @@
 // Pass 5: the virtual objects, shaded (Jensen §3.2 step 4 and §3.3): the glTF metallic-roughness
 // response to the sun, times its visibility (the fraction of the pixel's virtual-surface samples
-// that no shadow volume covers, from the shadow-mask pass), plus ambient light from the
-// irradiance-probe grid evaluated per
-// pixel, times the objects' own ambient occlusion. Depth-tested for equality against the
-// prepass, so the real proxy hides them. Output
-// is premultiplied linear radiance with alpha 1. Paired with src/render/virtual_shading.rs.
+// that no shadow volume covers, from the shadow-mask pass), plus ambient light: the per-pixel
+// transfer R_a·Pa + R_d·Pd traced on the CPU (src/render/transfer.rs), reconstructed from the
+// lattice entries around the pixel that lie on the fragment's surface, otherwise the probe grid
+// evaluated per pixel times the objects' own ambient occlusion. Depth-tested for equality against
+// the prepass, so the real proxy hides them. Output is premultiplied linear radiance with alpha 1.
+// Paired with src/render/virtual_shading.rs.
 
 #include "common/camera.wgsl"
 #include "common/lighting.wgsl"
@@ -31,6 +32,70 @@ struct Material {
 // The resolved shadow masks (shadow_mask.wgsl): b = coverage of virtual-surface samples in some
 // shadow, a = coverage of virtual-surface samples.
 @group(0) @binding(6) var shadow_masks: texture_2d<f32>;
+
+// The objects' ambient transfer per canvas pixel (src/render/transfer.rs): R_a (rgb, a = 1 where
+// there is an entry), R_d, the entry's surface point (w: footprint radius, metres) and normal.
+@group(0) @binding(7) var transfer_sky: texture_2d<f32>;
+@group(0) @binding(8) var transfer_sun: texture_2d<f32>;
+@group(0) @binding(9) var transfer_point: texture_2d<f32>;
+@group(0) @binding(10) var transfer_normal: texture_2d<f32>;
+
+// An entry takes part in a fragment's value when its normal is within ~25° of the fragment's
+// and its point lies within this many lattice footprints (footprint radius times the stride; a
+// neighbouring lattice point on the same face is 1–1.5 of them away).
+const TRANSFER_MIN_NORMAL_DOT: f32 = 0.9;
+const TRANSFER_MAX_FOOTPRINTS: f32 = 2.5;
+// Each entry's weight: exp(-(distance / (stride * footprint))^2), times the normals' agreement
+// above TRANSFER_MIN_NORMAL_DOT.
+
+struct TransferHit {
+    found: bool,
+    sky: vec3<f32>,
+    sun: vec3<f32>,
+}
+
+// The fragment's transfer from the 3×3 lattice entries around canvas pixel `px` (lattice spacing
+// `stride`), for a surface point `p` with normal `n`: the weighted mean of the matching entries.
+fn transfer_lookup(px: vec2<i32>, stride: i32, p: vec3<f32>, n: vec3<f32>) -> TransferHit {
+    var out: TransferHit;
+    out.found = false;
+    out.sky = vec3<f32>(0.0);
+    out.sun = vec3<f32>(0.0);
+    let size = vec2<i32>(textureDimensions(transfer_sky));
+    let base = (px / stride) * stride;
+    var wsum = 0.0;
+    for (var j = -1; j <= 1; j += 1) {
+        for (var i = -1; i <= 1; i += 1) {
+            let q = base + vec2<i32>(i, j) * stride;
+            if (any(q < vec2<i32>(0)) || any(q >= size)) {
+                continue;
+            }
+            let sky = textureLoad(transfer_sky, q, 0);
+            if (sky.a < 0.5) {
+                continue;
+            }
+            let e = textureLoad(transfer_point, q, 0);
+            let nd = dot(textureLoad(transfer_normal, q, 0).xyz, n);
+            let dist = length(e.xyz - p) / max(e.w * f32(stride), 1e-6);
+            if (nd < TRANSFER_MIN_NORMAL_DOT || dist > TRANSFER_MAX_FOOTPRINTS) {
+                continue;
+            }
+            let w = exp(-dist * dist) * (nd - TRANSFER_MIN_NORMAL_DOT) / (1.0 - TRANSFER_MIN_NORMAL_DOT + 1e-6);
+            if (w <= 0.0) {
+                continue;
+            }
+            wsum += w;
+            out.sky += w * sky.rgb;
+            out.sun += w * textureLoad(transfer_sun, q, 0).rgb;
+        }
+    }
+    if (wsum > 0.0) {
+        out.found = true;
+        out.sky /= wsum;
+        out.sun /= wsum;
+    }
+    return out;
+}
 
 @group(1) @binding(0) var<uniform> material: Material;
 @group(1) @binding(1) var base_color_texture: texture_2d<f32>;
@@ -127,9 +192,23 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
     let nv = dot(n, v);
     let r = reflect(-v, n);
     let px = vec2<i32>(floor(in.position.xy));
-    let ao = multi_bounce_ao(textureLoad(ambient_occlusion, px, 0).r, base);
-    var radiance = ao * ambient_radiance(s, nv, probe_irradiance(in.world, n), probe_irradiance(in.world, r));
-    if (lighting.sun_dir.w > 0.5) {
+    let sun_on = lighting.sun_dir.w > 0.5;
+    var radiance: vec3<f32>;
+    var transfer: TransferHit;
+    transfer.found = false;
+    if (lighting.params.w > 0.5) {
+        transfer = transfer_lookup(px, i32(lighting.params.w + 0.5), in.world, n);
+    }
+    if (transfer.found) {
+        radiance = transfer.sky * lighting.pa.rgb;
+        if (sun_on) {
+            radiance += transfer.sun * lighting.pd.rgb;
+        }
+    } else {
+        let ao = multi_bounce_ao(textureLoad(ambient_occlusion, px, 0).r, base);
+        radiance = ao * ambient_radiance(s, nv, probe_irradiance(in.world, n), probe_irradiance(in.world, r));
+    }
+    if (sun_on) {
         let m = textureLoad(shadow_masks, px, 0);
         let visible = 1.0 - clamp(m.b / max(m.a, 1e-3), 0.0, 1.0);
         radiance += visible * lighting.pd.rgb * brdf_cos(s, n, v, lighting.sun_dir.xyz);

@@ -15,6 +15,7 @@ struct Lighting {
     pa: vec4<f32>,
     // x: darkening model (0 = normal-aware, 1 = constant ratio, 2 = differential); y: 1 to add
     // the sun bounce b*Pd;
-    // z: scale applied to the composite (1 for files, the exposure for a window); w: unused.
+    // z: scale applied to the composite (1 for files, the exposure for a window); w: lattice
+    // stride of the virtual objects' per-pixel ambient transfer, 0 when it is off.
     params: vec4<f32>,
 }

@@ -5,8 +5,11 @@
 //! - [`raycast::RayScene`]: a BVH over a mesh (parry3d) for first-hit and shadow rays.
 //! - [`ambient`]: weighted-ambient factor `c` and sun bounce `b` by path tracing.
 //! - [`sampling`]: hemisphere sampling used by the integrals.
+//! - [`brdf`]: the glTF metallic–roughness BRDF with importance sampling (the virtual objects'
+//!   path-traced ambient transfer).
 
 pub mod ambient;
+pub mod brdf;
 pub mod raycast;
 pub mod sampling;
 

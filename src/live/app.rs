@@ -427,6 +427,7 @@ impl LiveApp {
         ui.add_enabled_ui(self.switches.virtual_objects, |ui| {
             ui.checkbox(&mut self.switches.virtual_volumes, "Virtual shadows (shadow volumes)");
             ui.checkbox(&mut self.switches.real_volumes, "Real shadows on the objects");
+            ui.checkbox(&mut self.switches.transfer, "Per-pixel ambient transfer (off: probes × occlusion)");
         });
         ui.label("Darkening of real pixels:");
         ui.horizontal(|ui| {

@@ -20,7 +20,7 @@ pub struct LightingUniform {
     pub pd: [f32; 4],
     /// `Pa`.
     pub pa: [f32; 4],
-    /// Darkening model, bounce on, output scale, unused.
+    /// Darkening model, bounce on, output scale, per-pixel transfer stride (0: off).
     pub params: [f32; 4],
 }
 
@@ -129,6 +129,8 @@ pub struct FrameTimings {
     pub volume_build_ms: f64,
     /// Per-pixel `c`/`b` of newly reached pixels.
     pub receivers_ms: f64,
+    /// Tracing the virtual objects' ambient transfer (first frame, and when the sun moved).
+    pub transfer_ms: f64,
     /// Uploads (footage, volumes, surface data, probes, uniforms).
     pub upload_ms: f64,
     /// Recording, submitting and waiting for the render passes.
@@ -150,6 +152,8 @@ pub struct PassReport {
     pub volumes: VolumeStats,
     /// Pixels whose `c`/`b` were computed this frame.
     pub receivers_computed: usize,
+    /// Canvas pixels whose ambient transfer was traced this frame.
+    pub transfer_traced: usize,
     /// Timings.
     pub timings: FrameTimings,
 }
@@ -179,6 +183,8 @@ pub mod pass {
     pub const REAL_VOLUMES: &str = "real_volumes";
     /// Virtual occluders' volumes and their resolve.
     pub const VIRTUAL_VOLUMES: &str = "virtual_volumes";
+    /// Tracing the virtual objects' per-pixel ambient transfer (CPU).
+    pub const OBJECT_TRANSFER: &str = "object_transfer";
     /// Virtual object shading.
     pub const VIRTUAL_SHADING: &str = "virtual_shading";
     /// Stencil classes into the coverage mask.

@@ -1,10 +1,14 @@
 //! Pass 4 (`shaders/shadow_mask.wgsl`): stencil classes into a coverage mask on the canvas.
 //!
 //! `r`: virtual shadow on a real surface where no real shadow is, the samples the composite
-//! darkens; `b`: a virtual surface in some shadow, and `a`: a virtual surface, whose ratio is the
-//! sun visibility the shading pass uses; `g`: real shadow, drawn only when debug masks are asked
-//! for (tests compare all four with ray-traced references). The MSAA resolve turns per-sample
-//! classes into per-pixel coverage.
+//! darkens; `g`: a real surface in real shadow; `b`: a virtual surface in some shadow, and `a`: a
+//! virtual surface, whose ratio is the sun visibility the shading pass uses. The MSAA resolve
+//! turns per-sample classes into per-pixel coverage; tests compare all four with ray-traced
+//! references. The composite's differential model divides `r` by the real-surface samples out
+//! of real shadow, `1 − a − g`: the share of the pixel's sunlit real surface that the virtual
+//! shadow covers, counted on the same samples (and through the same lens-warp interpolation) as
+//! `r` itself, so a pixel both shadows cover loses all of its sun even where the GPU's samples
+//! and the receivers' sub-pixel rays see the real shadow's edge a little differently.
 
 use super::RenderError;
 use super::gpu::MASK_FORMAT;
@@ -23,10 +27,10 @@ pub struct MaskDraw {
 pub struct ShadowMask {
     /// `r`: exactly [`VIRTUAL_SHADOW`].
     pub virtual_on_real: MaskDraw,
+    /// `g`: [`REAL_SHADOW`] on a real surface.
+    pub real_on_real: MaskDraw,
     /// `b` (two draws) and `a`.
     pub virtual_surface: Vec<MaskDraw>,
-    /// Debug channel `g`.
-    pub debug: Vec<MaskDraw>,
 }
 
 impl ShadowMask {
@@ -71,13 +75,13 @@ impl ShadowMask {
                 make("mask virtual surface in virtual shadow", VIRTUAL_SURFACE | VIRTUAL_SHADOW, VIRTUAL_SURFACE | VIRTUAL_SHADOW, wgpu::ColorWrites::BLUE),
                 make("mask virtual surface", VIRTUAL_SURFACE, VIRTUAL_SURFACE, wgpu::ColorWrites::ALPHA),
             ],
-            debug: vec![make("mask real shadow", REAL_SHADOW, REAL_SHADOW, wgpu::ColorWrites::GREEN)],
+            real_on_real: make("mask real shadow on real", VIRTUAL_SURFACE | REAL_SHADOW, REAL_SHADOW, wgpu::ColorWrites::GREEN),
         })
     }
 
-    /// Records the draws (the debug one when `debug`).
-    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, debug: bool) {
-        let draws = std::iter::once(&self.virtual_on_real).chain(&self.virtual_surface).chain(self.debug.iter().filter(|_| debug));
+    /// Records the draws.
+    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>) {
+        let draws = [&self.virtual_on_real, &self.real_on_real].into_iter().chain(&self.virtual_surface);
         for d in draws {
             pass.set_pipeline(&d.pipeline);
             pass.set_stencil_reference(d.reference);

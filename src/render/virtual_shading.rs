@@ -35,7 +35,8 @@ pub struct VirtualShading {
     pub closed: wgpu::RenderPipeline,
     /// Two-sided (open meshes).
     pub open: wgpu::RenderPipeline,
-    /// Group 0: camera, lighting, probe header, coefficients, validity, ambient occlusion, masks.
+    /// Group 0: camera, lighting, probe header, coefficients, validity, ambient occlusion, masks,
+    /// and the transfer's `R_a`, `R_d`, points and normals.
     pub frame_layout: wgpu::BindGroupLayout,
 }
 
@@ -62,6 +63,10 @@ impl VirtualShading {
                 storage_entry(4),
                 texture_entry(5),
                 texture_entry(6),
+                texture_entry(7),
+                texture_entry(8),
+                texture_entry(9),
+                texture_entry(10),
             ],
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

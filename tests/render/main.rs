@@ -8,3 +8,4 @@ mod shading;
 mod shadows;
 mod skip;
 mod support;
+mod transfer;

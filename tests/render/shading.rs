@@ -52,9 +52,11 @@ fn shaded_pixels_match_a_cpu_evaluation() {
     let grid = structured_grid();
     let (pd, pa) = (Vec3::new(3.2, 3.0, 2.7), Vec3::new(0.55, 0.62, 0.8));
     // The objects' own ambient occlusion is a Monte Carlo factor per canvas pixel, tested on its
-    // own (src/render/occlusion.rs); here the shading equation is compared without it.
+    // own (src/render/occlusion.rs); here the probe path of the shading equation is compared
+    // without it and without the per-pixel transfer (tested in transfer.rs).
     let mut config = CompositorConfig::for_estimator(&Default::default());
     config.occlusion_rays = 0;
+    config.transfer_paths = 0;
     let mut comp = setup.compositor(config);
     comp.set_probes(&grid);
     let (w, h) = (320, 240);

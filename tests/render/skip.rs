@@ -92,6 +92,9 @@ fn unchanged_sun_reuses_volumes_and_stencil_with_the_same_picture() {
         assert!(r2.skip_reason(p).is_some_and(|r| r.contains("reused")), "{p}: {r2:?}");
     }
     assert!(r2.ran(pass::VIRTUAL_SHADING) && r2.ran(pass::SUN_TERM));
+    // The objects' transfer, traced on the first frame, is reused as well.
+    assert!(r1.ran(pass::OBJECT_TRANSFER) && r1.transfer_traced > 0, "{r1:?}");
+    assert!(r2.skip_reason(pass::OBJECT_TRANSFER).is_some_and(|r| r.contains("reused")), "{r2:?}");
     assert!(first.masks == second.masks);
     let mut fresh = s.compositor(config());
     let (want, _) = fresh.render(&v, &lighting(sun, 1.5)).unwrap();
@@ -106,6 +109,8 @@ fn unchanged_sun_reuses_volumes_and_stencil_with_the_same_picture() {
     let far = (sun + Vec3::new(0.01, 0.0, 0.0)).normalize();
     let (_, r4) = comp.render(&v, &lighting(far, 1.5)).unwrap();
     assert!(r4.ran(pass::VOLUME_BUILD) && !r4.volumes.reused, "{r4:?}");
+    // 0.5° is past the transfer's tolerance (`bounce_rebuild_deg`, 0.25° by default) too.
+    assert!(r4.ran(pass::OBJECT_TRANSFER), "{r4:?}");
 }
 
 #[test]
@@ -157,6 +162,15 @@ fn switched_off_passes_are_reported_and_change_the_picture_as_they_should() {
     assert!(r.ran(pass::VIRTUAL_VOLUMES) && !r.volumes.reused, "a change of switches rebuilds: {r:?}");
     let without_real = f.masks.unwrap().iter().filter(|m| m[0] > 0).count();
     assert!(without_real > shadowed + 20, "{without_real} vs {shadowed} px");
+
+    // The per-pixel transfer off: reported, and the objects' ambient comes from the probe grid
+    // times occlusion instead, which changes the sphere (this test sets no probe grid, so its
+    // ambient is then zero).
+    comp.set_switches(PassSwitches { transfer: false, ..Default::default() }, WHY);
+    let (f, r) = comp.render(&v, &l).unwrap();
+    assert_eq!(r.skip_reason(pass::OBJECT_TRANSFER), Some(WHY), "{r:?}");
+    let changed = f.image.data.iter().zip(&all.image.data).filter(|(a, b)| (0..3).any(|c| (a[c] - b[c]).abs() > 0.01 * b[c].max(1e-3))).count();
+    assert!(changed > 50, "only {changed} pixels changed with the transfer off");
 
     // Virtual objects off: the footage passes through unchanged.
     comp.set_switches(PassSwitches { virtual_objects: false, ..Default::default() }, WHY);

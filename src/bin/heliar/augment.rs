@@ -145,9 +145,14 @@ pub struct AugmentArgs {
     /// Shadow-volume builder.
     #[arg(long, value_enum, default_value = "cpu")]
     volumes: VolumesArg,
-    /// Ambient light of the virtual objects.
+    /// Ambient light of the virtual objects: the probe source (where the per-pixel transfer
+    /// has no entry, or everywhere with --transfer-paths 0).
     #[arg(long, value_enum, default_value = "auto")]
     ambient: AmbientArg,
+    /// Paths per pixel of the virtual objects' per-pixel ambient transfer, traced on the first
+    /// frame and again when the sun has moved 0.25° (0: probes × ambient occlusion instead).
+    #[arg(long, default_value_t = heliar::render::transfer::TRANSFER_PATHS)]
+    transfer_paths: u32,
     /// Columns of the contact sheet.
     #[arg(long, default_value_t = 4)]
     sheet_columns: u32,
@@ -543,6 +548,7 @@ pub fn run(a: AugmentArgs) -> Result<()> {
         VolumesArg::Cpu => Builder::Cpu,
         VolumesArg::Compute => Builder::Compute,
     };
+    config.transfer_paths = a.transfer_paths;
     let (gpu, comp) = gpu_compositor(&scene, ray.clone(), a.samples, config)?;
     if scene.virtual_objects.is_empty() {
         eprintln!("note: {} has no [[virtual_objects]]: the footage passes through", scene.root.join(heliar::scene::MANIFEST_FILE).display());

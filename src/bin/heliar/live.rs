@@ -52,6 +52,10 @@ pub struct LiveArgs {
     /// software rasteriser).
     #[arg(long, default_value_t = 1)]
     samples: u32,
+    /// Paths per pixel of the virtual objects' per-pixel ambient transfer (0: probes × ambient
+    /// occlusion; switchable in the window when on).
+    #[arg(long, default_value_t = heliar::render::transfer::TRANSFER_PATHS)]
+    transfer_paths: u32,
     /// A captured VEM sequence (fisheye/equirect/polar frames) to decompose into lights in a
     /// panel of the window.
     #[arg(long)]
@@ -145,6 +149,7 @@ mod imp {
         let estimator = build_estimator(&scene, ray.clone())?;
         let mut config = CompositorConfig::for_scene(&scene);
         config.darkening = a.darkening.into();
+        config.transfer_paths = a.transfer_paths;
         let (_gpu, comp) = crate::augment::gpu_compositor(&scene, ray.clone(), a.samples, config)?;
         let ambient: Ambient = a.ambient.into();
         let probes = probe_source(&scene, ray.clone(), ambient, |s, r| crate::bake::bake_with_progress(s, r, false))?;

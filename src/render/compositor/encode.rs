@@ -144,6 +144,41 @@ impl Compositor {
             }
         }
 
+        // The objects' ambient transfer: traced on the first frame and when the sun has moved
+        // as far as `b` tolerates.
+        if !has_virtual {
+            let why = if self.virt.index_count == 0 { "the scene has no virtual objects".to_owned() } else { off.clone() };
+            report.skip(pass::OBJECT_TRANSFER, why);
+        } else if self.transfer.is_some() && !sw.transfer {
+            report.skip(pass::OBJECT_TRANSFER, off.clone());
+        } else if let Some((scene, transfer)) = &mut self.transfer {
+            let before = transfer.traced_sun();
+            let u = transfer.ensure(scene, sun_on.then_some(l), self.config.bounce_rebuild_deg);
+            report.timings.transfer_ms = u.ms;
+            report.transfer_traced = u.traced;
+            if u.traced > 0 {
+                let t = std::time::Instant::now();
+                self.res.transfer_sky.write(&self.gpu.queue, &transfer.sky);
+                self.res.transfer_sun.write(&self.gpu.queue, &transfer.sun);
+                report.timings.upload_ms += t.elapsed().as_secs_f64() * 1e3;
+                report.ran.push(pass::OBJECT_TRANSFER);
+            } else if transfer.surfaces().is_empty() {
+                report.skip(pass::OBJECT_TRANSFER, "no canvas pixel shows a virtual object");
+            } else {
+                let why = match (before, sun_on) {
+                    (Some(a), true) => format!(
+                        "the sun moved {:.3}° ≤ {}° since it was traced and the camera and objects are static: the transfer is reused",
+                        angle_deg(a, l),
+                        self.config.bounce_rebuild_deg
+                    ),
+                    _ => "no sun: the traced sky transfer is reused (camera and objects are static)".to_owned(),
+                };
+                report.skip(pass::OBJECT_TRANSFER, why);
+            }
+        } else {
+            report.skip(pass::OBJECT_TRANSFER, "transfer_paths = 0: ambient from the probe grid times ambient occlusion");
+        }
+
         // Uploads.
         let t = std::time::Instant::now();
         self.res.video.write(&self.gpu.queue, &video.rgba);
@@ -156,7 +191,10 @@ impl Compositor {
                 if has_virtual { self.config.darkening.shader_code() } else { Darkening::Normal.shader_code() },
                 if self.config.sun_bounce { 1.0 } else { 0.0 },
                 output_scale,
-                0.0,
+                match &self.transfer {
+                    Some((_, t)) if sw.transfer => t.stride() as f32,
+                    _ => 0.0,
+                },
             ],
         };
         self.gpu.queue.write_buffer(&self.lighting_buf, 0, bytemuck::bytes_of(&uniform));
@@ -225,7 +263,7 @@ impl Compositor {
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment { view: &self.res.depth.view, depth_ops: None, stencil_ops: None }),
                 ..Default::default()
             });
-            self.mask.record(&mut pm, self.config.debug_masks);
+            self.mask.record(&mut pm);
             report.ran.push(pass::SHADOW_MASK);
             self.stencil = Some(StencilState { sun: sun_key, debug: self.config.debug_masks, frame: self.frames });
         } else if reuse {

@@ -45,6 +45,7 @@ use super::shadow_mask::ShadowMask;
 use super::shadow_volume::ShadowVolumePass;
 use super::stencil::StencilResolve;
 use super::virtual_shading::VirtualShading;
+use super::transfer::{ObjectTransfer, TransferScene};
 use super::volume::OPEN_CAP_OFFSET_M;
 use crate::geometry::ambient::TransportQuality;
 use crate::geometry::raycast::RayScene;
@@ -101,8 +102,17 @@ pub struct CompositorConfig {
     pub bounce_quality: TransportQuality,
     /// Sun motion (degrees) after which `b` is recomputed.
     pub bounce_rebuild_deg: f64,
-    /// Rays per canvas pixel of the virtual objects' own ambient occlusion (0: none).
+    /// Rays per canvas pixel of the virtual objects' own ambient occlusion (0: none), the
+    /// ambient's fallback where the per-pixel transfer has no entry.
     pub occlusion_rays: u32,
+    /// Paths per canvas pixel of the virtual objects' ambient transfer ([`super::transfer`]);
+    /// 0 turns it off (ambient from the probe grid times ambient occlusion everywhere).
+    pub transfer_paths: u32,
+    /// Surface hits per path of the transfer.
+    pub transfer_bounces: u32,
+    /// Lattice spacing of the transfer's traced pixels (0: automatic, within
+    /// [`super::transfer::TRANSFER_PATH_BUDGET`]).
+    pub transfer_stride: u32,
     /// Seed of the integrals.
     pub seed: u64,
 }
@@ -129,6 +139,9 @@ impl CompositorConfig {
             bounce_quality: e.bounce,
             bounce_rebuild_deg: e.sun_rebuild_deg,
             occlusion_rays: super::occlusion::AO_RAYS,
+            transfer_paths: super::transfer::TRANSFER_PATHS,
+            transfer_bounces: super::transfer::TRANSFER_BOUNCES,
+            transfer_stride: 0,
             seed: e.seed,
         }
     }
@@ -145,11 +158,14 @@ pub struct PassSwitches {
     /// The real proxy's shadow volumes: real shadows on the virtual objects (and real shadow
     /// that keeps a virtual shadow from darkening twice).
     pub real_volumes: bool,
+    /// The objects' per-pixel ambient transfer (off: the probe grid times ambient occlusion
+    /// everywhere). Without effect when the compositor was built with `transfer_paths = 0`.
+    pub transfer: bool,
 }
 
 impl Default for PassSwitches {
     fn default() -> Self {
-        Self { virtual_objects: true, virtual_volumes: true, real_volumes: true }
+        Self { virtual_objects: true, virtual_volumes: true, real_volumes: true, transfer: true }
     }
 }
 
@@ -231,8 +247,11 @@ pub struct Compositor {
     switched_off_reason: String,
     warnings: Vec<String>,
     frames: u64,
-    /// The proxy and the virtual objects in one BVH (for `c_v`, `b_v`).
+    /// The proxy and the virtual objects in one BVH (for `c_v`, `b_v` and the transfer).
     with_ray: Option<Arc<RayScene>>,
+    /// The objects' per-pixel ambient transfer and its scene (none without objects or with
+    /// `transfer_paths = 0`).
+    transfer: Option<(TransferScene, ObjectTransfer)>,
     /// Radius of the differential model's region around the objects.
     near_radius_m: f32,
     /// Pixels of that region (computed on first use).
@@ -265,13 +284,9 @@ impl Compositor {
         warnings.extend(proxy_occ.warnings());
         let virtual_bounds: Vec<(Vec3, Vec3)> = parts.objects.iter().filter_map(|(_, m)| m.bounds()).collect();
         let near_radius_m = virtual_bounds.iter().map(|(lo, hi)| (*hi - *lo).length() / 2.0 * NEAR_RADIUS_HALF_DIAGONALS).fold(MIN_NEAR_RADIUS_M, f32::max);
-        let with_ray = (!parts.objects.is_empty()).then(|| {
-            let mut m = parts.proxy.clone();
-            for (_, o) in parts.objects {
-                m.append(o);
-            }
-            Arc::new(RayScene::new(m))
-        });
+        let object_meshes: Vec<&Mesh> = parts.objects.iter().map(|(_, m)| *m).collect();
+        let transfer_scene = (!parts.objects.is_empty()).then(|| TransferScene::new(parts.proxy, &object_meshes));
+        let with_ray = transfer_scene.as_ref().map(|t| t.world.clone());
         let closed: Vec<Vec<bool>> = virtual_occ.iter().zip(parts.objects).map(|(o, (_, m))| o.closed_triangles(m.triangles.len())).collect();
         let volumes = Volumes::new(&gpu, virtual_occ, proxy_occ, config.builder)?;
         let d = &gpu.device;
@@ -319,6 +334,16 @@ impl Compositor {
             }
         };
         res.occlusion.write(&gpu.queue, &occlusion);
+        let transfer = match (config.transfer_paths, transfer_scene) {
+            (paths @ 1.., Some(scene)) => {
+                let q = TransportQuality { paths, max_bounces: config.transfer_bounces };
+                let t = ObjectTransfer::new(&canvas, &scene, q, config.transfer_stride, config.seed);
+                res.transfer_point.write(&gpu.queue, &t.point);
+                res.transfer_normal.write(&gpu.queue, &t.normal);
+                Some((scene, t))
+            }
+            _ => None,
+        };
         let shading_bg = Self::shading_bind_group(d, &shading, &camera_buf, &lighting_buf, &probes, &res);
         res.warp.write(&gpu.queue, &canvas.warp);
         res.normal.write(&gpu.queue, &receivers.normal);
@@ -357,6 +382,7 @@ impl Compositor {
             warnings,
             frames: 0,
             with_ray,
+            transfer,
             near_radius_m,
             near_pixels: None,
             receiver_pixels: None,
@@ -382,6 +408,10 @@ impl Compositor {
                 wgpu::BindGroupEntry { binding: 4, resource: probes.valid.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::TextureView(&res.occlusion.view) },
                 wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&res.masks.resolved.view) },
+                wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::TextureView(&res.transfer_sky.view) },
+                wgpu::BindGroupEntry { binding: 8, resource: wgpu::BindingResource::TextureView(&res.transfer_sun.view) },
+                wgpu::BindGroupEntry { binding: 9, resource: wgpu::BindingResource::TextureView(&res.transfer_point.view) },
+                wgpu::BindGroupEntry { binding: 10, resource: wgpu::BindingResource::TextureView(&res.transfer_normal.view) },
             ],
         })
     }
@@ -431,6 +461,10 @@ impl Compositor {
     /// The shadow volumes.
     pub fn volumes(&self) -> &Volumes {
         &self.volumes
+    }
+    /// The virtual objects' per-pixel ambient transfer, when it is on.
+    pub fn transfer(&self) -> Option<&ObjectTransfer> {
+        self.transfer.as_ref().map(|(_, t)| t)
     }
     /// The bounding boxes of the virtual objects.
     pub fn virtual_bounds(&self) -> &[(Vec3, Vec3)] {

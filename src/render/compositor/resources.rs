@@ -111,6 +111,14 @@ pub struct Resources {
     pub output_masks: Tex,
     /// Virtual objects' own ambient occlusion per canvas pixel (`R32Float`).
     pub occlusion: Tex,
+    /// Transfer `R_a` per canvas pixel, `a = 1` where there is an entry (`Rgba32Float`).
+    pub transfer_sky: Tex,
+    /// Transfer `R_d` per canvas pixel.
+    pub transfer_sun: Tex,
+    /// Surface point of the transfer entry, `w` its footprint radius (metres).
+    pub transfer_point: Tex,
+    /// Shading normal of the transfer entry.
+    pub transfer_normal: Tex,
     /// Sampler of the canvas layers.
     pub sampler: wgpu::Sampler,
 }
@@ -137,6 +145,10 @@ impl Resources {
             output: Tex::new(d, "output", out, gpu.output_format, 1, target),
             output_masks: Tex::new(d, "output masks", out, MASK_FORMAT, 1, target),
             occlusion: Tex::new(d, "virtual occlusion", canvas, wgpu::TextureFormat::R32Float, 1, input),
+            transfer_sky: Tex::new(d, "transfer R_a", canvas, f32x4, 1, input),
+            transfer_sun: Tex::new(d, "transfer R_d", canvas, f32x4, 1, input),
+            transfer_point: Tex::new(d, "transfer point", canvas, f32x4, 1, input),
+            transfer_normal: Tex::new(d, "transfer normal", canvas, f32x4, 1, input),
             sampler: d.create_sampler(&wgpu::SamplerDescriptor {
                 label: Some("canvas"),
                 mag_filter: wgpu::FilterMode::Linear,
