@@ -2,7 +2,9 @@
 //! construction, GPU passes and readback: the bundled courtyard at 640×480 and 1280×720 with a
 //! 100k-triangle virtual object (a torus where the statue stands), with volumes rebuilt every
 //! frame (the sun moves) and reused (it does not). Also the CPU (rayon) and compute-pass volume
-//! builders on 100k and 1M triangles.
+//! builders on 100k and 1M triangles, and one trace of the virtual objects' per-pixel ambient
+//! transfer (the bundled statue at 320×240 and 640×480, and the 100k-triangle torus at 640×480,
+//! where the automatic lattice stride keeps it within the path budget).
 //!
 //! Stage benchmarks use `iter_custom` with the compositor's own per-frame timings, so each
 //! reports the median of that stage over full frames. Target: ≥ 30 fps at 640×480.
@@ -205,5 +207,39 @@ fn bench_volume_builders(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_volume_builders, bench_frames);
+fn bench_transfer(c: &mut Criterion) {
+    use heliar::geometry::ambient::TransportQuality;
+    use heliar::render::camera::Canvas;
+    use heliar::render::transfer::{ObjectTransfer, TRANSFER_BOUNCES, TRANSFER_PATHS, TransferScene};
+    let scene = courtyard();
+    let statue = &scene.virtual_objects[0].mesh;
+    let torus = torus(Vec3::new(-1.9, 0.7, 0.0), 0.5, 0.18, 250, 200);
+    let mut g = c.benchmark_group("transfer");
+    g.sample_size(10).measurement_time(Duration::from_secs(10)).warm_up_time(Duration::from_secs(1));
+    let q = TransportQuality { paths: TRANSFER_PATHS, max_bounces: TRANSFER_BOUNCES };
+    for (name, object, w, h) in [("statue", statue, 320u32, 240u32), ("statue", statue, 640, 480), ("torus100k", &torus, 640, 480)] {
+        let canvas = Canvas::new(&camera_at(&scene, w, h), 1.0);
+        let ts = TransferScene::new(&scene.proxy, &[object]);
+        let mut t = ObjectTransfer::new(&canvas, &ts, q, 0, 1);
+        eprintln!(
+            "transfer {name} {w}x{h}: {} object pixels, stride {}, {} traced × {} paths",
+            t.object_pixels(),
+            t.stride(),
+            t.surfaces().len(),
+            TRANSFER_PATHS
+        );
+        let mut k = 0;
+        g.bench_function(format!("trace/{name}/{w}x{h}"), |b| {
+            b.iter(|| {
+                // Alternate between two suns 0.1° apart with a zero tolerance: one full trace
+                // per iteration.
+                k += 1;
+                black_box(t.ensure(&ts, Some(sun(k % 2).sun_dir), 0.0))
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench_volume_builders, bench_transfer, bench_frames);
 criterion_main!(benches);

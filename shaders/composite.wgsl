@@ -40,7 +40,8 @@
 // rgb: b_v (b with the virtual objects present).
 @group(0) @binding(6) var surface_bounce_with: texture_2d<f32>;
 // xy: canvas pixel coordinates (OpenCV convention) of the output pixel's centre; negative x when
-// the lens model has no inverse there.
+// the lens model has no inverse there. zw: the pixel's footprint on the canvas (canvas pixels
+// per output pixel along x and y).
 @group(0) @binding(7) var warp: texture_2d<f32>;
 @group(0) @binding(8) var virtual_layer: texture_2d<f32>;
 @group(0) @binding(9) var masks: texture_2d<f32>;
@@ -57,18 +58,34 @@ struct CanvasSample {
     masks: vec4<f32>,
 }
 
+// Footprints up to this many canvas pixels are sampled with one bilinear tap (no supersampling:
+// the lens's own local scale stays near 1); larger ones (a supersampled canvas) with four taps
+// at ±1/4 of the footprint, a box filter over the output pixel (exact for a 2× canvas, whose
+// four taps land on the four canvas texels under the pixel).
+const ONE_TAP_FOOTPRINT: f32 = 1.25;
+
 fn canvas_sample(px: vec2<i32>) -> CanvasSample {
     var out: CanvasSample;
     out.virtual_rgba = vec4<f32>(0.0);
     out.masks = vec4<f32>(0.0);
-    let w = textureLoad(warp, px, 0).xy;
+    let w = textureLoad(warp, px, 0);
     if (w.x < -0.5) {
         return out;
     }
     let size = vec2<f32>(textureDimensions(virtual_layer));
-    let uv = (w + vec2<f32>(0.5)) / size;
-    out.virtual_rgba = textureSampleLevel(virtual_layer, canvas_sampler, uv, 0.0);
-    out.masks = textureSampleLevel(masks, canvas_sampler, uv, 0.0);
+    if (max(w.z, w.w) <= ONE_TAP_FOOTPRINT) {
+        let uv = (w.xy + vec2<f32>(0.5)) / size;
+        out.virtual_rgba = textureSampleLevel(virtual_layer, canvas_sampler, uv, 0.0);
+        out.masks = textureSampleLevel(masks, canvas_sampler, uv, 0.0);
+        return out;
+    }
+    let q = 0.25 * w.zw;
+    for (var k = 0u; k < 4u; k += 1u) {
+        let o = vec2<f32>(select(-q.x, q.x, (k & 1u) != 0u), select(-q.y, q.y, (k & 2u) != 0u));
+        let uv = (w.xy + o + vec2<f32>(0.5)) / size;
+        out.virtual_rgba += 0.25 * textureSampleLevel(virtual_layer, canvas_sampler, uv, 0.0);
+        out.masks += 0.25 * textureSampleLevel(masks, canvas_sampler, uv, 0.0);
+    }
     return out;
 }
 

@@ -21,7 +21,7 @@
 //! whether it helps).
 
 use super::raycast::{RAY_EPSILON_M, RayScene};
-use super::sampling::sample_cosine_around;
+use super::sampling::{sample_cosine_around, sample_stratified_2d};
 use glam::{Vec2, Vec3};
 use rand::{Rng, SeedableRng, rngs::SmallRng};
 
@@ -54,15 +54,10 @@ pub struct Transport {
 pub fn transport(scene: &RayScene, p: Vec3, n: Vec3, sun: Option<Vec3>, quality: TransportQuality, seed: u64) -> Transport {
     let mut rng = SmallRng::seed_from_u64(seed ^ 0x9e37_79b9_7f4a_7c15);
     let k = quality.paths.max(1);
-    let m = (k as f32).sqrt().ceil() as u32;
     let (mut c, mut b) = (Vec3::ZERO, Vec3::ZERO);
     for i in 0..k {
-        // First bounce: jittered stratum (i mod m, i div m) of an m×m grid.
-        let u0 = Vec2::new(
-            ((i % m) as f32 + rng.random::<f32>()) / m as f32,
-            ((i / m) as f32 + rng.random::<f32>()) / m as f32,
-        );
-        let mut dir = sample_cosine_around(n, u0.min(Vec2::splat(0.999_999)));
+        // First bounce: stratified.
+        let mut dir = sample_cosine_around(n, sample_stratified_2d(i, k, &mut rng));
         let (mut origin, mut normal) = (p, n);
         let mut throughput = Vec3::ONE;
         for bounce in 0..=quality.max_bounces {

@@ -40,6 +40,18 @@ pub fn sample_cosine_around(n: Vec3, u: Vec2) -> Vec3 {
     (t * l.x + b * l.y + n * l.z).normalize()
 }
 
+/// Sample `i` of `count` stratified points in `[0,1)²`: the first `m²` (`m = ⌊√count⌋`) are
+/// jittered in the cells of an `m × m` grid (row-major), the rest uniform. Each point on its own
+/// is uniform over its cell or the square, so the mean of any prefix that completes the grid, or
+/// of all `count`, estimates an integral without bias (a grid of `⌈√count⌉²` cells filled only
+/// `count` times would leave its last cells empty). Draws two numbers from `rng` per call.
+pub fn sample_stratified_2d(i: u32, count: u32, rng: &mut impl rand::Rng) -> Vec2 {
+    let m = ((count.max(1) as f64).sqrt().floor() as u32).max(1);
+    let j = Vec2::new(rng.random::<f32>(), rng.random::<f32>());
+    let u = if i < m * m { (Vec2::new((i % m) as f32, (i / m) as f32) + j) / m as f32 } else { j };
+    u.min(Vec2::splat(0.999_999))
+}
+
 /// `n` directions spread evenly over the unit sphere (spherical Fibonacci lattice; Marques et al.
 /// 2013, "Spherical Fibonacci Point Sets for Illumination Integrals"). Each stands for `4π/n` sr.
 pub fn sphere_fibonacci(n: usize) -> Vec<Vec3> {
@@ -58,6 +70,30 @@ pub fn sphere_fibonacci(n: usize) -> Vec<Vec3> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn stratified_points_are_unbiased_for_any_count() {
+        // The mean of f(u) = u.y (integral ½) over `count` points: with ⌈√count⌉² cells filled
+        // row by row the top rows would stay empty and the mean fall short (0.45 for 128).
+        use rand::SeedableRng;
+        for count in [1u32, 2, 7, 64, 128, 200, 512] {
+            let mut rng = rand::rngs::SmallRng::seed_from_u64(count as u64);
+            let runs = 2000;
+            let mut mean = 0.0f64;
+            for _ in 0..runs {
+                mean += (0..count).map(|i| sample_stratified_2d(i, count, &mut rng).y as f64).sum::<f64>() / count as f64;
+            }
+            mean /= runs as f64;
+            // Standard error of the mean of means: below 0.29/√(runs·count) ≤ 0.0065.
+            assert!((mean - 0.5).abs() < 0.01, "{count}: {mean}");
+        }
+        // A square count is a full jittered grid: one point per cell.
+        let mut rng = rand::rngs::SmallRng::seed_from_u64(1);
+        let mut cells: Vec<(u32, u32)> = (0..16).map(|i| sample_stratified_2d(i, 16, &mut rng)).map(|u| ((u.x * 4.0) as u32, (u.y * 4.0) as u32)).collect();
+        cells.sort_unstable();
+        cells.dedup();
+        assert_eq!(cells.len(), 16);
+    }
 
     #[test]
     fn fibonacci_directions_are_uniform() {

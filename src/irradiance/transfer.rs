@@ -27,9 +27,9 @@ use crate::envmap::bake::Baked;
 use crate::envmap::relight::{RelitMap, Relighter};
 use crate::envmap::texel_index;
 use crate::geometry::raycast::RayScene;
-use crate::geometry::sampling::{sample_cosine_around, sphere_fibonacci};
-use glam::{UVec3, Vec2, Vec3};
-use rand::{Rng, SeedableRng, rngs::SmallRng};
+use crate::geometry::sampling::{sample_cosine_around, sample_stratified_2d, sphere_fibonacci};
+use glam::{UVec3, Vec3};
+use rand::{SeedableRng, rngs::SmallRng};
 use rayon::prelude::*;
 use std::f32::consts::{FRAC_1_PI, PI};
 
@@ -261,11 +261,9 @@ impl ProbeTransfer {
 /// from the capture centre; escape above the horizon → `Pa/π`; below → 0).
 pub fn brute_force_irradiance(ray: &RayScene, centre: Vec3, relit: &RelitMap, pa: Vec3, p: Vec3, n: Vec3, samples: u32, seed: u64) -> Vec3 {
     let mut rng = SmallRng::seed_from_u64(seed);
-    let m = (samples as f32).sqrt().ceil() as u32;
     let mut sum = Vec3::ZERO;
     for k in 0..samples {
-        let u = Vec2::new(((k % m) as f32 + rng.random::<f32>()) / m as f32, ((k / m) as f32 + rng.random::<f32>()) / m as f32);
-        let d = sample_cosine_around(n, u.min(Vec2::splat(0.999_999)));
+        let d = sample_cosine_around(n, sample_stratified_2d(k, samples, &mut rng));
         sum += match ray.intersect(p, d, f32::MAX) {
             Some(hit) => relit.get(texel_index(hit.point - centre, relit.width, relit.height)),
             None if d.y > 0.0 => pa * FRAC_1_PI,

@@ -104,6 +104,39 @@ impl Canvas {
         Self { width: width as u32, height: height as u32, fx, fy, cx, cy, pose: camera.pose, out_width: w, out_height: h, warp }
     }
 
+    /// The warp with each footage pixel's footprint on the canvas: `[x, y, sx, sy]`, where
+    /// `(x, y)` is [`Canvas::warp`]'s point and `sx`, `sy` the canvas distances between the
+    /// points of the pixel's horizontal and vertical neighbours, halved (canvas pixels per
+    /// footage pixel: the supersampling factor times the lens's local scale). The composite
+    /// box-filters the canvas over that footprint when it spans more than a canvas pixel.
+    pub fn warp_footprint(&self) -> Vec<[f32; 4]> {
+        let (w, h) = (self.out_width as usize, self.out_height as usize);
+        let at = |c: usize, r: usize| -> Option<glam::Vec2> {
+            let p = self.warp[r * w + c];
+            (p[0] >= 0.0).then(|| glam::Vec2::from(p))
+        };
+        // Half the distance between the two neighbours along one axis (one-sided at borders).
+        let span = |a: Option<glam::Vec2>, b: Option<glam::Vec2>, centre: glam::Vec2, steps: f32| -> f32 {
+            match (a, b) {
+                (Some(a), Some(b)) => (b - a).length() / steps,
+                (Some(a), None) => (centre - a).length(),
+                (None, Some(b)) => (b - centre).length(),
+                (None, None) => 1.0,
+            }
+        };
+        (0..w * h)
+            .map(|i| {
+                let (c, r) = (i % w, i / w);
+                let Some(p) = at(c, r) else { return [-1.0, -1.0, 1.0, 1.0] };
+                let left = c.checked_sub(1).and_then(|c| at(c, r));
+                let right = (c + 1 < w).then(|| at(c + 1, r)).flatten();
+                let up = r.checked_sub(1).and_then(|r| at(c, r));
+                let down = (r + 1 < h).then(|| at(c, r + 1)).flatten();
+                [p.x, p.y, span(left, right, p, 2.0), span(up, down, p, 2.0)]
+            })
+            .collect()
+    }
+
     /// Clip space from camera space (OpenCV frame, homogeneous), reversed depth, infinite far.
     pub fn clip_from_camera(&self) -> DMat4 {
         let (w, h) = (self.width as f64, self.height as f64);
@@ -212,5 +245,24 @@ mod tests {
             assert!((DVec2::new(got[0] as f64, got[1] as f64) - want).length() < 1e-3, "{col},{row}: {got:?} vs {want}");
             assert!(got[0] >= 0.0 && (got[0] as u32) < canvas.width && (got[1] as u32) < canvas.height);
         }
+    }
+
+    #[test]
+    fn the_footprint_is_the_supersampling_factor_times_the_lens_scale() {
+        // Pinhole: every footage pixel spans exactly `supersample` canvas pixels.
+        for ss in [1.0, 2.0, 3.0] {
+            let canvas = Canvas::new(&camera([0.0; 5]), ss);
+            let f = canvas.warp_footprint();
+            for i in [0usize, 161, 320 * 120 + 160, 320 * 240 - 1] {
+                assert_eq!([f[i][0], f[i][1]], canvas.warp[i]);
+                assert!((f[i][2] - ss as f32).abs() < 1e-3 && (f[i][3] - ss as f32).abs() < 1e-3, "ss {ss}, pixel {i}: {:?}", f[i]);
+            }
+        }
+        // Barrel distortion: the undistorted canvas stretches toward the corners, so a corner
+        // pixel covers more canvas than the centre.
+        let canvas = Canvas::new(&camera([-0.08, 0.012, 0.0005, -0.0003, 0.0]), 1.0);
+        let f = canvas.warp_footprint();
+        let (centre, corner) = (f[320 * 120 + 160], f[0]);
+        assert!(corner[2] > centre[2] * 1.05 && centre[2] > 0.9 && centre[2] < 1.1, "{centre:?} {corner:?}");
     }
 }

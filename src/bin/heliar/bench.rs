@@ -22,6 +22,9 @@ enum BenchWhat {
     Irradiance(crate::bench_irradiance::IrradianceSweep),
     /// VEM lights: irradiance error against time, temporal coherence and speed.
     Vem(crate::bench_vem::VemSweep),
+    /// The compositor against the scene's reference frames: transfer paths and stride, MSAA,
+    /// supersampling.
+    Render(crate::bench_render::RenderSweep),
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -108,6 +111,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
         BenchWhat::Estimate(s) => s,
         BenchWhat::Irradiance(s) => return crate::bench_irradiance::run(s),
         BenchWhat::Vem(s) => return crate::bench_vem::run(s),
+        BenchWhat::Render(s) => return crate::bench_render::run(s),
     };
     let (scene, ray) = load_scene(&s.scene)?;
     let seq = pick_sequence(&scene, s.sequence.as_deref())?.clone();

@@ -4,6 +4,7 @@ mod bake;
 mod augment;
 mod bench;
 mod bench_irradiance;
+mod bench_render;
 mod bench_vem;
 mod common;
 mod estimate;

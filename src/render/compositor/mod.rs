@@ -345,7 +345,7 @@ impl Compositor {
             _ => None,
         };
         let shading_bg = Self::shading_bind_group(d, &shading, &camera_buf, &lighting_buf, &probes, &res);
-        res.warp.write(&gpu.queue, &canvas.warp);
+        res.warp.write(&gpu.queue, &canvas.warp_footprint());
         res.normal.write(&gpu.queue, &receivers.normal);
         res.albedo.write(&gpu.queue, &receivers.albedo);
         res.ambient.write(&gpu.queue, &receivers.ambient);

@@ -103,7 +103,7 @@ pub struct Resources {
     pub ambient_with: Tex,
     /// `b_v`.
     pub bounce_with: Tex,
-    /// Lens warp (`Rg32Float`).
+    /// Lens warp and footprint ([`crate::render::camera::Canvas::warp_footprint`]).
     pub warp: Tex,
     /// Offscreen output (`Rgba32Float`).
     pub output: Tex,
@@ -141,7 +141,7 @@ impl Resources {
             albedo: Tex::new(d, "proxy albedo", out, f32x4, 1, input),
             ambient_with: Tex::new(d, "proxy c with objects", out, f32x4, 1, input),
             bounce_with: Tex::new(d, "proxy b with objects", out, f32x4, 1, input),
-            warp: Tex::new(d, "lens warp", out, wgpu::TextureFormat::Rg32Float, 1, input),
+            warp: Tex::new(d, "lens warp", out, f32x4, 1, input),
             output: Tex::new(d, "output", out, gpu.output_format, 1, target),
             output_masks: Tex::new(d, "output masks", out, MASK_FORMAT, 1, target),
             occlusion: Tex::new(d, "virtual occlusion", canvas, wgpu::TextureFormat::R32Float, 1, input),

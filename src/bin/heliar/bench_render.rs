@@ -1,0 +1,200 @@
+//! `heliar bench render`: the compositor's end-to-end error against a scene's reference frames
+//! (`reference/`, rendered with the virtual objects physically present), next to its run time,
+//! for the quality knobs of the compositor: the per-pixel transfer's paths and lattice stride,
+//! MSAA samples and canvas supersampling.
+
+use crate::common::{frame_bar, load_scene};
+use anyhow::{Context, Result, bail};
+use clap::{Args, ValueEnum};
+use heliar::estimate::Estimator;
+use heliar::io::frames::Frame;
+use heliar::pipeline::{Ambient, lighting_of, probe_source};
+use heliar::render::reference::{Classes, CompositeError, References, composite_error};
+use heliar::render::{Compositor, CompositorConfig, FrameLighting, Gpu, GpuOptions, VideoFrame};
+use heliar::report::{Series, Table, line_plot_svg, median};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum Knob {
+    /// Paths per traced pixel of the objects' ambient transfer: 0 (off: probes × occlusion), 64 … 4096.
+    TransferPaths,
+    /// Lattice stride of the transfer's traced pixels: 1 … 4 (1024 paths each).
+    TransferStride,
+    /// MSAA samples: 1, 4.
+    Msaa,
+    /// Canvas pixels per footage pixel: 1, 1.5, 2.
+    Supersample,
+}
+
+#[derive(Args)]
+pub struct RenderSweep {
+    /// Scene folder (needs `reference/reference.toml`).
+    #[arg(default_value = "scenes/courtyard")]
+    scene: PathBuf,
+    /// Which knob to sweep.
+    #[arg(long, value_enum, default_value = "transfer-paths")]
+    knob: Knob,
+    /// CSV output.
+    #[arg(long, default_value = "out/bench_render.csv")]
+    csv: PathBuf,
+    /// SVG plot of error against time.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+}
+
+/// One reference frame: its footage, lighting, reference image and pixel classes.
+struct RefFrame {
+    index: usize,
+    video: VideoFrame,
+    lighting: FrameLighting,
+    grid: heliar::irradiance::ProbeGrid,
+    reference: heliar::io::image::LinearImage,
+    classes: Classes,
+}
+
+struct Row {
+    label: String,
+    errors: Vec<CompositeError>,
+    traced: usize,
+    stride: u32,
+    transfer_ms: f64,
+    setup_ms: f64,
+    frame_ms: f64,
+}
+
+fn ms(t: std::time::Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+pub fn run(a: RenderSweep) -> Result<()> {
+    let (scene, ray) = load_scene(&a.scene)?;
+    let Some(refs) = References::load(&scene)? else {
+        bail!("{}: no reference/reference.toml (frames rendered with the virtual objects present; see scenes/README.md)", scene.root.display());
+    };
+    if scene.virtual_objects.is_empty() {
+        bail!("{}: no [[virtual_objects]] to composite", scene.root.join(heliar::scene::MANIFEST_FILE).display());
+    }
+    let seq = scene.sequence(refs.sequence.as_deref()).context("the references' sequence")?.clone();
+    let lin = seq.photometry.linearizer();
+    let mut est = Estimator::new(&scene, ray.clone()).with_context(|| format!("setting up the estimator for {}", scene.root.display()))?;
+    let mut probes = probe_source(&scene, ray.clone(), Ambient::Auto, |s, r| crate::bake::bake_with_progress(s, r, false))?;
+    let mut objects = heliar::geometry::Mesh::default();
+    for o in &scene.virtual_objects {
+        objects.append(&o.mesh);
+    }
+    let objects = heliar::geometry::raycast::RayScene::new(objects);
+
+    // Estimate the sequence up to the last reference frame (the smoothing needs the frames
+    // before), and keep what the references need.
+    let last = refs.frames.iter().copied().max().unwrap_or(0);
+    let mut frames = Vec::new();
+    let pb = frame_bar(last + 1, "estimate");
+    for i in 0..=last {
+        let path = &seq.files[i];
+        let frame = Frame::load(path).with_context(|| format!("reading {}", path.display()))?;
+        let e = est.estimate(i, &seq.times[i], &frame, &lin).with_context(|| format!("estimating {}", path.display()))?;
+        pb.inc(1);
+        let Some(k) = refs.frames.iter().position(|&f| f == i) else { continue };
+        let lighting = lighting_of(&e);
+        let grid = probes.relight(&e, lighting.pd, lighting.pa).clone();
+        let classes = Classes::new(&scene, &objects, &ray, refs.crop, lighting.sun_dir);
+        frames.push(RefFrame { index: i, video: VideoFrame::from_frame(&frame, &lin), lighting, grid, reference: refs.image(k)?, classes });
+    }
+    pb.finish_and_clear();
+
+    let base = CompositorConfig::for_scene(&scene);
+    let values: Vec<(String, CompositorConfig, u32)> = match a.knob {
+        Knob::TransferPaths => [0u32, 64, 128, 256, 512, 1024, 2048, 4096]
+            .iter()
+            .map(|&p| (p.to_string(), CompositorConfig { transfer_paths: p, transfer_stride: 1, ..base.clone() }, 4))
+            .collect(),
+        Knob::TransferStride => [1u32, 2, 3, 4].iter().map(|&s| (s.to_string(), CompositorConfig { transfer_stride: s, ..base.clone() }, 4)).collect(),
+        Knob::Msaa => [1u32, 4].iter().map(|&m| (m.to_string(), base.clone(), m)).collect(),
+        Knob::Supersample => [1.0f64, 1.5, 2.0].iter().map(|&s| (s.to_string(), CompositorConfig { supersample: s, ..base.clone() }, 4)).collect(),
+    };
+    let mut gpus: Vec<(u32, Arc<Gpu>)> = Vec::new();
+    let pb = frame_bar(values.len(), "sweep");
+    let mut rows = Vec::new();
+    for (label, config, samples) in values {
+        let gpu = match gpus.iter().find(|(s, _)| *s == samples) {
+            Some((_, g)) => g.clone(),
+            None => {
+                let g = Arc::new(Gpu::new(GpuOptions { samples })?);
+                gpus.push((samples, g.clone()));
+                g
+            }
+        };
+        let t = std::time::Instant::now();
+        let mut comp = Compositor::for_scene(gpu, &scene, ray.clone(), config).with_context(|| format!("setting up the compositor for {}", scene.root.display()))?;
+        let setup_ms = ms(t);
+        let (mut errors, mut frame_ms, mut transfer_ms, mut traced) = (Vec::new(), Vec::new(), 0.0f64, 0usize);
+        for f in &frames {
+            comp.set_probes(&f.grid);
+            // A cold frame (transfer and receivers traced as on a run's first frame), then the
+            // steady frame time of the same frame.
+            let (out, report) = comp.render(&f.video, &f.lighting)?;
+            transfer_ms = transfer_ms.max(report.timings.transfer_ms);
+            traced = traced.max(report.transfer_traced);
+            errors.push(composite_error(&f.classes, &out.image, &f.reference));
+            comp.invalidate();
+            let t = std::time::Instant::now();
+            comp.render(&f.video, &f.lighting)?;
+            frame_ms.push(ms(t));
+        }
+        let stride = comp.transfer().map(|t| t.stride()).unwrap_or(0);
+        rows.push(Row { label, errors, traced, stride, transfer_ms, setup_ms, frame_ms: median(&frame_ms) });
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+
+    let name = match a.knob {
+        Knob::TransferPaths => "transfer_paths",
+        Knob::TransferStride => "transfer_stride",
+        Knob::Msaa => "msaa_samples",
+        Knob::Supersample => "supersample",
+    };
+    let mut table = Table::new(&[name, "worst_pct", "mean_pct", "object_pct", "shadow_pct", "interior_pct", "traced_px", "stride", "transfer_ms", "frame_ms", "setup_ms"]);
+    let mut pts = Vec::new();
+    for r in &rows {
+        let n = r.errors.len().max(1) as f64;
+        let worst = r.errors.iter().map(|e| e.object_and_shadow).fold(0.0, f64::max);
+        let mean = |f: &dyn Fn(&CompositeError) -> f64| 100.0 * r.errors.iter().map(f).sum::<f64>() / n;
+        table.push(vec![
+            r.label.clone(),
+            format!("{:.2}", 100.0 * worst),
+            format!("{:.2}", mean(&|e| e.object_and_shadow)),
+            format!("{:.2}", mean(&|e| e.object)),
+            format!("{:.2}", mean(&|e| e.shadow)),
+            format!("{:.2}", mean(&|e| e.interior)),
+            r.traced.to_string(),
+            r.stride.to_string(),
+            format!("{:.0}", r.transfer_ms),
+            format!("{:.1}", r.frame_ms),
+            format!("{:.0}", r.setup_ms),
+        ]);
+        let cost = match a.knob {
+            Knob::TransferPaths | Knob::TransferStride => r.transfer_ms,
+            _ => r.frame_ms,
+        };
+        pts.push((cost.max(1e-3), mean(&|e| e.object_and_shadow)));
+    }
+    let frame_list: Vec<String> = frames.iter().map(|f| f.index.to_string()).collect();
+    println!(
+        "compositor sweep on {} (reference frames {}: relative RMSE over the objects and their shadow, all channels; mean and worst over the frames; transfer_ms: one trace, frame_ms: median steady frame incl. readback)",
+        a.scene.display(),
+        frame_list.join(", ")
+    );
+    print!("{table}");
+    table.write_csv(&a.csv).with_context(|| format!("writing {}", a.csv.display()))?;
+    println!("wrote {}", a.csv.display());
+    if let Some(path) = &a.plot {
+        let x = match a.knob {
+            Knob::TransferPaths | Knob::TransferStride => "transfer trace time (ms)",
+            _ => "frame time (ms)",
+        };
+        line_plot_svg(path, &format!("end-to-end error against run time ({name})"), x, "relative RMSE, objects and shadow (%)", &[Series { name: "mean over reference frames".into(), points: pts, reference: false }], true, false)?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
