@@ -497,6 +497,44 @@ mod tests {
     }
 
     #[test]
+    fn open_and_degenerate_geometry_gives_finite_values() {
+        // A single quad seen from behind (an open mesh), a degenerate triangle and a point whose
+        // shading normal leans below its face: every value stays finite and non-negative.
+        let mut m = Mesh::default();
+        let mat = m.add_material(Material { metallic: 1.0, roughness: 0.05, ..Material::diffuse("mirror", [0.9; 3]) });
+        let node = m.add_node("sheet", false);
+        m.push_quad(Vec3::new(-1.0, 0.5, 0.0), Vec3::X * 2.0, Vec3::Y * 1.0, node, mat);
+        let v0 = m.positions.len() as u32;
+        m.positions.extend([Vec3::ZERO, Vec3::ZERO, Vec3::X]);
+        m.uvs.extend([Vec2::ZERO; 3]);
+        m.triangles.push([v0, v0 + 1, v0 + 2]);
+        m.tri_node.push(node);
+        m.tri_material.push(mat);
+        let mut floor = Mesh::default();
+        let fm = floor.add_material(Material::diffuse("floor", [0.4; 3]));
+        let fnode = floor.add_node("floor", true);
+        floor.push_quad(Vec3::new(-20.0, 0.0, -20.0), Vec3::Z * 40.0, Vec3::X * 40.0, fnode, fm);
+        let scene = TransferScene::new(&floor, &[&m]);
+        let cam = Camera {
+            intrinsics: Intrinsics { width: 48, height: 36, fx: 40.0, fy: 40.0, cx: 24.0, cy: 18.0, distortion: [0.0; 5] },
+            // The quad faces +Z (X × Y); from z = −3 the camera sees its back.
+            pose: Pose::look_at(DVec3::new(0.3, 1.0, -3.0), DVec3::new(0.0, 1.0, 0.0), DVec3::Y).unwrap(),
+        };
+        let canvas = Canvas::new(&cam, 1.0);
+        let mut t = ObjectTransfer::new(&canvas, &scene, TransportQuality { paths: 64, max_bounces: 4 }, 1, 3);
+        assert!(t.surfaces().len() > 100, "{}", t.surfaces().len());
+        assert!(t.surfaces().iter().all(|s| s.normal.dot(s.view) > 0.0), "normals face the camera");
+        t.ensure(&scene, Some(Vec3::new(0.2, 0.9, 0.3).normalize()), 0.25);
+        for v in t.sky.iter().chain(&t.sun) {
+            assert!(v.iter().all(|x| x.is_finite() && *x >= 0.0), "{v:?}");
+        }
+        // A tilted shading normal (below the geometric one by 80°) is traced without NaN.
+        let s = PixelSurface { normal: Vec3::new(0.0, 0.17, 0.98).normalize(), face_normal: Vec3::Y, ..t.surfaces()[0] };
+        let p = trace_point(&scene, &s, Some(Vec3::Y), TransportQuality { paths: 64, max_bounces: 2 }, 5);
+        assert!(p.sky.is_finite() && p.sun.is_finite(), "{p:?}");
+    }
+
+    #[test]
     fn the_automatic_stride_keeps_a_trace_within_the_budget() {
         assert_eq!(stride_for(1000, 1024, 0), 1);
         assert_eq!(stride_for(1000, 1024, 3), 3, "a requested stride is kept");
