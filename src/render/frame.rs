@@ -131,6 +131,8 @@ pub struct FrameTimings {
     pub receivers_ms: f64,
     /// Tracing the virtual objects' ambient transfer (first frame, and when the sun moved).
     pub transfer_ms: f64,
+    /// Finding the canvas region of the 3D passes (with the stencil).
+    pub region_ms: f64,
     /// Uploads (footage, volumes, surface data, probes, uniforms).
     pub upload_ms: f64,
     /// Recording, submitting and waiting for the render passes.
@@ -154,6 +156,8 @@ pub struct PassReport {
     pub receivers_computed: usize,
     /// Canvas pixels whose ambient transfer was traced this frame.
     pub transfer_traced: usize,
+    /// The canvas rectangle the 3D passes drew (`None`: the whole canvas).
+    pub canvas_region: Option<crate::render::compositor::Rect>,
     /// Timings.
     pub timings: FrameTimings,
 }

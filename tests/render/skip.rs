@@ -188,3 +188,25 @@ fn switched_off_passes_are_reported_and_change_the_picture_as_they_should() {
     assert!(r.skipped.iter().all(|s| s.reason != WHY), "{r:?}");
     assert_eq!(f.image.data, all.image.data);
 }
+
+#[test]
+fn the_scissored_region_draws_the_same_picture_as_the_whole_canvas() {
+    // The 3D passes cover only the canvas region the objects and their shadows can reach; the
+    // picture must be the one the whole canvas gives, bit for bit, with and without sun.
+    let s = setup(statue_near_wall());
+    let v = video(160, 120);
+    let mut plain = CompositorConfig::for_estimator(&Default::default());
+    plain.scissor = false;
+    let mut full = s.compositor(plain.clone());
+    let mut cut = s.compositor(CompositorConfig { scissor: true, ..plain });
+    for l in [lighting(courtyard_sun(), 3.0), lighting(courtyard_sun(), 0.0), lighting(Vec3::new(0.7, 0.3, -0.2).normalize(), 3.0)] {
+        let (a, ra) = full.render(&v, &l).unwrap();
+        let (b, rb) = cut.render(&v, &l).unwrap();
+        assert_eq!(ra.canvas_region, None);
+        let r = rb.canvas_region.expect("a region smaller than the canvas");
+        let canvas = cut.canvas();
+        assert!((r.width * r.height) < canvas.width * canvas.height / 2, "{r:?} of {}×{}", canvas.width, canvas.height);
+        let differ = a.image.data.iter().zip(&b.image.data).filter(|(x, y)| x != y).count();
+        assert_eq!(differ, 0, "{differ} pixels differ with the scissor ({r:?})");
+    }
+}

@@ -67,6 +67,19 @@ impl Compositor {
             }
         };
 
+        // The canvas region of this frame's 3D passes: recomputed with the stencil, kept with it.
+        if has_virtual && !reuse {
+            let t = std::time::Instant::now();
+            self.region = if self.config.scissor && !self.config.debug_masks {
+                super::region::canvas_region(&self.canvas, &self.receivers, &self.virtual_bounds, sun_key)
+            } else {
+                None
+            };
+            report.timings.region_ms = t.elapsed().as_secs_f64() * 1e3;
+        }
+        report.canvas_region = if has_virtual { self.region } else { None };
+        let region = self.region;
+
         let mut encoder = self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
         let mut stats = VolumeStats { compute: self.volumes.builder() == super::Builder::Compute, reused: reuse, ..Default::default() };
 
@@ -213,6 +226,7 @@ impl Compositor {
                 }),
                 ..Default::default()
             });
+            super::region::set_scissor(&mut pa, region);
             pa.set_bind_group(0, &self.camera_bg, &[]);
             pa.set_pipeline(&self.prepass.proxy);
             pa.set_vertex_buffer(0, self.proxy.vertices.slice(..));
@@ -263,6 +277,7 @@ impl Compositor {
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment { view: &self.res.depth.view, depth_ops: None, stencil_ops: None }),
                 ..Default::default()
             });
+            super::region::set_scissor(&mut pm, region);
             self.mask.record(&mut pm);
             report.ran.push(pass::SHADOW_MASK);
             self.stencil = Some(StencilState { sun: sun_key, debug: self.config.debug_masks, frame: self.frames });
@@ -278,6 +293,7 @@ impl Compositor {
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment { view: &self.res.depth.view, depth_ops: None, stencil_ops: None }),
                 ..Default::default()
             });
+            super::region::set_scissor(&mut pb, region);
             pb.set_bind_group(0, &self.shading_bg, &[]);
             pb.set_vertex_buffer(0, self.virt.vertices.slice(..));
             pb.set_index_buffer(self.virt.indices.slice(..), wgpu::IndexFormat::Uint32);

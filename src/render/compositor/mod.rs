@@ -11,23 +11,29 @@
 //! 3. the shadow masks: virtual shadow on real surfaces outside real shadow, and which
 //!    virtual-surface samples are in some shadow;
 //! 4. the virtual objects shaded in one geometry pass: sun term times the pixel's unshadowed
-//!    fraction of virtual-surface samples, SH ambient from the probe grid times the objects' own
-//!    ambient occlusion.
+//!    fraction of virtual-surface samples, ambient from the per-pixel transfer
+//!    ([`super::transfer`], traced on the CPU on the first frame and when the sun has moved past
+//!    `bounce_rebuild_deg`), or SH ambient from the probe grid times the objects' own ambient
+//!    occlusion where the transfer has no entry (or is off).
 //!
 //! Then, in the footage's pixel grid, the composite warps the canvas layers through the lens
 //! model and darkens the footage: under the virtual shadow with the proxy's normal and `c`, and,
 //! with the (default) differential model, also where the objects take sky and bounce light from
-//! real surfaces next to them.
+//! real surfaces next to them; there the virtual shadow removes the share of a pixel's sunlit
+//! real samples that it covers, counted on the GPU's own samples.
 //!
 //! Work a frame does not need is left out, and the report says why: no virtual objects (the
 //! footage passes through), no sun (`Pd ≈ 0` or the sun below the horizon: no volumes, no sun
 //! term), no real part whose shadow can reach the objects or their shadows (no real volumes),
-//! and a sun that has not moved more than `reuse_sun_deg` with static objects (the volumes, the
-//! stencil and the mask of the earlier frame are kept; only shading and composite run).
+//! a sun that has not moved more than `reuse_sun_deg` with static objects (the volumes, the
+//! stencil and the mask of the earlier frame are kept; only shading and composite run), and a
+//! sun that has not moved more than `bounce_rebuild_deg` (the objects' transfer is kept).
 mod encode;
+mod region;
 mod resources;
 mod volumes;
 
+pub use region::{REGION_MARGIN_PX, Rect, canvas_region};
 pub use resources::{Layer, Resources, Tex, read_buffer_bytes, read_texture};
 pub use volumes::{BuildStats, Builder, Volumes};
 
@@ -94,8 +100,12 @@ pub struct CompositorConfig {
     pub no_sun_ratio: f64,
     /// Cap offset of per-triangle volumes, metres.
     pub cap_offset_m: f32,
-    /// Also produce the warped debug masks.
+    /// Also produce the warped debug masks (the 3D passes then cover the whole canvas, so the
+    /// masks are complete).
     pub debug_masks: bool,
+    /// Scissor the 3D passes to the canvas region the objects and their shadows can reach
+    /// ([`region`]); off, they cover the whole canvas (same picture, more time).
+    pub scissor: bool,
     /// Quality of `c` (without bounce).
     pub ambient_quality: TransportQuality,
     /// Quality of `c` and `b` together.
@@ -135,6 +145,7 @@ impl CompositorConfig {
             no_sun_ratio: e.no_sun_ratio,
             cap_offset_m: OPEN_CAP_OFFSET_M,
             debug_masks: false,
+            scissor: true,
             ambient_quality: e.ambient,
             bounce_quality: e.bounce,
             bounce_rebuild_deg: e.sun_rebuild_deg,
@@ -252,6 +263,8 @@ pub struct Compositor {
     /// The objects' per-pixel ambient transfer and its scene (none without objects or with
     /// `transfer_paths = 0`).
     transfer: Option<(TransferScene, ObjectTransfer)>,
+    /// The canvas region of the stored stencil's frame (`None`: the whole canvas).
+    region: Option<Rect>,
     /// Radius of the differential model's region around the objects.
     near_radius_m: f32,
     /// Pixels of that region (computed on first use).
@@ -383,6 +396,7 @@ impl Compositor {
             frames: 0,
             with_ray,
             transfer,
+            region: None,
             near_radius_m,
             near_pixels: None,
             receiver_pixels: None,
