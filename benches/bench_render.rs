@@ -1,6 +1,7 @@
 //! Frame time of the GPU compositor on the software adapter, split into CPU shadow-volume
 //! construction, GPU passes and readback: the bundled courtyard at 640×480 and 1280×720 with a
-//! 100k-triangle virtual object (a torus where the statue stands), with volumes rebuilt every
+//! 100k-triangle virtual object (a torus where the statue stands), and at 640×480 with the
+//! bundled statue (1292 triangles) and with no object, with volumes rebuilt every
 //! frame (the sun moves) and reused (it does not). Also the CPU (rayon) and compute-pass volume
 //! builders on 100k and 1M triangles, and one trace of the virtual objects' per-pixel ambient
 //! transfer (the bundled statue at 320×240 and 640×480, and the 100k-triangle torus at 640×480,
@@ -79,18 +80,26 @@ fn bench_frames(c: &mut Criterion) {
     let ray = Arc::new(RayScene::new(scene.proxy.clone()));
     let mut g = c.benchmark_group("frame");
     g.sample_size(10).measurement_time(Duration::from_secs(8)).warm_up_time(Duration::from_secs(2));
+    // Object: 0 none, 1 the 100k-triangle torus, 2 the bundled statue (1292 triangles).
     let runs = [
-        (640u32, 480u32, Builder::Cpu, 4u32, true),
-        (640, 480, Builder::Compute, 4, true),
-        (640, 480, Builder::Cpu, 1, true),
-        (640, 480, Builder::Cpu, 4, false),
-        (1280, 720, Builder::Cpu, 4, true),
-        (1280, 720, Builder::Compute, 4, true),
+        (640u32, 480u32, Builder::Cpu, 4u32, 1u8),
+        (640, 480, Builder::Compute, 4, 1),
+        (640, 480, Builder::Cpu, 1, 1),
+        (640, 480, Builder::Cpu, 4, 0),
+        (640, 480, Builder::Cpu, 4, 2),
+        (640, 480, Builder::Cpu, 1, 2),
+        (1280, 720, Builder::Cpu, 4, 1),
+        (1280, 720, Builder::Compute, 4, 1),
     ];
-    for (w, h, builder, samples, with_object) in runs {
+    let statue = &scene.virtual_objects[0].mesh;
+    for (w, h, builder, samples, which) in runs {
         let gpu = if samples == 1 { gpu1.clone() } else { gpu4.clone() };
         let cam = camera_at(&scene, w, h);
-        let objects = if with_object { vec![("torus100k".to_string(), &object)] } else { Vec::new() };
+        let objects = match which {
+            1 => vec![("torus100k".to_string(), &object)],
+            2 => vec![("statue".to_string(), statue)],
+            _ => Vec::new(),
+        };
         let parts = SceneParts { camera: &cam, proxy: &scene.proxy, proxy_name: "proxy.glb", objects: &objects };
         let video = video_at(&scene, w, h);
         {
@@ -105,7 +114,11 @@ fn bench_frames(c: &mut Criterion) {
                 "{w}x{h}/{}{}{}",
                 if builder == Builder::Cpu { "cpu" } else { "compute" },
                 if samples == 1 { "/no_msaa" } else { "" },
-                if with_object { "" } else { "/no_objects" }
+                match which {
+                    1 => "",
+                    2 => "/statue",
+                    _ => "/no_objects",
+                }
             );
             let stages: [(&str, Stage); 4] = [
                 ("volume_build", |r| r.timings.volume_build_ms),
