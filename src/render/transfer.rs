@@ -38,6 +38,13 @@
 //! frame and again when the sun has moved more than the compositor's `bounce_rebuild_deg`
 //! (the same paths, so `R_a` is unchanged by a rebuild).
 //!
+//! The real surfaces' albedo comes from the proxy's materials, as for the estimator's `c`, `b`
+//! and the receivers: a proxy whose materials are far from the real surfaces' colours gets a
+//! wrong bounce (the irradiance volume, which takes its albedo from the HDR map by inverse
+//! rendering, does not share that weakness; `transfer_paths = 0` falls back to it). Both assume
+//! the uniform sky of the crate's radiometry. Moving objects or a moving camera would need a
+//! trace per frame: the manifest's placements and the calibrated camera are static.
+//!
 //! Pixels are traced on a lattice, every `stride`-th canvas pixel in each direction: 1 (all of
 //! them) while the object pixels times the paths fit [`TRANSFER_PATH_BUDGET`], coarser for
 //! objects that fill much of a large frame. The shading pass reconstructs each fragment's value

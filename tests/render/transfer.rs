@@ -99,18 +99,22 @@ fn transfer_shading_matches_an_independent_path_tracer() {
     let pixels: Vec<usize> = (0..(w * h) as usize).filter(|&i| r[i].kind == 2 && !edge[i]).collect();
     assert!(pixels.len() > 300, "only {} pixels", pixels.len());
     let paths = 4096;
-    let want: Vec<Vec3> = pixels
-        .par_iter()
-        .map(|&i| {
-            let (o, d) = setup.camera.pixel_ray(i as u32 % w, i as u32 / w).expect("pixel ray");
-            let mut rng = SmallRng::seed_from_u64(0x51 ^ i as u64);
-            let mut acc = Vec3::ZERO;
-            for _ in 0..paths {
-                acc += radiance(&world, first, o.as_vec3(), d.as_vec3(), sun, pd, pa, &mut rng);
-            }
-            acc / paths as f32
-        })
-        .collect();
+    // The reference radiance of every compared pixel's centre ray under sun `pd` and sky `pa`.
+    let traced = |pd: Vec3, seed: u64| -> Vec<Vec3> {
+        pixels
+            .par_iter()
+            .map(|&i| {
+                let (o, d) = setup.camera.pixel_ray(i as u32 % w, i as u32 / w).expect("pixel ray");
+                let mut rng = SmallRng::seed_from_u64(seed ^ i as u64);
+                let mut acc = Vec3::ZERO;
+                for _ in 0..paths {
+                    acc += radiance(&world, first, o.as_vec3(), d.as_vec3(), sun, pd, pa, &mut rng);
+                }
+                acc / paths as f32
+            })
+            .collect()
+    };
+    let want = traced(pd, 0x51);
     let compare = |what: &str, got: &[Vec3], want: &[Vec3]| {
         let (mut num, mut den, mut sg, mut sw) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
         for (a, b) in got.iter().zip(want) {
@@ -140,18 +144,7 @@ fn transfer_shading_matches_an_independent_path_tracer() {
     // Sky light alone (the sun below the horizon): R_a by itself, and the sun term and R_d off.
     let (frame, report) = comp.render(&video, &FrameLighting { sun_dir: sun, above_horizon: false, pd, pa }).expect("render");
     assert!(!report.ran("object_transfer"), "no sun: the traced transfer is reused");
-    let want: Vec<Vec3> = pixels
-        .par_iter()
-        .map(|&i| {
-            let (o, d) = setup.camera.pixel_ray(i as u32 % w, i as u32 / w).expect("pixel ray");
-            let mut rng = SmallRng::seed_from_u64(0x52 ^ i as u64);
-            let mut acc = Vec3::ZERO;
-            for _ in 0..paths {
-                acc += radiance(&world, first, o.as_vec3(), d.as_vec3(), sun, Vec3::ZERO, pa, &mut rng);
-            }
-            acc / paths as f32
-        })
-        .collect();
+    let want = traced(Vec3::ZERO, 0x52);
     let got: Vec<Vec3> = pixels.iter().map(|&i| Vec3::from(frame.image.data[i])).collect();
     compare("sky only", &got, &want);
 }
