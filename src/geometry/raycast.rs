@@ -13,6 +13,9 @@ use parry3d::shape::TriMesh;
 /// hit the surface they leave. 1 mm is far above f32 precision at the scale of a courtyard
 /// (≈ 2 µm at 20 m) and below any proxy detail.
 pub const RAY_EPSILON_M: f32 = 1e-3;
+/// Angle (radians) by which [`RayScene::intersect_front`] turns a ray that hit a back face: far
+/// above the float noise of an edge test, far below a pixel.
+pub const CRACK_NUDGE_RAD: f32 = 1e-4;
 
 /// A first hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -87,6 +90,19 @@ impl RayScene {
         let n = self.normals[tri as usize];
         let normal = if n.dot(dir) > 0.0 { -n } else { n };
         Some(Hit { t: hit.time_of_impact, tri, point, normal, bary: self.barycentric(tri, point) })
+    }
+
+    /// The first hit along `origin + t·dir` (unit `dir`), looked at again along a ray turned by
+    /// [`CRACK_NUDGE_RAD`] when it is the back of a triangle: either a ray that slipped through
+    /// the shared edge of two triangles (parry's ray–triangle test is not watertight) and hit the
+    /// far side from inside, or an open mesh seen from behind, which the turned ray hits again.
+    pub fn intersect_front(&self, origin: Vec3, dir: Vec3) -> Option<Hit> {
+        let hit = self.intersect(origin, dir, f32::MAX)?;
+        if self.face_normal(hit.tri).dot(dir) <= 0.0 {
+            return Some(hit);
+        }
+        let nudge = dir.any_orthonormal_vector() * CRACK_NUDGE_RAD;
+        self.intersect(origin, (dir + nudge).normalize(), f32::MAX)
     }
 
     /// True when anything lies along `origin + t·dir`, `0 < t ≤ t_max`.

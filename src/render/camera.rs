@@ -172,6 +172,13 @@ impl Canvas {
         }
     }
 
+    /// Unit world direction of the ray through the centre of canvas pixel `i` (row-major), from
+    /// the camera centre `pose.translation`.
+    pub fn pixel_dir(&self, i: u32) -> glam::Vec3 {
+        let (u, v) = ((i % self.width) as f64, (i / self.width) as f64);
+        (self.pose.rotation * DVec3::new((u - self.cx) / self.fx, (v - self.cy) / self.fy, 1.0).normalize()).as_vec3()
+    }
+
     /// Canvas pixel coordinates of a world point in front of the camera.
     pub fn canvas_from_world(&self, p: DVec3) -> Option<DVec2> {
         let c = self.pose.camera_from_world(p);

@@ -13,15 +13,12 @@
 use super::camera::Canvas;
 use crate::geometry::raycast::{RAY_EPSILON_M, RayScene};
 use crate::geometry::sampling::sample_cosine_around;
-use glam::{DVec3, Vec2};
+use glam::Vec2;
 use rand::{Rng, SeedableRng, rngs::SmallRng};
 use rayon::prelude::*;
 
 /// Default rays per pixel: ≈ 3% standard deviation of a half-occluded pixel after stratification.
 pub const AO_RAYS: u32 = 128;
-/// Angle (radians) by which a ray that hit a back face is turned to try again: far above the
-/// float noise of an edge test, far below a pixel.
-const CRACK_NUDGE_RAD: f32 = 1e-4;
 
 /// The unoccluded fraction per canvas pixel (row-major, canvas size).
 pub fn virtual_occlusion(canvas: &Canvas, objects: &RayScene, rays: u32, seed: u64) -> Vec<f32> {
@@ -30,20 +27,7 @@ pub fn virtual_occlusion(canvas: &Canvas, objects: &RayScene, rays: u32, seed: u
     (0..w * h)
         .into_par_iter()
         .map(|i| {
-            let (u, v) = ((i % w) as f64, (i / w) as f64);
-            let d_cam = DVec3::new((u - canvas.cx) / canvas.fx, (v - canvas.cy) / canvas.fy, 1.0).normalize();
-            let (o, d) = (canvas.pose.translation.as_vec3(), (canvas.pose.rotation * d_cam).as_vec3());
-            let Some(mut hit) = objects.intersect(o, d, f32::MAX) else { return 1.0 };
-            if objects.face_normal(hit.tri).dot(d) > 0.0 {
-                // A back face: either an open mesh seen from behind, or a ray that slipped
-                // through the shared edge of two triangles (parry's ray–triangle test is not
-                // watertight) and hit the far side from inside. A slightly different ray tells.
-                let nudge = d.any_orthonormal_vector() * CRACK_NUDGE_RAD;
-                match objects.intersect(o, (d + nudge).normalize(), f32::MAX) {
-                    Some(h) => hit = h,
-                    None => return 1.0,
-                }
-            }
+            let Some(hit) = objects.intersect_front(canvas.pose.translation.as_vec3(), canvas.pixel_dir(i)) else { return 1.0 };
             let mut rng = SmallRng::seed_from_u64(seed ^ (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
             let origin = hit.point + hit.normal * RAY_EPSILON_M;
             let n = m * m;
@@ -61,6 +45,7 @@ pub fn virtual_occlusion(canvas: &Canvas, objects: &RayScene, rays: u32, seed: u
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::DVec3;
     use crate::geometry::{Material, Mesh};
     use crate::scene::camera::{Camera, Intrinsics, Pose};
 

@@ -154,18 +154,7 @@ impl Classes {
                 }
             })
             .collect();
-        let (w, h) = (crop.width as i64, crop.height as i64);
-        let edge = (0..w * h)
-            .map(|i| {
-                let (x, y, v) = (i % w, i / w, class[i as usize]);
-                (-1..=1).any(|dy| {
-                    (-1..=1).any(|dx| {
-                        let (xx, yy) = (x + dx, y + dy);
-                        xx >= 0 && yy >= 0 && xx < w && yy < h && class[(yy * w + xx) as usize] != v
-                    })
-                })
-            })
-            .collect();
+        let edge = edges(crop.width, crop.height, &class);
         Self { crop, class, edge }
     }
 
@@ -173,6 +162,23 @@ impl Classes {
     pub fn count(&self, class: u8) -> usize {
         self.class.iter().filter(|&&c| c == class).count()
     }
+}
+
+/// Pixels of a `w × h` row-major image within one pixel (8-neighbourhood) of a change of `f`:
+/// the 1-px edges that comparisons against anti-aliased references leave out or report apart.
+pub fn edges<T: PartialEq + Copy>(w: u32, h: u32, f: &[T]) -> Vec<bool> {
+    let (w, h) = (w as i64, h as i64);
+    (0..w * h)
+        .map(|i| {
+            let (x, y, v) = (i % w, i / w, f[i as usize]);
+            (-1..=1).any(|dy| {
+                (-1..=1).any(|dx| {
+                    let (xx, yy) = (x + dx, y + dy);
+                    xx >= 0 && yy >= 0 && xx < w && yy < h && f[(yy * w + xx) as usize] != v
+                })
+            })
+        })
+        .collect()
 }
 
 /// Relative RMSE over pixel pairs, all channels: `√(Σ(a − b)² / Σ b²)`.
@@ -244,6 +250,18 @@ pub fn composite_error(classes: &Classes, out: &LinearImage, reference: &LinearI
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn edges_mark_the_8_neighbourhood_of_a_change() {
+        // A 4×3 image with one odd pixel at (1, 1): it and its eight neighbours are edges, the
+        // last column is not.
+        let mut f = [0u8; 12];
+        f[5] = 1;
+        let e = edges(4, 3, &f);
+        let want: Vec<bool> = (0..12).map(|i| i % 4 != 3).collect();
+        assert_eq!(e, want);
+        assert!(edges(4, 3, &[7u8; 12]).iter().all(|&x| !x));
+    }
 
     #[test]
     fn relative_rmse_of_a_uniform_scale_is_the_scale_error() {

@@ -61,7 +61,7 @@ use crate::geometry::ambient::TransportQuality;
 use crate::geometry::brdf::GltfSurface;
 use crate::geometry::raycast::{RAY_EPSILON_M, RayScene};
 use crate::geometry::sampling::{sample_cosine_around, sample_stratified_2d};
-use glam::{DVec3, Vec2, Vec3};
+use glam::{Vec2, Vec3};
 use rand::{Rng, SeedableRng, rngs::SmallRng};
 use rayon::prelude::*;
 use std::f32::consts::FRAC_1_PI;
@@ -82,9 +82,6 @@ const MAX_AUTO_STRIDE: u32 = 8;
 pub const TRANSFER_BOUNCES: u32 = 4;
 /// A path's throughput below which it stops (its remaining contribution is negligible).
 const MIN_THROUGHPUT: f32 = 1e-4;
-/// Angle (radians) by which a centre ray that hit a back face is turned to try again (see
-/// [`super::occlusion`]).
-const CRACK_NUDGE_RAD: f32 = 1e-4;
 /// Smallest `|n·v|` used to widen a pixel's footprint on an oblique surface.
 const MIN_FOOTPRINT_COS: f32 = 0.2;
 
@@ -241,20 +238,8 @@ pub fn pixel_surfaces(canvas: &Canvas, scene: &TransferScene) -> Vec<PixelSurfac
     (0..w * h)
         .into_par_iter()
         .filter_map(|i| {
-            let (u, v) = ((i % w) as f64, (i / w) as f64);
-            let d_cam = DVec3::new((u - canvas.cx) / canvas.fx, (v - canvas.cy) / canvas.fy, 1.0).normalize();
-            let d = (canvas.pose.rotation * d_cam).as_vec3();
-            let world = &scene.world;
-            let mut hit = world.intersect(eye, d, f32::MAX)?;
-            if world.face_normal(hit.tri).dot(d) > 0.0 {
-                // A ray through the crack between two triangles (see `occlusion`), or an open
-                // mesh seen from behind: a slightly turned ray tells which.
-                let nudge = d.any_orthonormal_vector() * CRACK_NUDGE_RAD;
-                let again = world.intersect(eye, (d + nudge).normalize(), f32::MAX)?;
-                if again.tri != hit.tri {
-                    hit = again;
-                }
-            }
+            let d = canvas.pixel_dir(i);
+            let hit = scene.world.intersect_front(eye, d)?;
             if !scene.is_object(hit.tri) {
                 return None;
             }
@@ -343,11 +328,6 @@ impl ObjectTransfer {
         self.stride
     }
 
-    /// Whether the values have been traced at least once.
-    pub fn is_traced(&self) -> bool {
-        self.traced
-    }
-
     /// The sun direction the stored `R_d` belongs to.
     pub fn traced_sun(&self) -> Option<Vec3> {
         self.traced_sun
@@ -389,6 +369,7 @@ impl ObjectTransfer {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::DVec3;
     use crate::geometry::Material;
     use crate::scene::camera::{Camera, Intrinsics, Pose};
 

@@ -178,19 +178,7 @@ pub fn reference(setup: &Setup, sun: Vec3) -> Vec<RefPixel> {
 }
 
 /// Pixels within one pixel of a change of `f` (the 1-px edges excluded from comparisons).
-pub fn edges<T: PartialEq + Copy>(w: u32, h: u32, f: &[T]) -> Vec<bool> {
-    let (w, h) = (w as i64, h as i64);
-    (0..w * h)
-        .map(|i| {
-            let (x, y) = (i % w, i / w);
-            let v = f[i as usize];
-            (-1..=1).any(|dy| (-1..=1).any(|dx| {
-                let (xx, yy) = (x + dx, y + dy);
-                xx >= 0 && yy >= 0 && xx < w && yy < h && f[(yy * w + xx) as usize] != v
-            }))
-        })
-        .collect()
-}
+pub use heliar::render::reference::edges;
 
 /// The glTF 2.0 metallic–roughness BRDF (specification, Appendix B), written again on the CPU:
 /// `f(v, l)·max(n·l, 0)` for unit vectors.

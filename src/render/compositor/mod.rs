@@ -33,7 +33,7 @@ mod region;
 mod resources;
 mod volumes;
 
-pub use region::{REGION_MARGIN_PX, Rect, canvas_region};
+pub use region::Rect;
 pub use resources::{Layer, Resources, Tex, read_buffer_bytes, read_texture};
 pub use volumes::{BuildStats, Builder, Volumes};
 
@@ -339,11 +339,9 @@ impl Compositor {
         let occlusion = match (config.occlusion_rays, parts.objects.is_empty()) {
             (0, _) | (_, true) => vec![1.0f32; (canvas.width * canvas.height) as usize],
             (rays, false) => {
-                let mut m = Mesh::default();
-                for (_, o) in parts.objects {
-                    m.append(o);
-                }
-                super::occlusion::virtual_occlusion(&canvas, &RayScene::new(m), rays, config.seed)
+                // The objects alone: the transfer scene holds them in one mesh already.
+                let objects = transfer_scene.as_ref().map(|t| t.objects.clone()).unwrap_or_default();
+                super::occlusion::virtual_occlusion(&canvas, &RayScene::new(objects), rays, config.seed)
             }
         };
         res.occlusion.write(&gpu.queue, &occlusion);

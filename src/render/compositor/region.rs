@@ -12,7 +12,7 @@ use rayon::prelude::*;
 
 /// Canvas pixels added on every side: MSAA edges, the bilinear taps of the lens warp and the 3×3
 /// lookups of the shading pass reach one or two pixels beyond what they cover.
-pub const REGION_MARGIN_PX: u32 = 4;
+const REGION_MARGIN_PX: u32 = 4;
 /// Above this share of the canvas the whole canvas is used (a scissor would save nothing).
 const FULL_CANVAS_SHARE: f64 = 0.8;
 
@@ -90,8 +90,8 @@ pub fn canvas_region(canvas: &Canvas, receivers: &Receivers, bounds: &[(Vec3, Ve
     let x1 = ((b.hi.0 + m).ceil().max(0.0) as u32 + 1).min(canvas.width);
     let y1 = ((b.hi.1 + m).ceil().max(0.0) as u32 + 1).min(canvas.height);
     if x1 <= x0 || y1 <= y0 {
-        // Entirely off the canvas: an empty region would skip everything, which the callers
-        // treat as "nothing to draw"; a 1-pixel rectangle keeps the passes valid.
+        // Objects and shadows entirely off the canvas: nothing to draw, but a scissor must not
+        // be empty, so one corner pixel (whose clear layers the composite leaves alone).
         return Some(Rect { x: 0, y: 0, width: 1, height: 1 });
     }
     let r = Rect { x: x0, y: y0, width: x1 - x0, height: y1 - y0 };
