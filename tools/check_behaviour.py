@@ -1,0 +1,131 @@
+#!/usr/bin/env python3
+"""Behaviour check: run heliar on the bundled scenes and compare hashes of what it writes with the
+hashes stored in tools/behaviour_hashes.json.
+
+What is hashed (timings and other run-dependent fields left out):
+  - `augment` on the courtyard's HDR and LDR sequences: every output frame (EXR, bytes) and every
+    report line (JSON, with `*_ms`, `ms`, `timings` removed);
+  - `estimate` on both sequences: every JSON line (timings removed);
+  - `vem` on the bundled VEM sequences (outdoor, lamp): every JSON line (timings removed);
+  - `vem --scene` on the courtyard with the outdoor VEM sequence: frames and report lines.
+
+Usage (from anywhere):
+  python3 tools/check_behaviour.py [--bin PATH] [--update] [--keep DIR]
+
+--bin       the heliar binary (default: target/release/heliar, else target/debug/heliar)
+--update    write the measured hashes into tools/behaviour_hashes.json instead of comparing;
+            do this on purpose only, when a change is meant to change behaviour, and say so in
+            the commit message
+--keep DIR  run in DIR and keep the outputs (default: a temporary folder, removed afterwards)
+
+Exit status 0 when every hash matches, 1 when some differ (each difference is listed), 2 when a
+command fails.
+"""
+import argparse, hashlib, json, os, shutil, subprocess, sys, tempfile
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+HASHES = os.path.join(ROOT, 'tools', 'behaviour_hashes.json')
+RUN_DEPENDENT = {'timings', 'ms', 'wall_s', 'frames_per_second'}
+
+
+def strip(v):
+    """The JSON value without timings (keys ending in `_ms` and the run-dependent keys)."""
+    if isinstance(v, dict):
+        return {k: strip(x) for k, x in v.items() if not (k.endswith('_ms') or k in RUN_DEPENDENT)}
+    if isinstance(v, list):
+        return [strip(x) for x in v]
+    return v
+
+
+def sha(data):
+    return hashlib.sha256(data).hexdigest()[:16]
+
+
+def jsonl_hashes(path, tag, out):
+    with open(path, encoding='utf-8') as f:
+        lines = [l for l in f.read().splitlines() if l.strip()]
+    for i, line in enumerate(lines):
+        v = strip(json.loads(line))
+        out[f'{tag}/line{i:03}'] = sha(json.dumps(v, sort_keys=True, ensure_ascii=False).encode())
+    out[f'{tag}/lines'] = str(len(lines))
+
+
+def file_hashes(folder, exts, tag, out):
+    names = sorted(n for n in os.listdir(folder) if n.rsplit('.', 1)[-1] in exts)
+    for n in names:
+        with open(os.path.join(folder, n), 'rb') as f:
+            out[f'{tag}/{n}'] = sha(f.read())
+    out[f'{tag}/files'] = str(len(names))
+
+
+def run(cmd, cwd):
+    r = subprocess.run(cmd, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    if r.returncode != 0:
+        sys.stderr.write(f"command failed ({r.returncode}): {' '.join(cmd)}\n{r.stderr[-4000:]}\n")
+        sys.exit(2)
+    return r
+
+
+def measure(binary, work):
+    """Runs the commands in `work` (a copy of the bundled scenes) and returns {key: hash}."""
+    out = {}
+    court = os.path.join(work, 'scenes', 'courtyard')
+    vem = os.path.join(work, 'scenes', 'vem')
+    o = os.path.join(work, 'out')
+    os.makedirs(o, exist_ok=True)
+    for seq in ('hdr', 'ldr'):
+        dst = os.path.join(o, f'augment_{seq}')
+        run([binary, 'augment', 'scenes/courtyard', '--input', f'scenes/courtyard/frames/{seq}', '--output', f'out/augment_{seq}', '--format', 'exr'], work)
+        file_hashes(dst, {'exr'}, f'augment_{seq}/frames', out)
+        jsonl_hashes(os.path.join(dst, 'report.jsonl'), f'augment_{seq}/report', out)
+        run([binary, 'estimate', 'scenes/courtyard', '--sequence', seq, '--output', f'out/estimate_{seq}.jsonl'], work)
+        jsonl_hashes(os.path.join(o, f'estimate_{seq}.jsonl'), f'estimate_{seq}', out)
+    for seq in ('outdoor', 'lamp'):
+        run([binary, 'vem', '--input', f'scenes/vem/{seq}/frames', '--calib', f'scenes/vem/{seq}/calib/fisheye.toml', '--output', f'out/vem_{seq}.jsonl'], work)
+        jsonl_hashes(os.path.join(o, f'vem_{seq}.jsonl'), f'vem_{seq}', out)
+    run([binary, 'vem', '--input', 'scenes/vem/outdoor/frames', '--calib', 'scenes/vem/outdoor/calib/fisheye.toml', '--scene', 'scenes/courtyard', '--output', 'out/vem_render'], work)
+    dst = os.path.join(o, 'vem_render')
+    frames = os.path.join(dst, 'frames') if os.path.isdir(os.path.join(dst, 'frames')) else dst
+    file_hashes(frames, {'exr', 'png'}, 'vem_render/frames', out)
+    jsonl_hashes(os.path.join(dst, 'frames.jsonl'), 'vem_render/report', out)
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    ap.add_argument('--bin')
+    ap.add_argument('--update', action='store_true')
+    ap.add_argument('--keep')
+    a = ap.parse_args()
+    binary = a.bin or next((p for p in (os.path.join(ROOT, 'target', d, 'heliar') for d in ('release', 'debug')) if os.path.exists(p)), None)
+    if not binary or not os.path.exists(binary):
+        sys.stderr.write('no heliar binary: build one (cargo build --release) or give --bin\n')
+        return 2
+    binary = os.path.abspath(binary)
+    work = a.keep or tempfile.mkdtemp(prefix='heliar-behaviour-')
+    try:
+        # The scenes are copied, so the run's bake cache never lands in the checkout.
+        if os.path.exists(os.path.join(work, 'scenes')):
+            shutil.rmtree(os.path.join(work, 'scenes'))
+        shutil.copytree(os.path.join(ROOT, 'scenes'), os.path.join(work, 'scenes'), ignore=shutil.ignore_patterns('baked'))
+        got = measure(binary, work)
+    finally:
+        if not a.keep:
+            shutil.rmtree(work, ignore_errors=True)
+    if a.update:
+        with open(HASHES, 'w', encoding='utf-8') as f:
+            json.dump(got, f, indent=1, sort_keys=True)
+            f.write('\n')
+        print(f'wrote {len(got)} hashes to {os.path.relpath(HASHES, ROOT)}')
+        return 0
+    with open(HASHES, encoding='utf-8') as f:
+        want = json.load(f)
+    bad = [(k, want.get(k), got.get(k)) for k in sorted(set(want) | set(got)) if want.get(k) != got.get(k)]
+    for k, w, g in bad:
+        print(f'differs: {k}: stored {w}, now {g}')
+    print(f'{len(want) - len([b for b in bad if b[1] is not None])} of {len(want)} stored hashes match' + ('' if not bad else f'; {len(bad)} differ'))
+    return 1 if bad else 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
