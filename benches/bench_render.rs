@@ -18,9 +18,11 @@ use heliar::io::frames::Frame;
 use heliar::render::occluder::Occluder;
 use heliar::render::volume::{OPEN_CAP_OFFSET_M, Parts, build};
 use heliar::render::volume_compute::ComputeVolumes;
-use heliar::render::{Builder, Compositor, CompositorConfig, FrameLighting, Gpu, GpuOptions, PassReport, SceneParts, VideoFrame};
+use heliar::lighting::Lighting;
+use heliar::render::{Builder, Compositor, CompositorConfig, PassReport, SceneParts, VideoFrame};
+use heliar::gpu::{Gpu, GpuOptions};
 use heliar::scene::Scene;
-use heliar::scene::camera::Camera;
+use heliar::camera::Camera;
 use std::hint::black_box;
 use std::path::Path;
 use std::sync::Arc;
@@ -60,12 +62,12 @@ fn video_at(scene: &Scene, w: u32, h: u32) -> VideoFrame {
     VideoFrame { width: w, height: h, rgba }
 }
 
-fn sun(k: u32) -> FrameLighting {
+fn sun(k: u32) -> Lighting {
     // Two sun directions 0.1° apart (more than the reuse tolerance).
     let a = (0.1f32 * k as f32).to_radians();
     let base = Vec3::new(-0.486, 0.756, 0.437).normalize();
     let d = Vec3::new(base.x * a.cos() - base.z * a.sin(), base.y, base.x * a.sin() + base.z * a.cos());
-    FrameLighting { sun_dir: d, above_horizon: true, pd: Vec3::new(3.2, 3.0, 2.7), pa: Vec3::new(0.55, 0.62, 0.8) }
+    Lighting { sun_dir: d, above_horizon: true, pd: Vec3::new(3.2, 3.0, 2.7), pa: Vec3::new(0.55, 0.62, 0.8) }
 }
 
 type Stage = fn(&PassReport) -> f64;
@@ -222,8 +224,8 @@ fn bench_volume_builders(c: &mut Criterion) {
 
 fn bench_transfer(c: &mut Criterion) {
     use heliar::geometry::ambient::TransportQuality;
-    use heliar::render::camera::Canvas;
-    use heliar::render::transfer::{ObjectTransfer, TRANSFER_BOUNCES, TRANSFER_PATHS, TransferScene};
+    use heliar::gpu::canvas::Canvas;
+    use heliar::render::object_transfer::{ObjectTransfer, TRANSFER_BOUNCES, TRANSFER_PATHS, TransferScene};
     let scene = courtyard();
     let statue = &scene.virtual_objects[0].mesh;
     let torus = torus(Vec3::new(-1.9, 0.7, 0.0), 0.5, 0.18, 250, 200);

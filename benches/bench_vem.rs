@@ -5,14 +5,14 @@
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use heliar::io::frames::{Frame, FrameData, Linearizer, Response};
 use heliar::vem::cluster::{cluster_lights, cluster_radius, DEFAULT_CF};
-use heliar::vem::fisheye::FisheyeCamera;
-use heliar::vem::pattern::{Pattern, sample};
+use heliar::camera::Camera;
+use heliar::vem::sampling::pattern::{Pattern, sample};
 use heliar::vem::polar::PolarMap;
 use heliar::vem::regions::{RegionLists, RegionSet};
-use heliar::vem::resample::{Projection, Resampler};
+use heliar::vem::capture::resample::{Projection, Resampler};
 use heliar::vem::sampling::{PolarDistribution, SamplerKind};
-use heliar::vem::synth::{RATE_HZ, outdoor, render_fisheye, render_polar};
-use heliar::vem::temporal::{FirDesign, LightFilter};
+use heliar::vem::eval::synth::{RATE_HZ, outdoor, render_fisheye, render_polar};
+use heliar::vem::fir::{FirDesign, LightFilter};
 use heliar::vem::{Decomposer, Light, VemConfig, lights_of_map};
 use std::hint::black_box;
 
@@ -74,7 +74,7 @@ fn bench_parts(c: &mut Criterion) {
 }
 
 fn bench_input(c: &mut Criterion) {
-    let cam = FisheyeCamera::equidistant_up(512, 180.0);
+    let cam = Camera::equidistant_up(512, 180.0);
     let img = render_fisheye(&outdoor(0, RATE_HZ), &cam, 1);
     let frame = Frame { width: 512, height: 512, data: FrameData::Hdr(img) };
     let lin = Linearizer::new(&Response::Linear, 1.0, 1.0, None);

@@ -8,11 +8,11 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use glam::{DVec3, Vec3};
 use heliar::geometry::{Material, Mesh};
 use heliar::io::image::LinearImage;
-use heliar::render::{Gpu, GpuOptions};
-use heliar::scene::camera::{Camera, Intrinsics, Pose};
-use heliar::vem::gpu::{VemLights, VemRenderConfig, VemRenderer};
+use heliar::gpu::{Gpu, GpuOptions};
+use heliar::camera::{Camera, Intrinsics, Pose};
+use heliar::render::vem::{VemLights, VemRenderConfig, VemRenderer};
 use heliar::vem::polar::PolarMap;
-use heliar::vem::synth::{RATE_HZ, outdoor, render_polar};
+use heliar::vem::eval::synth::{RATE_HZ, outdoor, render_polar};
 use heliar::vem::{Decomposer, VemConfig};
 use std::hint::black_box;
 use std::sync::Arc;
@@ -32,7 +32,7 @@ fn bench_vem_frame(c: &mut Criterion) {
     eprintln!("GPU: {}", gpu.describe());
     let (w, h) = (320u32, 240u32);
     let camera = Camera {
-        intrinsics: Intrinsics { width: w, height: h, fx: 300.0, fy: 300.0, cx: 159.5, cy: 119.5, distortion: [0.0; 5] },
+        intrinsics: Intrinsics::brown_conrady(w, h, 300.0, 300.0, 159.5, 119.5, [0.0; 5]),
         pose: Pose::look_at(DVec3::new(0.0, 1.9, 1.9), DVec3::new(0.0, 0.35, 0.0), DVec3::Y).expect("pose"),
     };
     let object = torus(Vec3::new(0.0, 0.35, 0.0), 0.8, 0.35, 100, 100);

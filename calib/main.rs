@@ -10,9 +10,9 @@ mod ui;
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use glam::DVec2;
-use heliar::calib::Rgb8;
-use heliar::calib::chessboard::{calibrate_fisheye, calibrate_pinhole, detect_corners};
-use heliar::calib::pose::solve_pose;
+use heliar::opencv_calib::Rgb8;
+use heliar::opencv_calib::chessboard::{calibrate_fisheye, calibrate_pinhole, detect_corners};
+use heliar::opencv_calib::pose::solve_pose;
 use heliar::scene::Scene;
 use ops::intrinsics::ViewSource;
 use std::path::PathBuf;
@@ -165,7 +165,7 @@ fn pose(a: PoseArgs) -> Result<()> {
         eprintln!("warning: {warning}");
     }
     if let Some(img_path) = &a.image {
-        let cam = heliar::scene::camera::Camera { intrinsics: k.clone(), pose: fit.pose() };
+        let cam = heliar::camera::Camera { intrinsics: k.clone(), pose: fit.pose() };
         let out = a.overlay.clone().unwrap_or_else(|| a.pairs.with_extension("overlay.png"));
         let mut im = image::open(img_path).with_context(|| format!("reading {}", img_path.display()))?.to_rgb8();
         let outline = ops::pose::project_outline(&cam, &ops::pose::outline_edges(&scene.proxy));
@@ -261,8 +261,8 @@ fn hdr(a: HdrArgs) -> Result<()> {
     let merged = match &a.fisheye {
         None => merged,
         Some(calib) => {
-            let fe = heliar::vem::calib::FisheyeCalib::load(calib)?;
-            let lens = &fe.camera.lens;
+            let fe = heliar::vem::capture::lens_file::FisheyeCalib::load(calib)?;
+            let lens = &fe.camera.intrinsics;
             if a.back.len() != a.images.len() {
                 bail!("--back has {} exposures but --images has {}: give the same brackets for both shots", a.back.len(), a.images.len());
             }
@@ -277,7 +277,7 @@ fn hdr(a: HdrArgs) -> Result<()> {
             }
             let (back, _) = ops::hdr::merge(&back_imgs, &a.times, reflection).context("merging the back shot")?;
             let project = |d: glam::DVec3| lens.project(d).map(|uv| (uv.x, uv.y));
-            let pano = heliar::calib::hdr::stitch_fisheye_pair(&merged, &back, fe.camera.world_from_camera, a.width, &project);
+            let pano = heliar::opencv_calib::hdr::stitch_fisheye_pair(&merged, &back, fe.camera.pose.rotation, a.width, &project);
             eprintln!("stitched front and back into a {}×{} equirect map", a.width, a.width / 2);
             pano
         }
@@ -343,11 +343,11 @@ struct PhotometricArgs {
 }
 
 fn photometric(a: PhotometricArgs) -> Result<()> {
-    use heliar::vem::photometric::LogResponse;
+    use heliar::vem::capture::photometric::LogResponse;
     if !(a.code_max.is_finite() && a.code_max > 0.0) {
         bail!("--code-max {}: must be positive", a.code_max);
     }
-    let patches = heliar::vem::calib::read_patches(&a.patches, a.code_max)?;
+    let patches = heliar::vem::capture::lens_file::read_patches(&a.patches, a.code_max)?;
     let (fit, report) = LogResponse::fit(&patches).map_err(|m| anyhow::anyhow!("{}: {m}", a.patches.display()))?;
     let v = serde_json::json!({"a": fit.a, "b": fit.b, "report": report, "dynamic_range_decades": (1.0 / fit.b) / std::f64::consts::LN_10});
     println!("{}", serde_json::to_string_pretty(&v)?);
@@ -366,7 +366,7 @@ fn photometric(a: PhotometricArgs) -> Result<()> {
         // Validate the edited file before it replaces the old one.
         let tmp = calib.with_file_name(format!(".{}.check-{}.toml", calib.file_stem().unwrap_or_default().to_string_lossy(), std::process::id()));
         std::fs::write(&tmp, doc.to_string()).with_context(|| format!("writing {}", tmp.display()))?;
-        let checked = heliar::vem::calib::FisheyeCalib::load(&tmp);
+        let checked = heliar::vem::capture::lens_file::FisheyeCalib::load(&tmp);
         std::fs::remove_file(&tmp).ok();
         checked.with_context(|| format!("the edited {} would not load", calib.display()))?;
         edit::write_atomic(calib, doc.to_string().as_bytes())?;

@@ -32,7 +32,7 @@
 //!   `φ = atan2(d.x, −d.z)` and `θ = acos(d.y)`; column coordinate `x = (φ / 2π + ½) · W` and row
 //!   coordinate `y = θ / π · H`, texel centres at `+½`. Row 0 is the zenith, the centre column
 //!   looks along `−Z` (north by default) and columns grow toward `+X` (east by default). One pair of
-//!   functions, [`envmap::texel_from_dir`] and [`envmap::dir_from_texel`], implements this; all
+//!   functions, [`geometry::equirect::texel_from_dir`] and [`geometry::equirect::dir_from_texel`], implements this; all
 //!   other code calls them.
 //!
 //! ## Radiometry
@@ -55,15 +55,18 @@
 //!
 //! Proxy surfaces are two-sided: a surface seen from either side has its normal facing the viewer.
 
-#[cfg(feature = "opencv")]
-pub mod calib;
+pub mod camera;
 pub mod envmap;
 pub mod estimate;
 pub mod geometry;
+pub mod gpu;
 pub mod io;
 pub mod irradiance;
+pub mod lighting;
 #[cfg(feature = "opencv")]
 pub mod live;
+#[cfg(feature = "opencv")]
+pub mod opencv_calib;
 pub mod pipeline;
 pub mod render;
 pub mod report;

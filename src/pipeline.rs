@@ -15,8 +15,9 @@ use crate::envmap::bake::{Baked, Progress};
 use crate::estimate::{Estimator, FrameEstimate, Status};
 use crate::geometry::raycast::RayScene;
 use crate::io::frames::{Frame, Linearizer};
-use crate::render::probes::{ProbeSource, UniformSky, VolumeProbes};
-use crate::render::{Compositor, FrameLighting, PassReport, RenderedFrame, VideoFrame};
+use crate::irradiance::sources::{ProbeSource, UniformSky, VolumeProbes};
+use crate::lighting::Lighting;
+use crate::render::{Compositor, PassReport, RenderedFrame, VideoFrame};
 use crate::scene::Scene;
 use glam::Vec3;
 use serde::Serialize;
@@ -53,7 +54,7 @@ pub struct FrameRecord {
     /// The estimator's output.
     pub estimate: FrameEstimate,
     /// The lighting the compositor used.
-    pub lighting: FrameLighting,
+    pub lighting: Lighting,
     /// The relight hook.
     pub relight: RelightReport,
     /// Estimation time, ms.
@@ -64,13 +65,13 @@ pub struct FrameRecord {
 
 /// The lighting the compositor uses for an estimate: the smoothed values, else the frame's own,
 /// else none (a frame the estimator could not use).
-pub fn lighting_of(e: &FrameEstimate) -> FrameLighting {
+pub fn lighting_of(e: &FrameEstimate) -> Lighting {
     let v = |a: [f64; 3]| Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
     let (pd, pa) = match (&e.smoothed, e.pd, e.pa) {
         (Some(s), _, _) => (v(s.pd), v(s.pa)),
         (None, pd, pa) => (pd.map(v).unwrap_or(Vec3::ZERO), pa.map(v).unwrap_or(Vec3::ZERO)),
     };
-    FrameLighting { sun_dir: Vec3::from(e.sun.dir_world), above_horizon: e.sun.above_horizon, pd, pa }
+    Lighting { sun_dir: Vec3::from(e.sun.dir_world), above_horizon: e.sun.above_horizon, pd, pa }
 }
 
 /// Builds the probe source `ambient` asks for. `bake` supplies the scene's bake (cached or
@@ -143,7 +144,7 @@ impl Pipeline {
         let source = self.probes.name();
         let relight = if !self.relit_once || estimate.relight {
             let t = std::time::Instant::now();
-            let grid = self.probes.relight(&estimate, lighting.pd, lighting.pa);
+            let grid = self.probes.relight(&lighting);
             self.compositor.set_probes(grid);
             self.relights += 1;
             let reason = if !self.relit_once { "first frame".to_owned() } else { format!("{:?}", estimate.change) };

@@ -3,9 +3,9 @@
 #![cfg(feature = "opencv")]
 
 use glam::{DMat3, DVec3};
-use heliar::calib::chessboard::{Board, render_board};
+use heliar::opencv_calib::chessboard::{Board, render_board};
 use heliar::scene::Scene;
-use heliar::scene::camera::{Camera, Pose};
+use heliar::camera::{Camera, Pose};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -206,7 +206,7 @@ fn hdr_from_bracketed_files() {
 #[test]
 fn fisheye_pair_hdr_and_photometric_fit() {
     use heliar::io::image::{LinearImage, srgb_u8_from_linear};
-    use heliar::vem::calib::FisheyeCalib;
+    use heliar::vem::capture::lens_file::FisheyeCalib;
     let tmp = std::env::temp_dir().join(format!("heliar-calib-fisheye-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&tmp);
     std::fs::create_dir_all(&tmp).unwrap();
@@ -229,12 +229,12 @@ fn fisheye_pair_hdr_and_photometric_fit() {
     };
     let times = [1.0f32 / 30.0, 1.0 / 8.0, 1.0 / 2.0];
     let shot = |world_from_cam: DMat3, t: f32, path: &Path| {
-        let img = heliar::calib::Rgb8 {
+        let img = heliar::opencv_calib::Rgb8 {
             width: 200,
             height: 200,
             data: (0..200u32 * 200)
                 .flat_map(|i| {
-                    let d = fe.camera.lens.unproject(glam::DVec2::new((i % 200) as f64, (i / 200) as f64));
+                    let d = fe.camera.intrinsics.ray(glam::DVec2::new((i % 200) as f64, (i / 200) as f64));
                     let l = d.map(|d| radiance(world_from_cam * d)).unwrap_or([0.0; 3]);
                     l.map(|v| srgb_u8_from_linear(0.6 * t * v))
                 })
@@ -242,7 +242,7 @@ fn fisheye_pair_hdr_and_photometric_fit() {
         };
         image::save_buffer(path, &img.data, 200, 200, image::ExtendedColorType::Rgb8).unwrap();
     };
-    let front_rot = fe.camera.world_from_camera;
+    let front_rot = fe.camera.pose.rotation;
     let back_rot = front_rot * DMat3::from_rotation_y(std::f64::consts::PI).transpose();
     let (mut fronts, mut backs) = (Vec::new(), Vec::new());
     for (i, t) in times.iter().enumerate() {
@@ -266,7 +266,7 @@ fn fisheye_pair_hdr_and_photometric_fit() {
     let mut pairs = Vec::new();
     for y in 6..58 {
         for x in 0..128 {
-            let d = heliar::envmap::dir_from_texel_centre(x, y, 128, 64).as_dvec3();
+            let d = heliar::geometry::equirect::dir_from_texel_centre(x, y, 128, 64).as_dvec3();
             let (got, want) = (pano.get(x, y), radiance(d));
             ratios.push((got[2] / want[2]) as f64);
             pairs.push((got, want));

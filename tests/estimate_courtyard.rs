@@ -3,7 +3,7 @@
 //! patch, lens distortion and noise, and in the LDR variant sRGB quantisation and clipping.
 
 use heliar::estimate::{Estimator, Status};
-use heliar::estimate::temporal::ChangeReason;
+use heliar::estimate::smoother::ChangeReason;
 use heliar::geometry::raycast::RayScene;
 use heliar::io::frames::Frame;
 use heliar::report::lighting_error;

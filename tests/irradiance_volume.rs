@@ -5,12 +5,13 @@ mod common;
 
 use glam::{UVec3, Vec3};
 use heliar::envmap::bake::{Baked, BakeInfo, SKY, bake, bake_cached};
-use heliar::envmap::relight::{Lighting, RelightConfig, Relighter};
+use heliar::lighting::Lighting;
+use heliar::envmap::relight::{RelightConfig, Relighter};
 use heliar::geometry::Mesh;
 use heliar::geometry::raycast::RayScene;
 use heliar::geometry::sampling::sphere_fibonacci;
 use heliar::io::image::{ExrPrecision, LinearImage};
-use heliar::irradiance::transfer::{LinearBasis, ProbeTransfer, brute_force_irradiance};
+use heliar::irradiance::probe_transfer::{LinearBasis, ProbeTransfer, brute_force_irradiance};
 use heliar::scene::Scene;
 use rand::{Rng, SeedableRng, rngs::SmallRng};
 use std::path::Path;
@@ -31,7 +32,7 @@ fn v3(a: [f64; 3]) -> Vec3 {
 }
 
 fn capture_lighting(b: &Baked) -> Lighting {
-    Lighting { sun_dir: Vec3::from(b.info.capture_sun_dir), sun_up: true, pd: v3(b.info.capture_pd), pa: v3(b.info.capture_pa) }
+    Lighting { sun_dir: Vec3::from(b.info.capture_sun_dir), above_horizon: true, pd: v3(b.info.capture_pd), pa: v3(b.info.capture_pa) }
 }
 
 #[test]
@@ -53,7 +54,7 @@ fn uniform_sky_without_geometry_closed_form() {
     };
     let ray = Arc::new(RayScene::new(Mesh::default()));
     let mut relighter = Relighter::new(&baked, ray.clone(), RelightConfig::default());
-    let lighting = Lighting { sun_dir: Vec3::new(0.3, 0.8, 0.2).normalize(), sun_up: true, pd: Vec3::splat(3.0), pa: Vec3::new(0.5, 0.6, 0.8) };
+    let lighting = Lighting { sun_dir: Vec3::new(0.3, 0.8, 0.2).normalize(), above_horizon: true, pd: Vec3::splat(3.0), pa: Vec3::new(0.5, 0.6, 0.8) };
     relighter.update_sun(lighting.sun_dir);
     let transfer = ProbeTransfer::build(Vec3::ZERO, Vec3::splat(2.0), 1.0, &baked, &ray, 1024);
     assert_eq!(transfer.dims(), UVec3::splat(3));
@@ -129,7 +130,7 @@ fn relit_sky_is_the_ambient_colour_and_the_sun_is_gone() {
     let l = capture_lighting(b);
     r.update_sun(l.sun_dir);
     let relit = r.relight(&l);
-    let sun_texel = heliar::envmap::texel_index(l.sun_dir, b.width, b.height);
+    let sun_texel = heliar::geometry::equirect::texel_index(l.sun_dir, b.width, b.height);
     assert_eq!(b.node[sun_texel], SKY);
     let sky = l.pa / std::f32::consts::PI;
     for i in (0..b.node.len()).filter(|&i| b.node[i] == SKY) {
@@ -288,7 +289,7 @@ fn probes_inside_the_wall_are_invalid_and_a_residual_sun_never_makes_irradiance_
     let l = capture_lighting(b);
     r.update_sun(l.sun_dir);
     let mut relit = r.relight(&l);
-    let t0 = heliar::envmap::texel_index(Vec3::new(0.0, 0.3, -1.0).normalize(), b.width, b.height);
+    let t0 = heliar::geometry::equirect::texel_index(Vec3::new(0.0, 0.3, -1.0).normalize(), b.width, b.height);
     assert_ne!(b.node[t0], SKY);
     for dy in 0..3 {
         for dx in 0..3 {

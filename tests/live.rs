@@ -12,8 +12,9 @@ use heliar::live::source::{CaptureStatus, FrameSource};
 use heliar::live::{Capture, CaptureOptions, FrameClock, LatestSlot, LiveApp, SourceState, TURNED_OFF};
 use heliar::pipeline::Pipeline;
 use heliar::render::frame::pass;
-use heliar::render::probes::UniformSky;
-use heliar::render::{Compositor, CompositorConfig, Gpu, GpuOptions};
+use heliar::irradiance::sources::UniformSky;
+use heliar::render::{Compositor, CompositorConfig};
+use heliar::gpu::{Gpu, GpuOptions};
 use heliar::scene::Scene;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -363,7 +364,7 @@ fn the_vem_panel_decomposes_with_the_slider_s_light_count() {
 #[test]
 fn the_ambient_source_switches_between_the_irradiance_volume_and_the_uniform_sky() {
     use heliar::live::AmbientChoice;
-    use heliar::render::probes::VolumeProbes;
+    use heliar::irradiance::sources::VolumeProbes;
     // A scratch copy without sequences: the bake is cached into the scene folder.
     let src = bundled();
     let dst = std::env::temp_dir().join(format!("heliar-live-ambient-{}", std::process::id()));

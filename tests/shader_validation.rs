@@ -1,7 +1,7 @@
 //! Every WGSL file under `shaders/` parses and validates with naga (includes resolved), and every
 //! file on disk is embedded in the binary, so a shader typo fails `cargo test`, not a user's run.
 
-use heliar::render::shaders;
+use heliar::gpu::shaders;
 use std::path::{Path, PathBuf};
 
 fn wgsl_files(dir: &Path, out: &mut Vec<PathBuf>) {

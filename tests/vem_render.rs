@@ -1,4 +1,4 @@
-//! The GPU half of the VEM mode (`heliar::vem::gpu`) against independent CPU references:
+//! The GPU half of the VEM mode (`heliar::render::vem`) against independent CPU references:
 //! shading against `vem::glossy`'s reference shading at ray-traced surface points, the
 //! shadow-map atlas against ray casting, culling against no culling, tone mapping against
 //! `ToneParams::apply`, and the `dark` skip. Headless on whatever adapter wgpu opens.
@@ -12,8 +12,8 @@ use heliar::geometry::raycast::RayScene;
 use heliar::geometry::{Material, Mesh};
 use heliar::io::image::{LinearImage, srgb_u8_from_linear};
 use heliar::vem::glossy::{GlossyRegions, high_set, shade_glossy_all, shade_glossy_regions};
-use heliar::vem::gpu::{VemLights, VemRenderConfig, VemRenderer, pass};
-use heliar::vem::pattern::Pattern;
+use heliar::render::vem::{VemLights, VemRenderConfig, VemRenderer, pass};
+use heliar::vem::sampling::pattern::Pattern;
 use heliar::vem::polar::PolarMap;
 use heliar::vem::regions::{RegionLists, RegionSet};
 use heliar::vem::sampling::SamplerKind;
@@ -75,7 +75,7 @@ struct Traced {
     normal: Vec<Vec3>,
 }
 
-fn trace(camera: &heliar::scene::camera::Camera, receiver: &RayScene, objects: &[RayScene]) -> Traced {
+fn trace(camera: &heliar::camera::Camera, receiver: &RayScene, objects: &[RayScene]) -> Traced {
     let (w, h) = (camera.intrinsics.width, camera.intrinsics.height);
     let mut t = Traced { kind: vec![0; (w * h) as usize], tri: vec![u32::MAX; (w * h) as usize], point: vec![Vec3::ZERO; (w * h) as usize], normal: vec![Vec3::ZERO; (w * h) as usize] };
     for i in 0..(w * h) as usize {
@@ -120,7 +120,7 @@ fn lobes(base: Vec3, metallic: f32, roughness: f32, n: Vec3, v: Vec3, l: Vec3) -
     ((Vec3::ONE - fresnel) * c_diff / std::f32::consts::PI * nl, fresnel * d * vis * nl)
 }
 
-fn renderer(camera: &heliar::scene::camera::Camera, proxy: Option<&Mesh>, objects: &[&Mesh], cfg: VemRenderConfig) -> VemRenderer {
+fn renderer(camera: &heliar::camera::Camera, proxy: Option<&Mesh>, objects: &[&Mesh], cfg: VemRenderConfig) -> VemRenderer {
     VemRenderer::new(support::gpu(), camera, proxy, objects, cfg).expect("VEM renderer")
 }
 

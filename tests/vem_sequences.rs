@@ -3,16 +3,16 @@
 
 use heliar::io::frames::{Frame, FrameData, Linearizer, Response};
 use heliar::io::image::{ExrPrecision, LinearImage};
-use heliar::vem::calib::fisheye_toml;
-use heliar::vem::fisheye::FisheyeCamera;
-use heliar::vem::input::VemInput;
-use heliar::vem::metrics::{irradiance_error, motion, random_normals, reference_irradiance};
-use heliar::vem::pattern::Pattern;
-use heliar::vem::photometric::LogResponse;
+use heliar::vem::capture::lens_file::fisheye_toml;
+use heliar::camera::Camera;
+use heliar::vem::capture::input::VemInput;
+use heliar::vem::eval::metrics::{irradiance_error, motion, random_normals, reference_irradiance};
+use heliar::vem::sampling::pattern::Pattern;
+use heliar::vem::capture::photometric::LogResponse;
 use heliar::vem::polar::{IrradianceReference, PolarMap, luminance};
-use heliar::vem::resample::{Projection, Resampler};
+use heliar::vem::capture::resample::{Projection, Resampler};
 use heliar::vem::sampling::SamplerKind;
-use heliar::vem::synth::{self, Environment, RATE_HZ, indoor_lamp, outdoor, render_fisheye, render_polar};
+use heliar::vem::eval::synth::{self, Environment, RATE_HZ, indoor_lamp, outdoor, render_fisheye, render_polar};
 use heliar::vem::{Decomposer, VemConfig, lights_of_map};
 use std::path::PathBuf;
 
@@ -30,7 +30,7 @@ fn hdr(img: LinearImage) -> Frame {
 fn fisheye_frames_give_the_irradiance_of_the_sky() {
     // An HDR fisheye of the sunny and the clouded sky, through resampling and 300 lights, against
     // brute force over a fine polar rendering of the same analytic sky.
-    let cam = FisheyeCamera::equidistant_up(256, 180.0);
+    let cam = Camera::equidistant_up(256, 180.0);
     let mut rs = Resampler::new(&Projection::Fisheye(cam.clone()), 256, 256, 360, 90);
     let lin = Linearizer::new(&Response::Linear, 1.0, 1.0, None);
     let normals = random_normals(256, 21);
@@ -128,7 +128,7 @@ fn ldr_fisheye_with_a_log_response_fitted_from_gray_patches() {
         csv += &format!("{},{y},{}\n", code(*y), if i < 6 { "fit" } else { "check" });
     }
     std::fs::write(dir.join("patches.csv"), csv).unwrap();
-    let cam = FisheyeCamera::equidistant_up(160, 180.0);
+    let cam = Camera::equidistant_up(160, 180.0);
     let toml = fisheye_toml(&cam, "ldr test").replace("kind = \"linear\"", "kind = \"log\"\npatches = \"patches.csv\"\nsaturation = 1.0");
     std::fs::write(dir.join("fisheye.toml"), toml).unwrap();
     let room = indoor_lamp(0, RATE_HZ);
@@ -161,7 +161,7 @@ fn equirect_frames_in_files_give_the_lights_of_the_polar_map() {
     let dir = temp_dir("equirect");
     let sky = outdoor(2, RATE_HZ);
     let eq = LinearImage::from_fn(720, 360, |x, y| {
-        let d = heliar::envmap::dir_from_texel_centre(x, y, 720, 360);
+        let d = heliar::geometry::equirect::dir_from_texel_centre(x, y, 720, 360);
         if d.y < 0.0 { [0.05; 3] } else { sky.radiance(d) }
     });
     eq.write_exr(&dir.join("sky.exr"), ExrPrecision::Float).unwrap();

@@ -3,8 +3,8 @@
 //! `cargo test --test vem_stiff -- --nocapture` prints each case's numbers.
 
 use glam::Vec3;
-use heliar::vem::metrics::{irradiance_error, random_normals, reference_irradiance};
-use heliar::vem::pattern::Pattern;
+use heliar::vem::eval::metrics::{irradiance_error, random_normals, reference_irradiance};
+use heliar::vem::sampling::pattern::Pattern;
 use heliar::vem::polar::{IrradianceReference, PolarMap, luminance};
 use heliar::vem::sampling::SamplerKind;
 use heliar::vem::{Decomposer, Light, Status, VemConfig, irradiance, lights_of_map};

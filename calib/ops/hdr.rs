@@ -2,8 +2,8 @@
 //! reflection, the merge, and the EXR and response files.
 
 use anyhow::{Context, Result, bail};
-use heliar::calib::Rgb8;
-use heliar::calib::hdr::{merge_debevec, remove_reflection};
+use heliar::opencv_calib::Rgb8;
+use heliar::opencv_calib::hdr::{merge_debevec, remove_reflection};
 use heliar::io::image::{ExrPrecision, LinearImage};
 use std::path::{Path, PathBuf};
 

@@ -2,8 +2,8 @@
 //! file it writes.
 
 use anyhow::{Context, Result, bail};
-use heliar::calib::Rgb8;
-use heliar::calib::chessboard::{Board, FisheyeCalibration, PinholeCalibration};
+use heliar::opencv_calib::Rgb8;
+use heliar::opencv_calib::chessboard::{Board, FisheyeCalibration, PinholeCalibration};
 use heliar::io::frames::{Frame, FrameData};
 use std::path::{Path, PathBuf};
 

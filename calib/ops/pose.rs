@@ -3,10 +3,10 @@
 
 use anyhow::{Context, Result, bail};
 use glam::{DVec2, DVec3};
-use heliar::calib::pose::PoseFit;
+use heliar::opencv_calib::pose::PoseFit;
 use heliar::geometry::Mesh;
 use heliar::scene::Scene;
-use heliar::scene::camera::{Camera, Intrinsics};
+use heliar::camera::{Camera, Intrinsics};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -205,7 +205,7 @@ mod tests {
         assert_eq!((p2, w2), (px, world));
         let e = parse_pairs("u,v,x,y,z\n1,2,3,4,5\n1,2,3\n", "pairs.csv").unwrap_err().to_string();
         assert!(e.contains("pairs.csv: line 3"), "{e}");
-        let k = Intrinsics { width: 10, height: 8, fx: 10.0, fy: 10.0, cx: 5.0, cy: 4.0, distortion: [0.0; 5] };
+        let k = Intrinsics::brown_conrady(10, 8, 10.0, 10.0, 5.0, 4.0, [0.0; 5]);
         assert!(check_inside(&k, &[DVec2::new(9.4, 7.4)], "x").is_ok());
         assert!(check_inside(&k, &[DVec2::new(1.0, 1.0), DVec2::new(10.0, 1.0)], "x").unwrap_err().to_string().contains("pair 2"));
         assert!(check_inside(&k, &[DVec2::new(f64::NAN, 1.0)], "x").is_err());

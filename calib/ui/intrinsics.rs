@@ -7,7 +7,7 @@ use crate::ops::intrinsics::{self as ops, ViewSource};
 use anyhow::{Context, Result, bail};
 use egui::{Color32, Stroke};
 use glam::DVec2;
-use heliar::calib::chessboard::{Board, FisheyeCalibration, PinholeCalibration, calibrate_fisheye, calibrate_pinhole, detect_corners};
+use heliar::opencv_calib::chessboard::{Board, FisheyeCalibration, PinholeCalibration, calibrate_fisheye, calibrate_pinhole, detect_corners};
 use opencv::core::{Point2f, Vector};
 use std::path::{Path, PathBuf};
 
@@ -20,7 +20,7 @@ pub struct BoardView {
     pub label: String,
     /// Size in pixels (0×0 when unreadable).
     pub size: (u32, u32),
-    preview: Option<heliar::calib::Rgb8>,
+    preview: Option<heliar::opencv_calib::Rgb8>,
     /// Detected inner corners (pixels), `None` when the board was not found.
     pub corners: Option<Vec<[f32; 2]>>,
     /// Why the view cannot be used (unreadable, wrong size).
@@ -172,8 +172,8 @@ impl IntrinsicsTab {
             }
             let (w, h) = d.size.context("no readable views")?;
             let views: Vec<Vec<[f32; 2]>> = self.views.iter().filter(|v| v.use_it && v.problem.is_none()).filter_map(|v| v.corners.clone()).collect();
-            if views.len() < heliar::calib::chessboard::MIN_VIEWS {
-                bail!("{} views with the board in use; at least {} are needed (vary the board's tilt and position)", views.len(), heliar::calib::chessboard::MIN_VIEWS);
+            if views.len() < heliar::opencv_calib::chessboard::MIN_VIEWS {
+                bail!("{} views with the board in use; at least {} are needed (vary the board's tilt and position)", views.len(), heliar::opencv_calib::chessboard::MIN_VIEWS);
             }
             let (board, fisheye, k3) = (d.board, self.fisheye, self.k3);
             self.work = Some(Work::Calibrate(Job::spawn("Calibrating", ctx, move |_| calibrate(&views, board, (w, h), fisheye, k3))));

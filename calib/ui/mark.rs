@@ -10,7 +10,7 @@ use anyhow::{Context, Result, bail};
 use egui::{Color32, Pos2, Rect, Vec2};
 use glam::{DVec2, DVec3};
 use heliar::io::image::LinearImage;
-use heliar::scene::camera::View;
+use heliar::camera::View;
 use rayon::prelude::*;
 
 /// Node maps (for tints and hovering) have at most this many cells; larger images are sampled.
@@ -90,7 +90,7 @@ impl MarkTab {
         if !(uv.x >= -0.5 && uv.y >= -0.5 && uv.x <= width as f64 - 0.5 && uv.y <= height as f64 - 0.5) {
             bail!("texel {:.1},{:.1} is outside the {width}×{height} map", uv.x, uv.y);
         }
-        let d = heliar::envmap::dir_from_texel(uv.x as f32 + 0.5, uv.y as f32 + 0.5, width, height).as_dvec3();
+        let d = heliar::geometry::equirect::dir_from_texel(uv.x as f32 + 0.5, uv.y as f32 + 0.5, width, height).as_dvec3();
         ops::node_along(&state.scene, &state.rays, centre, d).with_context(|| format!("texel {:.0},{:.0} looks at the sky, not at proxy geometry", uv.x, uv.y))
     }
 

@@ -4,7 +4,7 @@
 use super::SceneState;
 use egui::{Color32, Pos2, Sense, Stroke, Vec2};
 use glam::DVec3;
-use heliar::scene::camera::{Camera, Intrinsics, Pose};
+use heliar::camera::{Camera, Intrinsics, Pose};
 use std::collections::HashMap;
 
 /// A pointer closer than this (screen points) to a projected vertex picks it.
@@ -93,7 +93,7 @@ impl ProxyPicker {
         let (cp, sp) = (self.pitch.cos(), self.pitch.sin());
         let eye = self.target + self.distance * DVec3::new(cp * self.yaw.sin(), sp, cp * self.yaw.cos());
         let f = 0.5 * h as f64 / HALF_FOV_RAD.tan();
-        let intrinsics = Intrinsics { width: w as u32, height: h as u32, fx: f, fy: f, cx: w as f64 / 2.0 - 0.5, cy: h as f64 / 2.0 - 0.5, distortion: [0.0; 5] };
+        let intrinsics = Intrinsics::brown_conrady(w as u32, h as u32, f, f, w as f64 / 2.0 - 0.5, h as f64 / 2.0 - 0.5, [0.0; 5]);
         Some(Camera { intrinsics, pose: Pose::look_at(eye, self.target, DVec3::Y)? })
     }
 

@@ -10,8 +10,8 @@ use crate::ops::pose as ops;
 use anyhow::{Context, Result, bail};
 use egui::{Color32, Stroke};
 use glam::{DVec2, DVec3};
-use heliar::calib::pose::{PoseFit, solve_pose};
-use heliar::scene::camera::Camera;
+use heliar::opencv_calib::pose::{PoseFit, solve_pose};
+use heliar::camera::Camera;
 use std::path::Path;
 
 /// A click closer than this (screen points) to an image point selects or drags it.

@@ -2,7 +2,7 @@
 
 use super::view::{Picture, srgb8_from_linear};
 use anyhow::{Context, Result, bail};
-use heliar::calib::Rgb8;
+use heliar::opencv_calib::Rgb8;
 use heliar::geometry::raycast::RayScene;
 use heliar::io::image::LinearImage;
 use heliar::scene::Scene;

@@ -9,9 +9,9 @@ use egui::{Event, Modifiers, PointerButton, Pos2};
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use glam::{DMat3, DVec2, DVec3};
-use heliar::calib::chessboard::{Board, render_board};
+use heliar::opencv_calib::chessboard::{Board, render_board};
 use heliar::scene::Scene;
-use heliar::scene::camera::{Camera, Pose};
+use heliar::camera::{Camera, Pose};
 use std::path::{Path, PathBuf};
 
 fn bundled() -> PathBuf {
@@ -168,7 +168,7 @@ fn clicking_the_courtyard_frame_marks_the_node_under_it() {
     h.run();
     let t_env = h.state().mark.view.last.unwrap();
     let centre = DVec3::from(truth.manifest.envmap.as_ref().unwrap().capture_center);
-    let (x, y) = heliar::envmap::texel_from_dir((DVec3::new(-2.8, 1.2, 0.0) - centre).as_vec3(), t_env.size[0], t_env.size[1]);
+    let (x, y) = heliar::geometry::equirect::texel_from_dir((DVec3::new(-2.8, 1.2, 0.0) - centre).as_vec3(), t_env.size[0], t_env.size[1]);
     click_at(&mut h, t_env.screen_from_pixel(DVec2::new(x as f64 - 0.5, y as f64 - 0.5)));
     assert!(errors(&h.state().mark.messages).is_empty(), "{:?}", h.state().mark.messages);
     assert!(Scene::load(&dir).unwrap().proxy.nodes[wall].diffuse);

@@ -7,7 +7,7 @@
 
 use egui::{Color32, ColorImage, Pos2, Rect, Sense, Stroke, TextureHandle, TextureOptions, Vec2};
 use glam::DVec2;
-use heliar::calib::Rgb8;
+use heliar::opencv_calib::Rgb8;
 use heliar::io::image::{LinearImage, srgb_u8_from_linear};
 
 /// Textures larger than this (pixels per side) are shown downscaled; coordinates stay in full

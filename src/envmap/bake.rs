@@ -27,15 +27,15 @@
 //!    `bake.json` (settings, input hashes, counts, lighting at capture, timings). A bake whose
 //!    input hashes match `bake.json` is loaded instead of recomputed.
 
-use super::relight::RelightConfig;
+pub use crate::scene::settings::BakeConfig;
 use crate::estimate::{EstimateError, Estimator, Status};
-use crate::geometry::ambient::{TransportQuality, transport};
+use crate::geometry::ambient::transport;
 use crate::geometry::raycast::RayScene;
 use crate::geometry::sampling::sphere_fibonacci;
 use crate::io::IoError;
 use crate::io::frames::{Frame, FrameData, Linearizer, Response};
 use crate::io::image::{ExrPrecision, LinearImage};
-use crate::scene::camera::View;
+use crate::camera::View;
 use crate::scene::{AlbedoSource, Scene};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -55,47 +55,6 @@ pub const INSIDE_FRACTION: f32 = 0.5;
 const BAKE_FORMAT: u32 = 1;
 /// Node value of sky texels.
 pub const SKY: u32 = u32::MAX;
-
-/// `[bake]` settings in `scene.toml`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct BakeConfig {
-    /// Quality of the weighted-ambient map `c`.
-    pub ambient: TransportQuality,
-    /// Quality of the sun-bounce integral used by the albedo inversion.
-    pub bounce: TransportQuality,
-    /// Runtime relighting settings.
-    pub relight: RelightConfig,
-    /// Directions per probe of the irradiance-volume transfer.
-    pub probe_directions: usize,
-}
-
-impl Default for BakeConfig {
-    fn default() -> Self {
-        Self {
-            ambient: TransportQuality { paths: 256, max_bounces: 4 },
-            bounce: TransportQuality { paths: 128, max_bounces: 3 },
-            relight: RelightConfig::default(),
-            probe_directions: 1024,
-        }
-    }
-}
-
-impl BakeConfig {
-    /// Checks ranges; `Err((field, message))`.
-    pub fn validate(&self) -> Result<(), (&'static str, String)> {
-        if self.ambient.paths == 0 {
-            return Err(("ambient.paths", "must be positive".into()));
-        }
-        if self.bounce.paths == 0 {
-            return Err(("bounce.paths", "must be positive".into()));
-        }
-        if self.probe_directions < 16 {
-            return Err(("probe_directions", "must be at least 16".into()));
-        }
-        self.relight.validate().map_err(|(f, m)| (f, m))
-    }
-}
 
 /// Errors of the bake.
 #[derive(Debug, thiserror::Error)]

@@ -17,61 +17,18 @@
 //! with rayon.
 
 use super::bake::{Baked, SKY};
-use crate::geometry::ambient::{TransportQuality, transport};
+pub use crate::scene::settings::RelightConfig;
+use crate::lighting::Lighting;
+use crate::geometry::ambient::transport;
 use crate::geometry::raycast::RayScene;
 use crate::io::image::LinearImage;
 use glam::Vec3;
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
 
 /// Texels per parallel chunk of the relight loop.
 const CHUNK: usize = 8192;
-
-/// Runtime relighting settings (`[bake.relight]`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct RelightConfig {
-    /// Rebuild sun visibility and bounce when the sun has moved more than this, degrees.
-    pub sun_rebuild_deg: f64,
-    /// Include sun light bounced between proxy surfaces in the relit map.
-    pub sun_bounce: bool,
-    /// Quality of that bounce integral per texel.
-    pub bounce: TransportQuality,
-}
-
-impl Default for RelightConfig {
-    fn default() -> Self {
-        Self { sun_rebuild_deg: 0.5, sun_bounce: true, bounce: TransportQuality { paths: 64, max_bounces: 3 } }
-    }
-}
-
-impl RelightConfig {
-    /// Checks ranges; `Err((field, message))`.
-    pub fn validate(&self) -> Result<(), (&'static str, String)> {
-        if !(self.sun_rebuild_deg.is_finite() && self.sun_rebuild_deg >= 0.0) {
-            return Err(("relight.sun_rebuild_deg", "must be a non-negative number".into()));
-        }
-        if self.sun_bounce && self.bounce.paths == 0 {
-            return Err(("relight.bounce.paths", "must be positive when sun_bounce is on".into()));
-        }
-        Ok(())
-    }
-}
-
-/// The lighting of one moment.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Lighting {
-    /// Unit direction toward the sun, world frame.
-    pub sun_dir: Vec3,
-    /// Whether the sun is above the horizon (no direct light otherwise).
-    pub sun_up: bool,
-    /// Sun irradiance on a surface facing the sun (RGB).
-    pub pd: Vec3,
-    /// Sky irradiance on an unoccluded horizontal surface (RGB).
-    pub pa: Vec3,
-}
 
 /// A relit map as three channel planes.
 #[derive(Clone, Debug, PartialEq)]
@@ -225,7 +182,7 @@ impl Relighter {
         if out.rgb[0].len() != n {
             *out = RelitMap::new(self.width, self.height);
         }
-        let direct = self.sun.as_ref().filter(|_| lighting.sun_up).map(|s| &s.direct);
+        let direct = self.sun.as_ref().filter(|_| lighting.above_horizon).map(|s| &s.direct);
         for c in 0..3 {
             let (pa, pd) = (lighting.pa[c], if direct.is_some() { lighting.pd[c] } else { 0.0 });
             let amb = &self.ambient[c];

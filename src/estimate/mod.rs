@@ -20,14 +20,14 @@
 //! Thresholds are named constants or [`EstimatorConfig`] fields, documented where defined.
 
 pub mod pool;
+pub mod smoother;
 pub mod solve;
-pub mod temporal;
 
-use crate::geometry::ambient::TransportQuality;
+pub use crate::scene::settings::EstimatorConfig;
 use crate::geometry::raycast::RayScene;
 use crate::io::frames::{Frame, Linearizer, PixelState};
 use crate::scene::Scene;
-use crate::scene::camera::{Camera, View};
+use crate::camera::{Camera, View};
 use crate::sun::{GeoFrame, Observer, SunError, SunPosition, sun_position};
 use chrono::{DateTime, FixedOffset};
 use glam::Vec3;
@@ -36,7 +36,7 @@ use rand::{SeedableRng, rngs::SmallRng};
 use serde::{Deserialize, Serialize};
 use solve::{COND_CAP, ChannelFit, ChannelRows, HDR_NOISE_FLOOR_REL, LDR_NOISE_FLOOR_REL, robust_fit};
 use std::sync::Arc;
-use temporal::{ChangeDetector, ChangeReason, Smoother};
+use smoother::{ChangeDetector, ChangeReason, Smoother};
 
 /// Rec. 709 luminance weights, used to compare colour intensities.
 pub const LUMA: [f64; 3] = [0.2126, 0.7152, 0.0722];
@@ -46,102 +46,6 @@ const MIN_LIT_SAMPLES: usize = 5;
 /// sunlit or not) is clipped, its unclipped samples are dropped too: they are the darkest part of
 /// a partly saturated population (albedo texture, noise), so keeping them would bias the fit low.
 const CENSOR_FRACTION: f64 = 0.05;
-
-/// Estimator settings (`[estimator]` in `scene.toml`). Every field has a default.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct EstimatorConfig {
-    /// Pixels drawn per frame (Jensen: 500).
-    pub samples: usize,
-    /// Candidate pixels kept with precomputed `ρ, n, c` (the per-frame draws come from these).
-    pub pool_size: usize,
-    /// Pixels within this distance of a silhouette, crease, image border or shadow boundary are
-    /// not sampled.
-    pub edge_margin_px: u32,
-    /// Quality of the weighted-ambient integral `c`.
-    pub ambient: TransportQuality,
-    /// Quality of the sun-bounce integral.
-    pub bounce: TransportQuality,
-    /// Include the sun-bounce term `b·Pd` in the model.
-    pub sun_bounce: bool,
-    /// Rebuild sun visibility when the sun has moved more than this, degrees.
-    pub sun_rebuild_deg: f64,
-    /// Fewer usable samples than this give status `too_few_samples`.
-    pub min_samples: usize,
-    /// Condition numbers above this give status `sun_not_separable`. The condition number
-    /// bounds how much a relative error in the data (model error, not only noise) can grow in the
-    /// split: at 12, a 1% model error may move `Pd` or `Pa` by about 10%. Well-posed views measure
-    /// 1.5–8 (bundled courtyard ≈ 3–5; grazing sun ≈ 8).
-    pub max_condition: f64,
-    /// `Pd` below this fraction of `Pa` (luminance) gives status `no_direct_sun`.
-    pub no_sun_ratio: f64,
-    /// More than this fraction of drawn samples clipped gives status `saturated`.
-    pub saturated_fraction: f64,
-    /// Random-walk rate of the smoother, relative per √s (see [`temporal`]).
-    pub smoothing_rate_per_sqrt_s: f64,
-    /// Relative change of `Pd` or `Pa` that triggers a relight.
-    pub relight_threshold: f64,
-    /// Sun motion that triggers a relight, degrees.
-    pub relight_sun_deg: f64,
-    /// Seed of all random draws.
-    pub seed: u64,
-}
-
-impl Default for EstimatorConfig {
-    fn default() -> Self {
-        Self {
-            samples: 500,
-            pool_size: 4096,
-            edge_margin_px: 3,
-            ambient: TransportQuality { paths: 64, max_bounces: 4 },
-            bounce: TransportQuality { paths: 256, max_bounces: 3 },
-            sun_bounce: true,
-            sun_rebuild_deg: 0.25,
-            min_samples: 30,
-            max_condition: 12.0,
-            no_sun_ratio: 0.05,
-            saturated_fraction: 0.5,
-            smoothing_rate_per_sqrt_s: 0.1,
-            relight_threshold: 0.02,
-            relight_sun_deg: 0.5,
-            seed: 0,
-        }
-    }
-}
-
-impl EstimatorConfig {
-    /// Checks ranges; `Err((field, message))`.
-    pub fn validate(&self) -> Result<(), (&'static str, String)> {
-        if self.samples < 3 {
-            return Err(("samples", "must be at least 3".into()));
-        }
-        if self.pool_size < self.samples {
-            return Err(("pool_size", format!("must be at least samples ({})", self.samples)));
-        }
-        if self.ambient.paths == 0 {
-            return Err(("ambient.paths", "must be positive".into()));
-        }
-        if self.sun_bounce && self.bounce.paths == 0 {
-            return Err(("bounce.paths", "must be positive when sun_bounce is on".into()));
-        }
-        for (name, v) in [
-            ("sun_rebuild_deg", self.sun_rebuild_deg),
-            ("max_condition", self.max_condition),
-            ("no_sun_ratio", self.no_sun_ratio),
-            ("smoothing_rate_per_sqrt_s", self.smoothing_rate_per_sqrt_s),
-            ("relight_threshold", self.relight_threshold),
-            ("relight_sun_deg", self.relight_sun_deg),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err((name, format!("{v} must be a non-negative number")));
-            }
-        }
-        if !(self.saturated_fraction > 0.0 && self.saturated_fraction <= 1.0) {
-            return Err(("saturated_fraction", "must be in (0, 1]".into()));
-        }
-        Ok(())
-    }
-}
 
 /// How far a frame's fit can be trusted.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, PartialOrd, Ord)]
@@ -216,9 +120,9 @@ pub struct SampleCounts {
     pub inliers: usize,
 }
 
-/// RGB lighting.
+/// The sun and sky intensities of a fit (the value the smoother tracks).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct Lighting {
+pub struct Intensities {
     /// Sun irradiance on a surface facing the sun.
     pub pd: [f64; 3],
     /// Sky irradiance on an unoccluded horizontal surface.
@@ -255,7 +159,7 @@ pub struct FrameEstimate {
     /// Sample accounting.
     pub samples: SampleCounts,
     /// Lighting after temporal smoothing.
-    pub smoothed: Option<Lighting>,
+    pub smoothed: Option<Intensities>,
     /// True when later stages should relight.
     pub relight: bool,
     /// Why (or why not).
@@ -647,7 +551,7 @@ impl Estimator {
         }
         if let Some(s) = self.smoother.update(t_s, self.config.smoothing_rate_per_sqrt_s, meas) {
             self.last_smoothed = Some(s);
-            out.smoothed = Some(Lighting { pd: [s[0], s[1], s[2]], pa: [s[3], s[4], s[5]] });
+            out.smoothed = Some(Intensities { pd: [s[0], s[1], s[2]], pa: [s[3], s[4], s[5]] });
             out.change = self.detector.check(dir, s, self.config.relight_threshold, self.config.relight_sun_deg);
             out.relight = out.change != ChangeReason::Unchanged;
         }

@@ -19,7 +19,7 @@
 use super::EstimatorConfig;
 use crate::geometry::ambient::{TransportQuality, transport};
 use crate::geometry::raycast::RayScene;
-use crate::scene::camera::View;
+use crate::camera::View;
 use glam::Vec3;
 use rand::{SeedableRng, rngs::SmallRng, seq::index};
 use rayon::prelude::*;

@@ -1,5 +1,5 @@
 //! The glTF 2.0 metallic–roughness BRDF on the CPU, with importance sampling, for the path-traced
-//! integrals of the virtual objects ([`crate::render::transfer`]).
+//! integrals of the virtual objects ([`crate::render::object_transfer`]).
 //!
 //! # How it works
 //! The model is the one `shaders/common/brdf.wgsl` evaluates (glTF 2.0 specification,

@@ -10,6 +10,7 @@
 
 pub mod ambient;
 pub mod brdf;
+pub mod equirect;
 pub mod raycast;
 pub mod sampling;
 

@@ -5,7 +5,7 @@
 //! and says whether the pixel is clipped or invalid. The estimator linearises only the pixels it
 //! samples, so decoding stays the only per-frame cost that scales with the frame size.
 
-use super::{IoError, image::LinearImage, image::linear_from_srgb};
+use super::{IoError, image::LinearImage, image::linear_from_srgb, image::srgb_from_linear};
 use std::path::{Path, PathBuf};
 
 /// Pixel data of a decoded frame.
@@ -208,6 +208,51 @@ pub fn list_frame_files(dir: &Path) -> Result<Vec<PathBuf>, IoError> {
         .collect();
     files.sort();
     Ok(files)
+}
+
+/// Photometric calibration of a sequence's frames.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Photometry {
+    /// Response curve of LDR codes.
+    pub response: Response,
+    /// Camera linear value per unit scene radiance (LDR and HDR).
+    pub exposure: f32,
+    /// Fraction of the LDR code range treated as clipped.
+    pub saturation: f32,
+    /// HDR values at or above this are treated as clipped.
+    pub hdr_clip: Option<f32>,
+}
+
+impl Photometry {
+    /// Lookup tables for this calibration.
+    pub fn linearizer(&self) -> Linearizer {
+        Linearizer::new(&self.response, self.exposure, self.saturation, self.hdr_clip)
+    }
+}
+
+/// The normalised code in `[0, 1]` of a relative linear camera value, inverting `response`.
+pub fn code_from_linear(response: &Response, x: f32, channel: usize) -> f32 {
+    let x = if x.is_nan() { 0.0 } else { x.max(0.0) };
+    match response {
+        Response::Srgb => srgb_from_linear(x.min(1.0)),
+        Response::Linear => x.min(1.0),
+        Response::Gamma(g) => x.min(1.0).powf(1.0 / g),
+        Response::Table(t) => {
+            let col = |i: usize| t[i][channel];
+            let n = t.len();
+            if x <= col(0) {
+                return 0.0;
+            }
+            if x >= col(n - 1) {
+                return 1.0;
+            }
+            // First row at or above x (the table is monotone non-decreasing).
+            let hi = (0..n).find(|&i| col(i) >= x).unwrap_or(n - 1).max(1);
+            let (a, b) = (col(hi - 1), col(hi));
+            let f = if b > a { (x - a) / (b - a) } else { 0.0 };
+            ((hi - 1) as f32 + f) / (n - 1) as f32
+        }
+    }
 }
 
 #[cfg(test)]

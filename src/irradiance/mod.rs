@@ -5,8 +5,9 @@
 //! (already convolved with the clamped cosine, so `E(n) = Σ E_lm·Y_lm(n)`), a validity flag per
 //! probe, and trilinear interpolation that leaves invalid probes out.
 
+pub mod probe_transfer;
 pub mod sh;
-pub mod transfer;
+pub mod sources;
 
 use glam::{UVec3, Vec3};
 use sh::ShRgb;

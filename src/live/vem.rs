@@ -6,7 +6,7 @@
 //! The lights are not yet fed to the compositor (the VEM shaders and shadow-map atlas do not
 //! exist yet); the panel shows what the decomposition gives, live.
 
-use crate::vem::input::VemInput;
+use crate::vem::capture::input::VemInput;
 use crate::vem::polar::PolarMap;
 use crate::vem::{Decomposer, Light, VemConfig};
 use anyhow::{Context, Result};

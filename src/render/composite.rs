@@ -1,13 +1,13 @@
 //! Pass 6 (`shaders/composite.wgsl`): the output frame in the footage's pixel grid.
 //!
 //! Reads the footage (linear), the proxy data per pixel ([`super::receivers`]), the lens warp
-//! ([`super::camera`]) and the two canvas layers, and writes linear radiance (times the
+//! ([`crate::gpu::canvas`]) and the two canvas layers, and writes linear radiance (times the
 //! lighting's output scale). The same pipeline code serves an offscreen float target and a
 //! window surface; only the target format differs.
 
 use super::RenderError;
-use super::camera::uniform_entry;
-use super::shaders;
+use crate::gpu::canvas::uniform_entry;
+use crate::gpu::shaders;
 
 /// Texture bindings of the composite pass, in `shaders/composite.wgsl` order.
 const TEXTURE_BINDINGS: u32 = 10;

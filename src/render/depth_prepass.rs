@@ -5,7 +5,7 @@
 //! they are in front. Reversed depth: cleared to 0 (infinitely far), nearer is greater.
 
 use super::RenderError;
-use super::shaders;
+use crate::gpu::shaders;
 use super::stencil::VIRTUAL_SURFACE;
 
 /// The two depth pipelines.

@@ -51,19 +51,6 @@ impl Darkening {
     }
 }
 
-/// The lighting a frame is composited with.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FrameLighting {
-    /// Unit direction toward the sun, world frame.
-    pub sun_dir: Vec3,
-    /// Sun is above the horizon.
-    pub above_horizon: bool,
-    /// `Pd` (RGB); zero when unknown.
-    pub pd: Vec3,
-    /// `Pa` (RGB).
-    pub pa: Vec3,
-}
-
 /// A footage frame in linear radiance, with a usable flag per pixel (`a` = 1, or 0 when clipped
 /// or invalid): the texture the composite reads.
 #[derive(Clone, Debug, PartialEq)]
@@ -157,7 +144,7 @@ pub struct PassReport {
     /// Canvas pixels whose ambient transfer was traced this frame.
     pub transfer_traced: usize,
     /// The canvas rectangle the 3D passes drew (`None`: the whole canvas).
-    pub canvas_region: Option<crate::render::compositor::Rect>,
+    pub canvas_region: Option<crate::render::region::Rect>,
     /// Timings.
     pub timings: FrameTimings,
 }

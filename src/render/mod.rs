@@ -26,13 +26,11 @@
 //! Conventions are the crate's: world +Y up, metres; OpenCV camera; linear scene radiance with
 //! `L = ρ/π·(c·Pa + s·Pd·max(n·l,0) [+ b·Pd])`.
 
-pub mod camera;
 pub mod composite;
 pub mod compositor;
 pub mod depth_prepass;
 pub mod frame;
-pub mod gpu;
-pub mod mesh;
+pub mod object_transfer;
 pub mod occluder;
 pub mod occlusion;
 pub mod output;
@@ -40,40 +38,25 @@ pub mod probes;
 pub mod reach;
 pub mod receivers;
 pub mod reference;
-pub mod shaders;
+pub mod region;
 pub mod shadow_mask;
 pub mod shadow_volume;
 pub mod stencil;
 pub mod target;
-pub mod transfer;
+pub mod vem;
 pub mod virtual_shading;
 pub mod volume;
 pub mod volume_compute;
 
 pub use compositor::{Builder, Compositor, CompositorConfig, PassSwitches, RenderedFrame, SceneParts};
-pub use frame::{Darkening, FrameLighting, PassReport, VideoFrame};
-pub use gpu::{Gpu, GpuOptions};
+pub use frame::{Darkening, PassReport, VideoFrame};
 
-/// Errors of the compositor.
+/// Errors of the renderers.
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {
-    /// No GPU adapter (hardware or Mesa's software ones) could be opened.
-    #[error("no GPU adapter: {0} (install Mesa: `apt-get install -y mesa-vulkan-drivers`, or set WGPU_BACKEND=gl)")]
-    NoAdapter(String),
-    /// The adapter refused to open a device.
-    #[error("could not open the GPU device: {0}")]
-    NoDevice(String),
-    /// The device failed while working.
-    #[error("GPU device error: {0}")]
-    Device(String),
-    /// A shader file is missing or its includes are broken.
-    #[error("shaders/{name}: {message}")]
-    Shader {
-        /// The shader file under `shaders/`.
-        name: String,
-        /// What is wrong.
-        message: String,
-    },
+    /// The GPU layer failed (adapter, device, shaders, limits, surface).
+    #[error(transparent)]
+    Gpu(#[from] crate::gpu::GpuError),
     /// A frame does not have the camera's size.
     #[error("frame is {}×{} but the camera is {}×{}", got.0, got.1, want.0, want.1)]
     FrameSize {
@@ -82,20 +65,7 @@ pub enum RenderError {
         /// Camera size.
         want: (u32, u32),
     },
-    /// A buffer would exceed the device's limit.
-    #[error("{what} needs {bytes} bytes, more than the device allows ({limit})")]
-    TooLarge {
-        /// What.
-        what: String,
-        /// Bytes needed.
-        bytes: u64,
-        /// The limit.
-        limit: u64,
-    },
     /// An output file could not be written.
     #[error(transparent)]
     Io(#[from] crate::io::IoError),
-    /// A window surface problem.
-    #[error("window surface: {0}")]
-    Surface(String),
 }

@@ -10,7 +10,7 @@
 //! objects, and the unoccluded fraction is stored (1 where no virtual surface is seen). Camera and
 //! objects are static, so this runs once; a moving camera or object would recompute it.
 
-use super::camera::Canvas;
+use crate::gpu::canvas::Canvas;
 use crate::geometry::raycast::{RAY_EPSILON_M, RayScene};
 use crate::geometry::sampling::sample_cosine_around;
 use glam::Vec2;
@@ -47,12 +47,12 @@ mod tests {
     use super::*;
     use glam::DVec3;
     use crate::geometry::{Material, Mesh};
-    use crate::scene::camera::{Camera, Intrinsics, Pose};
+    use crate::camera::{Camera, Intrinsics, Pose};
 
     #[test]
     fn a_convex_object_does_not_occlude_itself_and_a_corner_does() {
         let cam = Camera {
-            intrinsics: Intrinsics { width: 64, height: 48, fx: 50.0, fy: 50.0, cx: 32.0, cy: 24.0, distortion: [0.0; 5] },
+            intrinsics: Intrinsics::brown_conrady(64, 48, 50.0, 50.0, 32.0, 24.0, [0.0; 5]),
             pose: Pose::look_at(DVec3::new(3.0, 3.0, 3.0), DVec3::ZERO, DVec3::Y).unwrap(),
         };
         let canvas = Canvas::new(&cam, 1.0);

@@ -10,9 +10,8 @@
 //! input EXR frames).
 
 use crate::io::IoError;
-use crate::io::frames::{Frame, FrameData, Response};
-use crate::io::image::{ExrPrecision, LinearImage, srgb_from_linear};
-use crate::scene::Photometry;
+use crate::io::frames::{Frame, FrameData, Photometry, code_from_linear};
+use crate::io::image::{ExrPrecision, LinearImage};
 use std::path::Path;
 
 use super::frame::VideoFrame;
@@ -33,31 +32,6 @@ impl OutputKind {
         match self {
             OutputKind::Png => "png",
             OutputKind::Exr => "exr",
-        }
-    }
-}
-
-/// The normalised code in `[0, 1]` of a relative linear camera value, inverting `response`.
-pub fn code_from_linear(response: &Response, x: f32, channel: usize) -> f32 {
-    let x = if x.is_nan() { 0.0 } else { x.max(0.0) };
-    match response {
-        Response::Srgb => srgb_from_linear(x.min(1.0)),
-        Response::Linear => x.min(1.0),
-        Response::Gamma(g) => x.min(1.0).powf(1.0 / g),
-        Response::Table(t) => {
-            let col = |i: usize| t[i][channel];
-            let n = t.len();
-            if x <= col(0) {
-                return 0.0;
-            }
-            if x >= col(n - 1) {
-                return 1.0;
-            }
-            // First row at or above x (the table is monotone non-decreasing).
-            let hi = (0..n).find(|&i| col(i) >= x).unwrap_or(n - 1).max(1);
-            let (a, b) = (col(hi - 1), col(hi));
-            let f = if b > a { (x - a) / (b - a) } else { 0.0 };
-            ((hi - 1) as f32 + f) / (n - 1) as f32
         }
     }
 }
@@ -137,74 +111,6 @@ pub fn encode_codes(image: &LinearImage, precision: f32, video: &VideoFrame, inp
 pub fn encode_rgb8(image: &LinearImage, precision: f32, video: &VideoFrame, input: &Frame, photometry: &Photometry) -> Vec<u8> {
     let (bits, codes) = encode_codes(image, precision, video, input, photometry);
     if bits == 16 { codes.iter().map(|&v| ((v as u32 + 128) / 257).min(255) as u8).collect() } else { codes.iter().map(|&v| v as u8).collect() }
-}
-
-/// An 8-bit RGB image for contact sheets.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Rgb8 {
-    /// Width.
-    pub width: u32,
-    /// Height.
-    pub height: u32,
-    /// RGB bytes, row-major.
-    pub data: Vec<u8>,
-}
-
-impl Rgb8 {
-    /// `image` through the camera response, as the PNG output would encode it.
-    pub fn from_radiance(image: &LinearImage, photometry: &Photometry) -> Self {
-        let data = image
-            .data
-            .iter()
-            .flat_map(|p| (0..3).map(move |c| (code_from_linear(&photometry.response, p[c] * photometry.exposure, c) * 255.0 + 0.5).floor().clamp(0.0, 255.0) as u8))
-            .collect();
-        Self { width: image.width, height: image.height, data }
-    }
-
-    /// Box-filtered down to at most `max_width` pixels wide.
-    pub fn shrink_to(&self, max_width: u32) -> Self {
-        let k = self.width.div_ceil(max_width.max(1)).max(1);
-        if k == 1 {
-            return self.clone();
-        }
-        let (w, h) = (self.width / k, self.height / k);
-        let mut data = Vec::with_capacity((w * h * 3) as usize);
-        for y in 0..h {
-            for x in 0..w {
-                for c in 0..3 {
-                    let mut s = 0u32;
-                    for dy in 0..k {
-                        for dx in 0..k {
-                            s += self.data[(((y * k + dy) * self.width + x * k + dx) * 3 + c) as usize] as u32;
-                        }
-                    }
-                    data.push((s / (k * k)) as u8);
-                }
-            }
-        }
-        Self { width: w, height: h, data }
-    }
-}
-
-/// Tiles `images` (all the same size) into a grid `columns` wide with `gap` white pixels between
-/// them, and writes it as PNG.
-pub fn write_contact_sheet(path: &Path, images: &[Rgb8], columns: u32, gap: u32) -> Result<(), IoError> {
-    let Some(first) = images.first() else { return Ok(()) };
-    let (tw, th) = (first.width, first.height);
-    let cols = columns.clamp(1, images.len() as u32);
-    let rows = (images.len() as u32).div_ceil(cols);
-    let (w, h) = (cols * tw + (cols - 1) * gap, rows * th + (rows - 1) * gap);
-    let mut data = vec![255u8; (w * h * 3) as usize];
-    for (k, img) in images.iter().enumerate() {
-        let (cx, cy) = ((k as u32 % cols) * (tw + gap), (k as u32 / cols) * (th + gap));
-        for y in 0..th.min(img.height) {
-            let src = (y * img.width * 3) as usize;
-            let dst = (((cy + y) * w + cx) * 3) as usize;
-            let n = (tw.min(img.width) * 3) as usize;
-            data[dst..dst + n].copy_from_slice(&img.data[src..src + n]);
-        }
-    }
-    ::image::save_buffer(path, &data, w, h, ::image::ExtendedColorType::Rgb8).map_err(|source| IoError::Png { path: path.to_owned(), source })
 }
 
 #[cfg(test)]

@@ -16,7 +16,7 @@
 
 use crate::geometry::ambient::{TransportQuality, transport};
 use crate::geometry::raycast::RayScene;
-use crate::scene::camera::Camera;
+use crate::camera::Camera;
 use glam::Vec3;
 use rayon::prelude::*;
 

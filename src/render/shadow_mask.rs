@@ -11,8 +11,8 @@
 //! and the receivers' sub-pixel rays see the real shadow's edge a little differently.
 
 use super::RenderError;
-use super::gpu::MASK_FORMAT;
-use super::shaders;
+use crate::gpu::MASK_FORMAT;
+use crate::gpu::shaders;
 use super::stencil::{REAL_SHADOW, VIRTUAL_SHADOW, VIRTUAL_SURFACE, test};
 
 /// One mask pipeline: a stencil test and the channel it writes.

@@ -11,7 +11,7 @@
 //! writes; the volume vertex buffers are homogeneous (`vec4`, see [`super::volume`]).
 
 use super::RenderError;
-use super::shaders;
+use crate::gpu::shaders;
 use super::stencil::{COUNT_MASK, zfail};
 
 /// The two volume pipelines.

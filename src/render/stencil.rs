@@ -27,7 +27,7 @@
 //!   virtual-surface bit is in some shadow.
 
 use super::RenderError;
-use super::shaders;
+use crate::gpu::shaders;
 
 /// Counter bits.
 pub const COUNT_MASK: u32 = 0x1f;

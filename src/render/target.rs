@@ -7,8 +7,10 @@
 //! exists. `heliar live` does not use it today: it shows the read-back frame as an egui texture
 //! (see `crate::live`); presenting straight to a surface is the route for a real GPU.
 
-use super::frame::{FrameLighting, PassReport, VideoFrame};
-use super::{Compositor, Gpu, RenderError};
+use super::frame::{PassReport, VideoFrame};
+use super::{Compositor, RenderError};
+use crate::gpu::Gpu;
+use crate::lighting::Lighting;
 
 /// A window surface configured for the compositor.
 pub struct WindowTarget<'w> {
@@ -22,7 +24,7 @@ impl<'w> WindowTarget<'w> {
     pub fn new(gpu: &Gpu, surface: wgpu::Surface<'w>, width: u32, height: u32) -> Result<Self, RenderError> {
         let mut config = surface
             .get_default_config(&gpu.adapter, width.max(1), height.max(1))
-            .ok_or_else(|| RenderError::Surface("the adapter cannot present to this surface".into()))?;
+            .ok_or_else(|| crate::gpu::GpuError::Surface("the adapter cannot present to this surface".into()))?;
         let caps = surface.get_capabilities(&gpu.adapter);
         if let Some(f) = caps.formats.iter().find(|f| f.is_srgb()) {
             config.format = *f;
@@ -40,7 +42,7 @@ impl<'w> WindowTarget<'w> {
 
     /// Composites a frame into the window (scaled by the camera's `exposure`) and presents it.
     /// Returns `None` when the surface had no texture to give (occluded, timed out).
-    pub fn present(&mut self, compositor: &mut Compositor, exposure: f32, video: &VideoFrame, lighting: &FrameLighting) -> Result<Option<PassReport>, RenderError> {
+    pub fn present(&mut self, compositor: &mut Compositor, exposure: f32, video: &VideoFrame, lighting: &Lighting) -> Result<Option<PassReport>, RenderError> {
         let frame = match self.surface.get_current_texture() {
             wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
             wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {

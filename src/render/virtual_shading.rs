@@ -10,10 +10,10 @@
 //! premultiplied linear radiance, alpha 1 where covered.
 
 use super::RenderError;
-use super::camera::uniform_entry;
-use super::gpu::LAYER_FORMAT;
-use super::mesh::VirtualVertex;
-use super::shaders;
+use crate::gpu::canvas::uniform_entry;
+use crate::gpu::LAYER_FORMAT;
+use crate::gpu::mesh::VirtualVertex;
+use crate::gpu::shaders;
 use super::stencil::{VIRTUAL_SURFACE, test};
 
 fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {

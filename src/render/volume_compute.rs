@@ -9,7 +9,7 @@
 
 use super::RenderError;
 use super::occluder::Occluder;
-use super::shaders;
+use crate::gpu::shaders;
 use super::volume::max_triangles;
 use glam::Vec3;
 use wgpu::util::DeviceExt;
@@ -97,7 +97,7 @@ impl ComputeVolumes {
         let out_bytes = capacity as u64 * 16;
         let limit = device.limits().max_storage_buffer_binding_size as u64;
         if out_bytes > limit {
-            return Err(RenderError::TooLarge { what: format!("{}: compute-built shadow volume", occ.name), bytes: out_bytes, limit });
+            return Err(crate::gpu::GpuError::TooLarge { what: format!("{}: compute-built shadow volume", occ.name), bytes: out_bytes, limit }.into());
         }
         let init = |label: &str, bytes: &[u8], usage: wgpu::BufferUsages| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: bytes, usage })

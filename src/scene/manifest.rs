@@ -1,7 +1,7 @@
 //! The serde shape of `scene.toml` and `calib/camera.toml` (documented in `scenes/README.md`).
 
 use super::{SceneError, invalid, parse_time};
-use crate::estimate::EstimatorConfig;
+use super::settings::{BakeConfig, EstimatorConfig};
 use chrono::{DateTime, FixedOffset};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -53,7 +53,7 @@ pub struct Manifest {
     /// Estimator settings (defaults when absent).
     pub estimator: Option<EstimatorConfig>,
     /// Bake, relighting and irradiance-volume settings (defaults when absent).
-    pub bake: Option<crate::envmap::bake::BakeConfig>,
+    pub bake: Option<BakeConfig>,
 }
 
 fn default_north() -> [f64; 3] {

@@ -4,18 +4,19 @@
 //! The format is documented for scene authors in `scenes/README.md`. [`Scene::load`] validates
 //! everything it reads and names the file and field of the first problem it finds.
 
-pub mod camera;
 pub mod gltf;
 mod manifest;
+pub mod settings;
 
 pub use manifest::{AlbedoSource, CameraFile, EnvMapSpec, GridSpec, Manifest, PoseSpec, ResponseSpec, SequenceSpec, TimeSpec, VirtualObjectSpec};
 
-use crate::estimate::EstimatorConfig;
+use settings::{BakeConfig, EstimatorConfig};
 use crate::geometry::Mesh;
 use crate::io::IoError;
-use crate::io::frames::{Linearizer, Response, list_frame_files};
+use crate::io::frames::Photometry;
+use crate::io::frames::{Response, list_frame_files};
 use crate::sun::{GeoFrame, Observer};
-use camera::{Camera, Intrinsics, Pose};
+use crate::camera::{Camera, Intrinsics, Pose};
 use chrono::{DateTime, FixedOffset};
 use glam::{DVec3, Mat4, Quat, Vec3};
 use std::path::{Path, PathBuf};
@@ -69,26 +70,6 @@ pub enum SceneError {
     /// An image or frame file problem.
     #[error(transparent)]
     Io(#[from] IoError),
-}
-
-/// Photometric calibration of a sequence's frames.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Photometry {
-    /// Response curve of LDR codes.
-    pub response: Response,
-    /// Camera linear value per unit scene radiance (LDR and HDR).
-    pub exposure: f32,
-    /// Fraction of the LDR code range treated as clipped.
-    pub saturation: f32,
-    /// HDR values at or above this are treated as clipped.
-    pub hdr_clip: Option<f32>,
-}
-
-impl Photometry {
-    /// Lookup tables for this calibration.
-    pub fn linearizer(&self) -> Linearizer {
-        Linearizer::new(&self.response, self.exposure, self.saturation, self.hdr_clip)
-    }
 }
 
 /// Known lighting of one frame (from a scene generator or a measurement).
@@ -153,7 +134,7 @@ pub struct Scene {
     /// Estimator settings.
     pub estimator: EstimatorConfig,
     /// Bake, relighting and irradiance-volume settings.
-    pub bake: crate::envmap::bake::BakeConfig,
+    pub bake: BakeConfig,
 }
 
 fn read_toml<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, SceneError> {
@@ -202,15 +183,7 @@ fn load_camera(scene_dir: &Path, manifest_path: &Path, file: &str) -> Result<(Ca
     if cf.distortion.iter().any(|k| !k.is_finite()) {
         return Err(invalid(p, "distortion", "coefficients must be finite"));
     }
-    let intrinsics = Intrinsics {
-        width: cf.width,
-        height: cf.height,
-        fx: cf.fx,
-        fy: cf.fy,
-        cx: cf.cx,
-        cy: cf.cy,
-        distortion: cf.distortion,
-    };
+    let intrinsics = Intrinsics::brown_conrady(cf.width, cf.height, cf.fx, cf.fy, cf.cx, cf.cy, cf.distortion);
     let pose = match &cf.pose {
         PoseSpec::LookAt { position, look_at, up } => {
             let (pos, tgt, up) = (finite3(p, "pose.position", *position)?, finite3(p, "pose.look_at", *look_at)?, finite3(p, "pose.up", *up)?);

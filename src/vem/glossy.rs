@@ -123,7 +123,7 @@ pub fn shade_glossy_regions(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::vem::pattern::{Pattern, sample};
+    use crate::vem::sampling::pattern::{Pattern, sample};
     use crate::vem::polar::{PolarMap, luminance};
     use crate::vem::regions::DEFAULT_REGIONS;
     use crate::vem::sampling::{PolarDistribution, SamplerKind};

@@ -5,24 +5,26 @@
 //!
 //! # How it works
 //! Per frame, on the CPU ([`Decomposer::process`]):
-//! 1. **Input** ([`input`], [`resample`], [`calib`], [`fisheye`], [`photometric`]; Havran §5.1):
+//! 1. **Input** ([`capture`]: input frames, the lens file, the photometric response and the
+//!    resampling; the Kannala–Brandt lens is [`crate::camera::KannalaBrandt`]; Havran §5.1):
 //!    a fisheye HDR (EXR) or LDR (PNG) frame with a Kannala–Brandt calibration and a photometric
 //!    response, or an equirect or polar HDR frame, is linearised and resampled into the polar
 //!    `(θ, φ)` map of the upper hemisphere in the world frame ([`polar`]; 360 × 90 by default).
-//! 2. **Decomposition** ([`sampling`], [`pattern`]; Havran §3.1–3.2): the PDF luminance × sin θ,
+//! 2. **Decomposition** ([`sampling`], [`sampling::pattern`]; Havran §3.1–3.2): the PDF luminance × sin θ,
 //!    its CDFs, and the continuous inverse transform of fixed relaxed Halton samples give `N`
 //!    directions; every light carries `P/N` of the frame's power `P` and keeps its index (its
 //!    Halton sample) from frame to frame. The light count can change at any frame without moving
 //!    the other lights.
-//! 3. **Temporal filter** ([`temporal`]; Havran §3.3): a 9-tap linear-phase FIR on every light's
+//! 3. **Temporal filter** ([`fir`]; Havran §3.3): a 9-tap linear-phase FIR on every light's
 //!    direction and on `P` (4 frames of delay at 21 Hz).
 //! 4. **Clustering** ([`cluster`]; Havran §4.3), optional: at most `Q` lights.
 //! 5. **Culling lists** ([`regions`], [`glossy`]; Havran §4.1–4.2): per angular region, the lights
 //!    that can reach it, as flat GPU buffers; for glossy surfaces a second, denser set `L` with
 //!    its own cone lists.
 //!
-//! [`tonemap`] holds the temporally smoothed Reinhard parameters (Havran §5.1) and [`synth`] the
-//! synthetic skies of the generator, tests and sweeps.
+//! [`reinhard`] holds the temporally smoothed Reinhard parameters (Havran §5.1), [`eval`] the
+//! synthetic skies of the generator, tests and sweeps and the error measures. The GPU half (the
+//! objects lit and shadowed by these lights) is the VEM renderer, `crate::render::vem`.
 //!
 //! # Conventions
 //! Directions are unit vectors in the world frame (`+Y` up), toward the light. A light's `rgb` is
@@ -30,31 +32,24 @@
 //! a Lambertian surface of albedo `ρ` and normal `n` has radiance `ρ/π · Σ rgb·max(n·l, 0)`, and
 //! `Σ rgb·max(n·l, 0)` estimates the map's irradiance at `n`.
 
-pub mod calib;
+pub mod capture;
 pub mod cluster;
-pub mod fisheye;
+pub mod eval;
+pub mod fir;
 pub mod glossy;
-pub mod gpu;
-pub mod input;
-pub mod metrics;
-pub mod pattern;
-pub mod photometric;
 pub mod polar;
 pub mod regions;
-pub mod resample;
+pub mod reinhard;
 pub mod sampling;
-pub mod synth;
-pub mod temporal;
-pub mod tonemap;
 
 use glam::Vec3;
-use pattern::Pattern;
+use sampling::pattern::Pattern;
 use polar::PolarMap;
 use regions::{RegionLists, RegionSet};
 use sampling::{PolarDistribution, SamplerKind};
 use serde::Serialize;
 use std::path::PathBuf;
-use temporal::{FirDesign, LightFilter};
+use fir::{FirDesign, LightFilter};
 
 /// One directional light.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -84,13 +79,13 @@ pub enum Status {
 pub enum VemError {
     /// A calibration file problem.
     #[error(transparent)]
-    Calib(#[from] calib::CalibError),
+    LensFile(#[from] capture::lens_file::LensFileError),
     /// An image or frame file problem.
     #[error(transparent)]
     Io(#[from] crate::io::IoError),
     /// The temporal filter cannot be designed.
     #[error(transparent)]
-    Temporal(#[from] temporal::TemporalError),
+    Temporal(#[from] fir::TemporalError),
     /// Without a calibration, the frame's shape does not say which projection it is.
     #[error("{path}: a {width}×{height} frame is neither a 2:1 equirect nor a 4:1 polar map; give --calib for a fisheye frame")]
     Projection {
@@ -180,7 +175,7 @@ impl Default for VemConfig {
             lights: 300,
             sampler: SamplerKind::Havran,
             pattern: Pattern::RelaxedHalton,
-            rate_hz: temporal::PAPER_RATE_HZ,
+            rate_hz: fir::PAPER_RATE_HZ,
             clusters: None,
             cluster_cf: cluster::DEFAULT_CF,
             regions: regions::DEFAULT_REGIONS,
@@ -263,7 +258,7 @@ impl Decomposer {
         cfg.validate()?;
         let design = FirDesign::for_rate(cfg.rate_hz)?;
         if cfg.pattern == Pattern::RelaxedHalton {
-            pattern::relaxed(); // relax once now, not inside the first frame
+            sampling::pattern::relaxed(); // relax once now, not inside the first frame
         }
         let glossy = cfg.glossy_lights.map(|_| (glossy::GlossyRegions::new(cfg.glossy_regions, cfg.lut_size), RegionLists::default()));
         Ok(Self {
@@ -309,7 +304,7 @@ impl Decomposer {
         } else {
             self.raw.clear();
             for k in 0..n {
-                if let Some(r) = self.dist.sample(self.cfg.sampler, pattern::sample(self.cfg.pattern, k)) {
+                if let Some(r) = self.dist.sample(self.cfg.sampler, sampling::pattern::sample(self.cfg.pattern, k)) {
                     self.raw.push((r.dir, self.dist.light_rgb(map, &r)));
                 }
             }
@@ -383,7 +378,7 @@ pub fn lights_of_distribution(dist: &PolarDistribution, map: &PolarMap, kind: Sa
     let p = (dist.integral() / n as f64) as f32;
     (0..n)
         .filter_map(|k| {
-            let r = dist.sample(kind, pattern::sample(pattern, k))?;
+            let r = dist.sample(kind, sampling::pattern::sample(pattern, k))?;
             Some(Light { index: k as u32, dir: r.dir, rgb: dist.light_rgb(map, &r).map(|c| c * p) })
         })
         .collect()

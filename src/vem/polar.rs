@@ -6,13 +6,13 @@
 //! is rows `0 … H` of a `W × 2H` equirect map, so `θ` runs from `+Y` (zenith, row 0) down to the
 //! horizon (row `H`) in steps of `π/2H`, and `φ = atan2(d.x, −d.z)` exactly as in
 //! [`crate::envmap`]: column coordinate `x = (φ/2π + ½)·W`, the centre column looking along `−Z`,
-//! columns growing toward `+X`. The functions here call [`crate::envmap::texel_from_dir`] and
-//! [`crate::envmap::dir_from_texel`] with height `2H`; there is no second mapping.
+//! columns growing toward `+X`. The functions here call [`crate::geometry::equirect::texel_from_dir`] and
+//! [`crate::geometry::equirect::dir_from_texel`] with height `2H`; there is no second mapping.
 //!
 //! Texel values are linear RGB radiance in the units of the input frames ("scaled radiance").
 //! Everything below the horizon is outside the map.
 
-use crate::envmap::{dir_from_texel, texel_from_dir, texel_solid_angle};
+use crate::geometry::equirect::{dir_from_texel, texel_from_dir, texel_solid_angle};
 use glam::Vec3;
 
 /// Rec. 709 luminance weights (the same as [`crate::estimate::LUMA`], in `f32`).

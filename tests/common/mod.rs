@@ -14,7 +14,7 @@ use heliar::geometry::raycast::RayScene;
 use heliar::geometry::{Material, Mesh};
 use heliar::io::frames::{Frame, FrameData};
 use heliar::io::image::LinearImage;
-use heliar::scene::camera::{Camera, Intrinsics, Pose};
+use heliar::camera::{Camera, Intrinsics, Pose};
 use heliar::sun::{GeoFrame, Observer, sun_position};
 use rand::{Rng, SeedableRng, rngs::SmallRng};
 use std::f32::consts::PI;
@@ -112,15 +112,7 @@ pub fn world(spec: WorldSpec, l: Vec3) -> World {
     let eye = (perp * 8.0 + Vec3::Y * 6.0).as_dvec3();
     let target = -lh * 1.0;
     let pose = Pose::look_at(eye, target.as_dvec3(), DVec3::Y).expect("pose");
-    let intrinsics = Intrinsics {
-        width: W,
-        height: H,
-        fx: 64.0,
-        fy: 64.0,
-        cx: W as f64 / 2.0 - 0.5,
-        cy: H as f64 / 2.0 - 0.5,
-        distortion: [-0.05, 0.0, 0.0, 0.0, 0.0],
-    };
+    let intrinsics = Intrinsics::brown_conrady(W, H, 64.0, 64.0, W as f64 / 2.0 - 0.5, H as f64 / 2.0 - 0.5, [-0.05, 0.0, 0.0, 0.0, 0.0]);
     World { ray: Arc::new(RayScene::new(m)), camera: Camera { intrinsics, pose } }
 }
 

@@ -27,7 +27,8 @@ use heliar::io::frames::Frame;
 use heliar::io::image::LinearImage;
 use heliar::irradiance::{ProbeGrid, sh};
 use heliar::render::reference::{Classes, Crop, References, composite_error};
-use heliar::render::{Compositor, CompositorConfig, Darkening, FrameLighting, VideoFrame};
+use heliar::lighting::Lighting;
+use heliar::render::{Compositor, CompositorConfig, Darkening, VideoFrame};
 use heliar::scene::Scene;
 use std::path::Path;
 use std::sync::Arc;
@@ -55,7 +56,7 @@ fn composite_matches_the_generators_reference_frames() {
     // The product's ambient: the scene's bake (in memory, so the test never writes into the
     // bundled scene) relit per frame into the irradiance volume.
     let baked = heliar::envmap::bake::bake(&scene, ray.clone(), &|_: &str, _: u64, _: u64| {}).expect("bake");
-    let mut volume = heliar::render::probes::VolumeProbes::new(&scene, ray.clone(), &baked);
+    let mut volume = heliar::irradiance::sources::VolumeProbes::new(&scene, ray.clone(), &baked);
     let last = *refs.frames.iter().max().unwrap();
     let mut worst: f64 = 0.0;
     for i in 0..=last {
@@ -64,7 +65,7 @@ fn composite_matches_the_generators_reference_frames() {
         let Some(k) = refs.frames.iter().position(|&f| f == i) else { continue };
         let s = e.smoothed.expect("smoothed lighting");
         let v = |a: [f64; 3]| Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
-        let lighting = FrameLighting { sun_dir: Vec3::from(e.sun.dir_world), above_horizon: e.sun.above_horizon, pd: v(s.pd), pa: v(s.pa) };
+        let lighting = Lighting { sun_dir: Vec3::from(e.sun.dir_world), above_horizon: e.sun.above_horizon, pd: v(s.pd), pa: v(s.pa) };
         let reference = refs.image(k).unwrap();
         if let Some(t) = seq.truth.as_ref().map(|t| t[i]) {
             eprintln!("frame {i}: Pd {:?} (true {:?}), Pa {:?} (true {:?})", lighting.pd, t.pd, lighting.pa, t.pa);

@@ -10,7 +10,7 @@ use heliar::render::occluder::Occluder;
 use heliar::render::volume::{HVertex, OPEN_CAP_OFFSET_M, Parts, build};
 use heliar::render::{Builder, CompositorConfig};
 
-fn view() -> heliar::scene::camera::Camera {
+fn view() -> heliar::camera::Camera {
     camera([1.5, 1.6, 5.0], [-1.2, 0.4, 0.2], 240, 180, [-0.08, 0.012, 0.0, 0.0, 0.0])
 }
 
@@ -30,7 +30,7 @@ fn open_objects() -> Vec<(String, Mesh)> {
 #[test]
 fn open_meshes_fall_back_to_per_triangle_volumes_with_a_named_warning() {
     let setup = Setup { camera: view(), proxy: yard_proxy(), objects: open_objects() };
-    let comp = setup.compositor(CompositorConfig::for_estimator(&Default::default()));
+    let comp = setup.compositor(CompositorConfig::from_estimator_settings(&Default::default()));
     let w = comp.warnings().join("\n");
     assert!(w.contains("crate.glb") && w.contains("sign.glb") && w.contains("per triangle"), "{w}");
     check("open meshes", &setup, courtyard_sun(), [300, 0, 0, 1000]);
@@ -84,7 +84,7 @@ fn compute_builder_makes_the_cpu_builders_triangles_and_the_same_masks() {
     objects.extend(open_objects());
     let setup = Setup { camera: view(), proxy: yard_proxy(), objects };
     let sun = courtyard_sun();
-    let mut config = CompositorConfig::for_estimator(&Default::default());
+    let mut config = CompositorConfig::from_estimator_settings(&Default::default());
     config.builder = Builder::Compute;
     // Same masks as ray tracing with the compute builder.
     check_with("compute builder", &setup, sun, [300, 0, 0, 1000], config.clone());
@@ -92,13 +92,13 @@ fn compute_builder_makes_the_cpu_builders_triangles_and_the_same_masks() {
     let mut comp = setup.compositor(config);
     let (w, h) = (240, 180);
     let video = heliar::render::VideoFrame { width: w, height: h, rgba: vec![[0.5; 4]; (w * h) as usize] };
-    comp.render(&video, &heliar::render::FrameLighting { sun_dir: sun, above_horizon: true, pd: Vec3::splat(3.0), pa: Vec3::splat(0.6) }).unwrap();
+    comp.render(&video, &heliar::lighting::Lighting { sun_dir: sun, above_horizon: true, pd: Vec3::splat(3.0), pa: Vec3::splat(0.6) }).unwrap();
     let gpu = gpu();
     let bufs = comp.volumes().compute_buffers().expect("compute buffers");
     for ((name, mesh), b) in setup.objects.iter().zip(bufs) {
-        let args = heliar::render::compositor::read_buffer_bytes(&gpu, &b.draw_args, 16).unwrap();
+        let args = heliar::gpu::readback::read_buffer_bytes(&gpu, &b.draw_args, 16).unwrap();
         let count = u32::from_le_bytes([args[0], args[1], args[2], args[3]]) as usize;
-        let bytes = heliar::render::compositor::read_buffer_bytes(&gpu, &b.vertices, (count * 16) as u64).unwrap();
+        let bytes = heliar::gpu::readback::read_buffer_bytes(&gpu, &b.vertices, (count * 16) as u64).unwrap();
         let gpu_v: &[HVertex] = bytemuck::cast_slice(&bytes);
         let mut cpu_v = Vec::new();
         build(&Occluder::new(mesh, name), sun, OPEN_CAP_OFFSET_M, Parts::All, &mut cpu_v);

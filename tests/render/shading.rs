@@ -6,7 +6,8 @@ use crate::support::*;
 use glam::{UVec3, Vec3};
 use heliar::geometry::{Material, Mesh};
 use heliar::irradiance::{ProbeGrid, sh};
-use heliar::render::{CompositorConfig, FrameLighting, VideoFrame};
+use heliar::lighting::Lighting;
+use heliar::render::{CompositorConfig, VideoFrame};
 
 /// Mean absolute error allowed, as a fraction of the range of the reference values (issue 4, §6).
 const MAX_MEAN_ERROR_OF_RANGE: f64 = 0.01;
@@ -54,14 +55,14 @@ fn shaded_pixels_match_a_cpu_evaluation() {
     // The objects' own ambient occlusion is a Monte Carlo factor per canvas pixel, tested on its
     // own (src/render/occlusion.rs); here the probe path of the shading equation is compared
     // without it and without the per-pixel transfer (tested in transfer.rs).
-    let mut config = CompositorConfig::for_estimator(&Default::default());
+    let mut config = CompositorConfig::from_estimator_settings(&Default::default());
     config.occlusion_rays = 0;
     config.transfer_paths = 0;
     let mut comp = setup.compositor(config);
     comp.set_probes(&grid);
     let (w, h) = (320, 240);
     let video = VideoFrame { width: w, height: h, rgba: vec![[0.0, 0.0, 0.0, 1.0]; (w * h) as usize] };
-    let (frame, _) = comp.render(&video, &FrameLighting { sun_dir: sun, above_horizon: true, pd, pa }).expect("render");
+    let (frame, _) = comp.render(&video, &Lighting { sun_dir: sun, above_horizon: true, pd, pa }).expect("render");
 
     let r = reference(&setup, sun);
     let lit: Vec<(u32, bool)> = r.iter().map(|p| (p.tri, p.real_shadow || p.virtual_shadow)).collect();

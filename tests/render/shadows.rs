@@ -5,7 +5,8 @@
 use crate::support::*;
 use glam::Vec3;
 use heliar::geometry::Material;
-use heliar::render::{CompositorConfig, FrameLighting, VideoFrame};
+use heliar::lighting::Lighting;
+use heliar::render::{CompositorConfig, VideoFrame};
 
 /// Agreement required away from 1-pixel edges (issue 4, §6).
 const MIN_AGREEMENT: f64 = 0.99;
@@ -24,7 +25,7 @@ fn compare(setup: &Setup, sun: Vec3, config: CompositorConfig) -> Vec<Agreement>
     let mut comp = setup.compositor(config);
     let (w, h) = (setup.camera.intrinsics.width, setup.camera.intrinsics.height);
     let video = VideoFrame { width: w, height: h, rgba: vec![[0.5, 0.5, 0.5, 1.0]; (w * h) as usize] };
-    let lighting = FrameLighting { sun_dir: sun, above_horizon: true, pd: Vec3::splat(3.0), pa: Vec3::splat(0.6) };
+    let lighting = Lighting { sun_dir: sun, above_horizon: true, pd: Vec3::splat(3.0), pa: Vec3::splat(0.6) };
     let (frame, report) = comp.render(&video, &lighting).expect("render");
     assert!(report.ran("virtual_volumes"), "{report:?}");
     let masks = frame.masks.expect("debug masks");
@@ -73,7 +74,7 @@ fn compare(setup: &Setup, sun: Vec3, config: CompositorConfig) -> Vec<Agreement>
 /// Runs a case; `min_positive[c]` is how many reference pixels of class `c` the case must have
 /// (so that an all-empty mask cannot pass).
 pub fn check(case: &str, setup: &Setup, sun: Vec3, min_positive: [usize; 4]) {
-    check_with(case, setup, sun, min_positive, CompositorConfig::for_estimator(&Default::default()))
+    check_with(case, setup, sun, min_positive, CompositorConfig::from_estimator_settings(&Default::default()))
 }
 
 /// [`check`] with a given configuration.

@@ -5,7 +5,8 @@ use crate::support::*;
 use glam::Vec3;
 use heliar::geometry::{Material, Mesh};
 use heliar::render::frame::pass;
-use heliar::render::{CompositorConfig, FrameLighting, VideoFrame};
+use heliar::lighting::Lighting;
+use heliar::render::{CompositorConfig, VideoFrame};
 
 fn video(w: u32, h: u32) -> VideoFrame {
     // A gradient, so that pass-through is checked pixel by pixel.
@@ -20,12 +21,12 @@ fn setup(objects: Vec<(String, Mesh)>) -> Setup {
     Setup { camera: camera([1.5, 1.6, 5.0], [-1.2, 0.4, 0.2], 160, 120, [0.0; 5]), proxy: yard_proxy(), objects }
 }
 
-fn lighting(sun: Vec3, pd: f32) -> FrameLighting {
-    FrameLighting { sun_dir: sun, above_horizon: sun.y > 0.0, pd: Vec3::splat(pd), pa: Vec3::new(0.55, 0.62, 0.8) }
+fn lighting(sun: Vec3, pd: f32) -> Lighting {
+    Lighting { sun_dir: sun, above_horizon: sun.y > 0.0, pd: Vec3::splat(pd), pa: Vec3::new(0.55, 0.62, 0.8) }
 }
 
 fn config() -> CompositorConfig {
-    let mut c = CompositorConfig::for_estimator(&Default::default());
+    let mut c = CompositorConfig::from_estimator_settings(&Default::default());
     c.debug_masks = true;
     c
 }
@@ -195,7 +196,7 @@ fn the_scissored_region_draws_the_same_picture_as_the_whole_canvas() {
     // picture must be the one the whole canvas gives, bit for bit, with and without sun.
     let s = setup(statue_near_wall());
     let v = video(160, 120);
-    let mut plain = CompositorConfig::for_estimator(&Default::default());
+    let mut plain = CompositorConfig::from_estimator_settings(&Default::default());
     plain.scissor = false;
     let mut full = s.compositor(plain.clone());
     let mut cut = s.compositor(CompositorConfig { scissor: true, ..plain });

@@ -4,8 +4,9 @@
 use glam::{DVec3, Vec2, Vec3};
 use heliar::geometry::raycast::RayScene;
 use heliar::geometry::{Material, Mesh};
-use heliar::render::{Compositor, CompositorConfig, Gpu, GpuOptions, SceneParts};
-use heliar::scene::camera::{Camera, Intrinsics, Pose};
+use heliar::render::{Compositor, CompositorConfig, SceneParts};
+use heliar::gpu::{Gpu, GpuOptions};
+use heliar::camera::{Camera, Intrinsics, Pose};
 use std::sync::{Arc, OnceLock};
 
 /// The device shared by the tests of this binary.
@@ -23,7 +24,7 @@ pub fn gpu() -> Arc<Gpu> {
 pub fn camera(pos: [f64; 3], at: [f64; 3], w: u32, h: u32, distortion: [f64; 5]) -> Camera {
     let f = 0.8 * w as f64;
     Camera {
-        intrinsics: Intrinsics { width: w, height: h, fx: f, fy: f * 1.002, cx: w as f64 / 2.0 + 0.7, cy: h as f64 / 2.0 - 0.4, distortion },
+        intrinsics: Intrinsics::brown_conrady(w, h, f, f * 1.002, w as f64 / 2.0 + 0.7, h as f64 / 2.0 - 0.4, distortion),
         pose: Pose::look_at(DVec3::from(pos), DVec3::from(at), DVec3::Y).expect("valid pose"),
     }
 }
@@ -150,7 +151,7 @@ pub fn reference(setup: &Setup, sun: Vec3) -> Vec<RefPixel> {
             let Some((o, d)) = setup.camera.pixel_ray(i % w, i / w) else { return none };
             // Start at the near plane, as the rasteriser clips there.
             let forward = setup.camera.pose.rotation.z_axis;
-            let t0 = heliar::render::camera::NEAR_M / d.dot(forward).max(1e-9);
+            let t0 = heliar::gpu::canvas::NEAR_M / d.dot(forward).max(1e-9);
             let (o, d) = ((o + d * t0).as_vec3(), d.as_vec3());
             let mut best = proxy.intersect(o, d, f32::MAX).map(|hit| (hit, 1u8, usize::MAX));
             for (k, s) in objects.iter().enumerate() {

@@ -11,7 +11,8 @@ use glam::{Vec2, Vec3};
 use heliar::geometry::raycast::{RAY_EPSILON_M, RayScene};
 use heliar::geometry::sampling::sample_cosine_around;
 use heliar::geometry::{Material, Mesh};
-use heliar::render::{CompositorConfig, FrameLighting, VideoFrame};
+use heliar::lighting::Lighting;
+use heliar::render::{CompositorConfig, VideoFrame};
 use rand::{Rng, SeedableRng, rngs::SmallRng};
 use std::f32::consts::PI;
 
@@ -79,10 +80,10 @@ fn transfer_shading_matches_an_independent_path_tracer() {
     ];
     let setup = Setup { camera: camera([1.5, 1.6, 5.0], [-1.0, 0.4, 0.4], 240, 180, [-0.06, 0.01, 0.0, 0.0, 0.0]), proxy: yard_proxy(), objects };
     let (pd, pa) = (Vec3::new(3.2, 3.0, 2.7), Vec3::new(0.55, 0.62, 0.8));
-    let mut comp = setup.compositor(CompositorConfig::for_estimator(&Default::default()));
+    let mut comp = setup.compositor(CompositorConfig::from_estimator_settings(&Default::default()));
     let (w, h) = (240u32, 180u32);
     let video = VideoFrame { width: w, height: h, rgba: vec![[0.0, 0.0, 0.0, 1.0]; (w * h) as usize] };
-    let (frame, report) = comp.render(&video, &FrameLighting { sun_dir: sun, above_horizon: true, pd, pa }).expect("render");
+    let (frame, report) = comp.render(&video, &Lighting { sun_dir: sun, above_horizon: true, pd, pa }).expect("render");
     assert!(report.ran("object_transfer"), "{report:?}");
     assert!(report.transfer_traced > 1000, "{} pixels traced", report.transfer_traced);
 
@@ -135,14 +136,14 @@ fn transfer_shading_matches_an_independent_path_tracer() {
 
     // Every second canvas pixel traced (a quarter of the paths): the lookup reconstructs the
     // pixels between the lattice points from their neighbours on the same face.
-    let mut coarse = setup.compositor(CompositorConfig { transfer_stride: 2, ..CompositorConfig::for_estimator(&Default::default()) });
-    let (frame2, report2) = coarse.render(&video, &FrameLighting { sun_dir: sun, above_horizon: true, pd, pa }).expect("render");
+    let mut coarse = setup.compositor(CompositorConfig { transfer_stride: 2, ..CompositorConfig::from_estimator_settings(&Default::default()) });
+    let (frame2, report2) = coarse.render(&video, &Lighting { sun_dir: sun, above_horizon: true, pd, pa }).expect("render");
     assert!(report2.transfer_traced < report.transfer_traced / 3, "{} of {} traced", report2.transfer_traced, report.transfer_traced);
     let got: Vec<Vec3> = pixels.iter().map(|&i| Vec3::from(frame2.image.data[i])).collect();
     compare("sun and sky, stride 2", &got, &want);
 
     // Sky light alone (the sun below the horizon): R_a by itself, and the sun term and R_d off.
-    let (frame, report) = comp.render(&video, &FrameLighting { sun_dir: sun, above_horizon: false, pd, pa }).expect("render");
+    let (frame, report) = comp.render(&video, &Lighting { sun_dir: sun, above_horizon: false, pd, pa }).expect("render");
     assert!(!report.ran("object_transfer"), "no sun: the traced transfer is reused");
     let want = traced(Vec3::ZERO, 0x52);
     let got: Vec<Vec3> = pixels.iter().map(|&i| Vec3::from(frame.image.data[i])).collect();

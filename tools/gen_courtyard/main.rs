@@ -24,7 +24,7 @@ use glam::{DVec3, Vec2, Vec3};
 use heliar::geometry::raycast::RayScene;
 use heliar::geometry::{Material, Mesh};
 use heliar::io::image::{ExrPrecision, LinearImage, srgb_u8_from_linear};
-use heliar::scene::camera::{Camera, Intrinsics, Pose};
+use heliar::camera::{Camera, Intrinsics, Pose};
 use heliar::sun::{GeoFrame, Observer, sun_position};
 use rand::{SeedableRng, rngs::SmallRng};
 use rand_distr_free::normal;
@@ -230,15 +230,7 @@ impl TrueAlbedo for WithStatue<'_> {
 }
 
 fn camera() -> Camera {
-    let intrinsics = Intrinsics {
-        width: 0,
-        height: 0,
-        fx: 0.0,
-        fy: 0.0,
-        cx: 0.0,
-        cy: 0.0,
-        distortion: [-0.08, 0.012, 0.0005, -0.0003, 0.0],
-    };
+    let intrinsics = Intrinsics::brown_conrady(0, 0, 0.0, 0.0, 0.0, 0.0, [-0.08, 0.012, 0.0005, -0.0003, 0.0]);
     let pose = Pose::look_at(DVec3::new(4.5, 1.7, 9.0), DVec3::new(-2.5, 0.6, -4.0), DVec3::Y).expect("valid look-at");
     Camera { intrinsics, pose }
 }
@@ -271,15 +263,7 @@ fn main() -> Result<()> {
     let mut cam = camera();
     let (w, h) = (args.width, args.height);
     let f = 0.8125 * w as f64; // ≈ 63° horizontal field of view
-    cam.intrinsics = Intrinsics {
-        width: w,
-        height: h,
-        fx: f,
-        fy: f * 1.002,
-        cx: w as f64 / 2.0 + 1.2,
-        cy: h as f64 / 2.0 - 1.1,
-        distortion: cam.intrinsics.distortion,
-    };
+    cam.intrinsics = Intrinsics::brown_conrady(w, h, f, f * 1.002, w as f64 / 2.0 + 1.2, h as f64 / 2.0 - 1.1, *cam.intrinsics.distortion().unwrap_or(&[0.0; 5]));
 
     let observer = Observer::new(LAT, LON, ELEV);
     let geo = GeoFrame::default();
@@ -296,9 +280,9 @@ fn main() -> Result<()> {
         let v = esky[i] * Vec3::from(PA0) + esun[i] * Vec3::from(PD0);
         *p = v.to_array();
     }
-    let (sx, sy) = heliar::envmap::texel_from_dir(sun0, ew, eh);
+    let (sx, sy) = heliar::geometry::equirect::texel_from_dir(sun0, ew, eh);
     let (sx, sy) = ((sx as u32).min(ew - 1), (sy as u32).min(eh - 1));
-    let omega = heliar::envmap::texel_solid_angle(sy, ew, eh);
+    let omega = heliar::geometry::equirect::texel_solid_angle(sy, ew, eh);
     let prev = Vec3::from(env.get(sx, sy));
     env.set(sx, sy, (prev + Vec3::from(PD0) / omega).to_array());
     env.write_exr(&out.join("env.exr"), ExrPrecision::Half)?;
@@ -387,7 +371,7 @@ fn main() -> Result<()> {
              distortion = {:?}  # k1, k2, p1, p2, k3\n\n\
              [pose]\nposition = [4.5, 1.7, 9.0]\nlook_at = [-2.5, 0.6, -4.0]\nup = [0.0, 1.0, 0.0]\n\n\
              [response]\nkind = \"srgb\"\nexposure = 1.0\nsaturation = 0.98\n",
-            k.width, k.height, k.fx, k.fy, k.cx, k.cy, k.distortion
+            k.width, k.height, k.fx, k.fy, k.cx, k.cy, k.distortion().copied().unwrap_or_default()
         ),
     )?;
     write(

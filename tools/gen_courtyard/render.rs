@@ -9,7 +9,7 @@
 use glam::{DVec2, Vec2, Vec3};
 use heliar::geometry::raycast::{RAY_EPSILON_M, RayScene};
 use heliar::geometry::sampling::sample_cosine_around;
-use heliar::scene::camera::Camera;
+use heliar::camera::Camera;
 use rand::{Rng, SeedableRng, rngs::SmallRng};
 use rayon::prelude::*;
 use std::f32::consts::PI;
@@ -175,7 +175,7 @@ pub fn render_env_basis(
                     let mut rng = SmallRng::seed_from_u64(seed ^ ((y as u64) << 32 | x as u64).wrapping_mul(0x9e37_79b9));
                     let (mut a, mut b) = (Vec3::ZERO, Vec3::ZERO);
                     for _ in 0..spp {
-                        let d = heliar::envmap::dir_from_texel(x as f32 + rng.random::<f32>(), y as f32 + rng.random::<f32>(), width, height);
+                        let d = heliar::geometry::equirect::dir_from_texel(x as f32 + rng.random::<f32>(), y as f32 + rng.random::<f32>(), width, height);
                         let (s, l) = trace(scene, albedo, centre, d, sun, &mut rng);
                         a += s;
                         b += l;

@@ -6,16 +6,16 @@
 //! - `lamp`: a room with a window and a ceiling lamp flickering at 115 Hz, which the 21 Hz capture
 //!   aliases to 10 Hz.
 //!
-//! The skies are [`heliar::vem::synth`]'s; the lens is an equidistant 180° fisheye looking up
+//! The skies are [`heliar::vem::eval::synth`]'s; the lens is an equidistant 180° fisheye looking up
 //! with north at the top of the image. Output is deterministic.
 
 use anyhow::{Context, Result};
 use clap::{Parser, ValueEnum};
 use heliar::io::image::ExrPrecision;
-use heliar::vem::calib::fisheye_toml;
-use heliar::vem::fisheye::FisheyeCamera;
+use heliar::vem::capture::lens_file::fisheye_toml;
+use heliar::camera::Camera;
 use heliar::vem::polar::{IrradianceReference, luminance};
-use heliar::vem::synth::{Environment, RATE_HZ, indoor_lamp, outdoor, render_fisheye, render_polar};
+use heliar::vem::eval::synth::{Environment, RATE_HZ, indoor_lamp, outdoor, render_fisheye, render_polar};
 use glam::Vec3;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -51,7 +51,7 @@ fn write_sequence(dir: &Path, name: &str, cli: &Cli, env_at: impl Fn(usize) -> B
     let frames = dir.join("frames");
     std::fs::create_dir_all(&frames).with_context(|| format!("creating {}", frames.display()))?;
     std::fs::create_dir_all(dir.join("calib"))?;
-    let cam = FisheyeCamera::equidistant_up(cli.size, 180.0);
+    let cam = Camera::equidistant_up(cli.size, 180.0);
     let calib = dir.join("calib/fisheye.toml");
     std::fs::write(&calib, fisheye_toml(&cam, &format!("gen-vem: {name} sequence, equidistant 180° fisheye looking up, north (−Z) at the top")))
         .with_context(|| format!("writing {}", calib.display()))?;

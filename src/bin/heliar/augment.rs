@@ -18,10 +18,13 @@ use chrono::{DateTime, FixedOffset};
 use clap::{Args, ValueEnum};
 use heliar::io::frames::{Frame, FrameData, Linearizer, list_frame_files};
 use heliar::pipeline::{Ambient, Pipeline, RelightReport, RunCounts, probe_source};
-use heliar::render::output::{OutputKind, Rgb8, write_contact_sheet, write_frame};
-use heliar::render::{Builder, Compositor, CompositorConfig, Darkening, Gpu, GpuOptions, PassReport};
+use heliar::render::output::{OutputKind, write_frame};
+use heliar::io::image::{Rgb8, write_contact_sheet};
+use heliar::render::{Builder, Compositor, CompositorConfig, Darkening, PassReport};
+use heliar::gpu::{Gpu, GpuOptions};
 use heliar::report::{JsonLines, Table, median};
-use heliar::scene::{Photometry, Scene, Truth, parse_time};
+use heliar::io::frames::Photometry;
+use heliar::scene::{Scene, Truth, parse_time};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -151,7 +154,7 @@ pub struct AugmentArgs {
     ambient: AmbientArg,
     /// Paths per pixel of the virtual objects' per-pixel ambient transfer, traced on the first
     /// frame and again when the sun has moved 0.25° (0: probes × ambient occlusion instead).
-    #[arg(long, default_value_t = heliar::render::transfer::TRANSFER_PATHS)]
+    #[arg(long, default_value_t = heliar::render::object_transfer::TRANSFER_PATHS)]
     transfer_paths: u32,
     /// Columns of the contact sheet.
     #[arg(long, default_value_t = 4)]

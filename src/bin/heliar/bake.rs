@@ -6,11 +6,12 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use glam::Vec3;
 use heliar::envmap::bake::{Baked, bake_cached, bake_dir};
-use heliar::envmap::relight::{Lighting, Relighter};
+use heliar::envmap::relight::Relighter;
+use heliar::lighting::Lighting;
 use heliar::geometry::raycast::RayScene;
 use heliar::io::frames::Frame;
 use heliar::io::image::ExrPrecision;
-use heliar::irradiance::transfer::{LinearBasis, ProbeTransfer};
+use heliar::irradiance::probe_transfer::{LinearBasis, ProbeTransfer};
 use heliar::scene::Scene;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use std::collections::HashMap;
@@ -123,7 +124,7 @@ fn resolve_lighting(scene: &Scene, ray: Arc<RayScene>, baked: &Baked, a: &Lighti
         };
         let f = |v: [f64; 3]| Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32);
         return Ok((
-            Lighting { sun_dir: Vec3::from(e.sun.dir_world), sun_up: e.sun.above_horizon, pd: f(pd), pa: f(pa) },
+            Lighting { sun_dir: Vec3::from(e.sun.dir_world), above_horizon: e.sun.above_horizon, pd: f(pd), pa: f(pa) },
             format!("estimated on {} ({:?})", path.display(), e.status),
         ));
     }
@@ -136,14 +137,14 @@ fn resolve_lighting(scene: &Scene, ray: Arc<RayScene>, baked: &Baked, a: &Lighti
     };
     let (dir, up) = sun_at(&time)?;
     match (&a.pd, &a.pa) {
-        (Some(pd), Some(pa)) => Ok((Lighting { sun_dir: dir, sun_up: up, pd: parse3(pd, "--pd")?, pa: parse3(pa, "--pa")? }, "given".into())),
+        (Some(pd), Some(pa)) => Ok((Lighting { sun_dir: dir, above_horizon: up, pd: parse3(pd, "--pd")?, pa: parse3(pa, "--pa")? }, "given".into())),
         _ => {
             let i = &baked.info;
             if i.albedo_source == heliar::scene::AlbedoSource::Gltf {
                 bail!("no lighting given and the bake has none at capture (albedo from glTF): pass --frame N or --pd/--pa");
             }
             let f = |v: [f64; 3]| Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32);
-            Ok((Lighting { sun_dir: dir, sun_up: up, pd: f(i.capture_pd), pa: f(i.capture_pa) }, "estimated on the environment map at capture".into()))
+            Ok((Lighting { sun_dir: dir, above_horizon: up, pd: f(i.capture_pd), pa: f(i.capture_pa) }, "estimated on the environment map at capture".into()))
         }
     }
 }
@@ -177,7 +178,7 @@ pub fn run_relight(a: RelightArgs) -> Result<()> {
     img.write_png_srgb(&png, 1.0)?;
     let v = serde_json::json!({
         "output": a.output, "preview": png, "lighting_source": source,
-        "sun_dir": lighting.sun_dir.to_array(), "sun_up": lighting.sun_up, "pd": lighting.pd.to_array(), "pa": lighting.pa.to_array(),
+        "sun_dir": lighting.sun_dir.to_array(), "sun_up": lighting.above_horizon, "pd": lighting.pd.to_array(), "pa": lighting.pa.to_array(),
         "sun_visibility_build_ms": up.build_ms, "sunlit_texels": up.lit_texels, "relight_ms": relight_ms,
     });
     println!("{}", serde_json::to_string_pretty(&v)?);
@@ -218,7 +219,7 @@ pub fn run_irradiance(a: IrradianceArgs) -> Result<()> {
         transfer.full_into(&relit, lighting.pa, &mut probes);
     } else {
         let basis = LinearBasis { ambient: transfer.ambient_response(&relighter), direct: transfer.direct_response(&relighter) };
-        let pd = if lighting.sun_up { lighting.pd } else { Vec3::ZERO };
+        let pd = if lighting.above_horizon { lighting.pd } else { Vec3::ZERO };
         transfer.linear_into(&basis, pd, lighting.pa, &mut probes);
     }
     let e = probes.irradiance(p, n);
@@ -227,7 +228,7 @@ pub fn run_irradiance(a: IrradianceArgs) -> Result<()> {
         "irradiance": e.map(|e| e.to_array()),
         "inside_grid": ((p - probes.min).cmpge(Vec3::ZERO).all() && (p - probes.min).cmple((probes.dims.as_vec3() - Vec3::ONE) * probes.spacing).all()),
         "path": if a.full { "full" } else { "linear" },
-        "lighting": {"source": source, "sun_dir": lighting.sun_dir.to_array(), "sun_up": lighting.sun_up, "pd": lighting.pd.to_array(), "pa": lighting.pa.to_array()},
+        "lighting": {"source": source, "sun_dir": lighting.sun_dir.to_array(), "sun_up": lighting.above_horizon, "pd": lighting.pd.to_array(), "pa": lighting.pa.to_array()},
         "grid": {"dims": probes.dims.to_array(), "spacing_m": probes.spacing, "invalid_probes": transfer.stats.invalid_probes, "directions": transfer.stats.directions},
     });
     println!("{}", serde_json::to_string_pretty(&v)?);

@@ -6,11 +6,12 @@ use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use glam::Vec3;
 use heliar::envmap::bake::{Baked, bake_with_map};
-use heliar::envmap::relight::{Lighting, RelitMap, Relighter};
+use heliar::envmap::relight::{RelitMap, Relighter};
+use heliar::lighting::Lighting;
 use heliar::geometry::raycast::RayScene;
 use heliar::geometry::sampling::sphere_fibonacci;
 use heliar::io::image::LinearImage;
-use heliar::irradiance::transfer::{LinearBasis, ProbeTransfer, brute_force_irradiance};
+use heliar::irradiance::probe_transfer::{LinearBasis, ProbeTransfer, brute_force_irradiance};
 use heliar::report::{Series, Table, line_plot_svg, median};
 use heliar::scene::Scene;
 use rand::{Rng, SeedableRng, rngs::SmallRng};
@@ -69,7 +70,7 @@ struct Setup {
 }
 
 fn lighting_of(b: &Baked) -> Lighting {
-    Lighting { sun_dir: Vec3::from(b.info.capture_sun_dir), sun_up: true, pd: v3(b.info.capture_pd), pa: v3(b.info.capture_pa) }
+    Lighting { sun_dir: Vec3::from(b.info.capture_sun_dir), above_horizon: true, pd: v3(b.info.capture_pd), pa: v3(b.info.capture_pa) }
 }
 
 /// Brute-force irradiance of every test point under a relit map.

@@ -10,7 +10,9 @@ use heliar::estimate::Estimator;
 use heliar::io::frames::Frame;
 use heliar::pipeline::{Ambient, lighting_of, probe_source};
 use heliar::render::reference::{Classes, CompositeError, References, composite_error};
-use heliar::render::{Compositor, CompositorConfig, FrameLighting, Gpu, GpuOptions, VideoFrame};
+use heliar::lighting::Lighting;
+use heliar::render::{Compositor, CompositorConfig, VideoFrame};
+use heliar::gpu::{Gpu, GpuOptions};
 use heliar::report::{Series, Table, line_plot_svg, median};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -47,7 +49,7 @@ pub struct RenderSweep {
 struct RefFrame {
     index: usize,
     video: VideoFrame,
-    lighting: FrameLighting,
+    lighting: Lighting,
     grid: heliar::irradiance::ProbeGrid,
     reference: heliar::io::image::LinearImage,
     classes: Classes,
@@ -97,7 +99,7 @@ pub fn run(a: RenderSweep) -> Result<()> {
         pb.inc(1);
         let Some(k) = refs.frames.iter().position(|&f| f == i) else { continue };
         let lighting = lighting_of(&e);
-        let grid = probes.relight(&e, lighting.pd, lighting.pa).clone();
+        let grid = probes.relight(&lighting).clone();
         let classes = Classes::new(&scene, &objects, &ray, refs.crop, lighting.sun_dir);
         frames.push(RefFrame { index: i, video: VideoFrame::from_frame(&frame, &lin), lighting, grid, reference: refs.image(k)?, classes });
     }

@@ -4,15 +4,16 @@
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use heliar::report::{Series, Table, line_plot_svg, median};
-use heliar::vem::input::VemInput;
-use heliar::vem::metrics::{irradiance_error, motion, random_normals, reference_irradiance};
-use heliar::vem::pattern::Pattern;
+use heliar::vem::capture::input::VemInput;
+use heliar::vem::eval::metrics::{irradiance_error, motion, random_normals, reference_irradiance};
+use heliar::vem::sampling::pattern::Pattern;
 use heliar::vem::polar::{IrradianceReference, PolarMap};
 use heliar::vem::sampling::{PolarDistribution, SamplerKind};
 use heliar::vem::cluster::{DEFAULT_CF, cluster_lights, cluster_radius};
 use heliar::vem::regions::{RegionLists, RegionSet};
-use heliar::vem::temporal::{FirDesign, LightFilter};
-use heliar::vem::{Decomposer, VemConfig, lights_of_distribution, lights_of_map, synth};
+use heliar::vem::fir::{FirDesign, LightFilter};
+use heliar::vem::eval::synth;
+use heliar::vem::{Decomposer, VemConfig, lights_of_distribution, lights_of_map};
 use std::path::{Path, PathBuf};
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -32,7 +33,7 @@ pub struct VemSweep {
     /// What to measure.
     #[arg(long, value_enum, default_value = "all")]
     what: What,
-    /// Frames to measure on (folder or file; default: the synthetic skies of `heliar::vem::synth`).
+    /// Frames to measure on (folder or file; default: the synthetic skies of `heliar::vem::eval::synth`).
     /// Coherence then compares consecutive frames.
     #[arg(long)]
     input: Option<PathBuf>,
@@ -261,11 +262,11 @@ fn speed(s: &VemSweep, maps: &[(String, PolarMap)]) -> Result<()> {
     let regions = RegionSet::lambertian(200, 32);
     let mut lists = RegionLists::default();
     row("region lists, 300 lights × 200 regions", time_per_call(n, |_| regions.build_lists(&lights, &mut lists)));
-    let cam = heliar::vem::fisheye::FisheyeCamera::equidistant_up(512, 180.0);
+    let cam = heliar::camera::Camera::equidistant_up(512, 180.0);
     let img = synth::render_fisheye(&synth::outdoor(0, synth::RATE_HZ), &cam, 1);
     let frame = heliar::io::frames::Frame { width: 512, height: 512, data: heliar::io::frames::FrameData::Hdr(img) };
     let lin = heliar::io::frames::Linearizer::new(&heliar::io::frames::Response::Linear, 1.0, 1.0, None);
-    let mut rs = heliar::vem::resample::Resampler::new(&heliar::vem::resample::Projection::Fisheye(cam), 512, 512, 360, 90);
+    let mut rs = heliar::vem::capture::resample::Resampler::new(&heliar::vem::capture::resample::Projection::Fisheye(cam), 512, 512, 360, 90);
     let mut polar = PolarMap::new(360, 90);
     row(&format!("fisheye 512² → polar map ({} weights)", rs.entries()), time_per_call(n / 10 + 1, |_| {
         std::hint::black_box(rs.resample(&frame, &lin, &mut polar));

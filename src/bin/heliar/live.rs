@@ -54,7 +54,7 @@ pub struct LiveArgs {
     samples: u32,
     /// Paths per pixel of the virtual objects' per-pixel ambient transfer (0: probes × ambient
     /// occlusion; switchable in the window when on).
-    #[arg(long, default_value_t = heliar::render::transfer::TRANSFER_PATHS)]
+    #[arg(long, default_value_t = heliar::render::object_transfer::TRANSFER_PATHS)]
     transfer_paths: u32,
     /// A captured VEM sequence (fisheye/equirect/polar frames) to decompose into lights in a
     /// panel of the window.
@@ -89,7 +89,7 @@ mod imp {
     use heliar::live::source::opener_for;
     use heliar::live::{Capture, CaptureOptions, FrameClock, LatestSlot, LiveApp};
     use heliar::pipeline::{Ambient, Pipeline, probe_source};
-    use heliar::render::probes::{ProbeSource, UniformSky};
+    use heliar::irradiance::sources::{ProbeSource, UniformSky};
     use heliar::render::CompositorConfig;
     use heliar::report::median;
     use heliar::scene::{Scene, parse_time};
@@ -99,7 +99,7 @@ mod imp {
     use std::time::Duration;
 
     /// Photometry, clock and playback rate of the input.
-    fn timing(scene: &Scene, a: &LiveArgs) -> Result<(heliar::scene::Photometry, FrameClock, Option<f64>)> {
+    fn timing(scene: &Scene, a: &LiveArgs) -> Result<(heliar::io::frames::Photometry, FrameClock, Option<f64>)> {
         let borrowed = a.sequence.as_deref().map(|n| crate::common::pick_sequence(scene, Some(n)).context("--sequence")).transpose()?;
         let start = a.start.as_deref().map(|s| parse_time(Path::new("--start"), "start", s)).transpose()?;
         if let Some(f) = a.fps

@@ -7,12 +7,12 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use heliar::report::{JsonLines, Series, Table, line_plot_svg, median};
 use heliar::vem::cluster::Cluster;
-use heliar::vem::input::VemInput;
-use heliar::vem::pattern::Pattern;
+use heliar::vem::capture::input::VemInput;
+use heliar::vem::sampling::pattern::Pattern;
 use heliar::vem::polar::PolarMap;
-use heliar::vem::resample::ResampleStats;
+use heliar::vem::capture::resample::ResampleStats;
 use heliar::vem::sampling::SamplerKind;
-use heliar::vem::gpu::VemRenderConfig;
+use heliar::render::vem::VemRenderConfig;
 use heliar::vem::{Decomposer, FrameSummary, Light, Status, VemConfig};
 use crate::vem_render::VemCompositing;
 use serde::Serialize;
@@ -63,10 +63,10 @@ pub struct VemArgs {
     #[arg(long)]
     glossy_lights: Option<usize>,
     /// Shadow maps in the atlas (at most this many clustered lights cast shadows).
-    #[arg(long, default_value_t = heliar::vem::gpu::shadow_atlas::DEFAULT_SLOTS)]
+    #[arg(long, default_value_t = heliar::render::vem::shadow_atlas::DEFAULT_SLOTS)]
     shadow_maps: usize,
     /// Shadow-map tile size, texels.
-    #[arg(long, default_value_t = heliar::vem::gpu::shadow_atlas::DEFAULT_TILE)]
+    #[arg(long, default_value_t = heliar::render::vem::shadow_atlas::DEFAULT_TILE)]
     shadow_tile: u32,
     /// Visit every light in the shader instead of the region's list (the culling baseline).
     #[arg(long)]
@@ -90,7 +90,7 @@ pub struct VemArgs {
     #[arg(long, default_value = "360x90")]
     polar: String,
     /// Largest fraction of NaN/Inf/negative pixels accepted in a frame.
-    #[arg(long, default_value_t = heliar::vem::input::DEFAULT_MAX_INVALID_FRACTION)]
+    #[arg(long, default_value_t = heliar::vem::capture::input::DEFAULT_MAX_INVALID_FRACTION)]
     max_invalid_fraction: f64,
     /// Also write an SVG plot of the frame power, raw and filtered.
     #[arg(long)]

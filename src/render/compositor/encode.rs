@@ -2,7 +2,8 @@
 
 use super::{Compositor, StencilState};
 use crate::render::RenderError;
-use crate::render::frame::{Darkening, FrameLighting, LightingUniform, PassReport, VideoFrame, VolumeStats, luma, pass};
+use crate::lighting::Lighting;
+use crate::render::frame::{Darkening, LightingUniform, PassReport, VideoFrame, VolumeStats, luma, pass};
 use crate::render::stencil::VIRTUAL_SURFACE;
 use crate::render::virtual_shading::VirtualShading;
 use glam::Vec3;
@@ -17,7 +18,7 @@ impl Compositor {
     pub(super) fn encode(
         &mut self,
         video: &VideoFrame,
-        lighting: &FrameLighting,
+        lighting: &Lighting,
         target: &wgpu::TextureView,
         format: wgpu::TextureFormat,
         output_scale: f32,
@@ -71,7 +72,7 @@ impl Compositor {
         if has_virtual && !reuse {
             let t = std::time::Instant::now();
             self.region = if self.config.scissor && !self.config.debug_masks {
-                super::region::canvas_region(&self.canvas, &self.receivers, &self.virtual_bounds, sun_key)
+                crate::render::region::canvas_region(&self.canvas, &self.receivers, &self.virtual_bounds, sun_key)
             } else {
                 None
             };
@@ -226,7 +227,7 @@ impl Compositor {
                 }),
                 ..Default::default()
             });
-            super::region::set_scissor(&mut pa, region);
+            crate::render::region::set_scissor(&mut pa, region);
             pa.set_bind_group(0, &self.camera_bg, &[]);
             pa.set_pipeline(&self.prepass.proxy);
             pa.set_vertex_buffer(0, self.proxy.vertices.slice(..));
@@ -277,7 +278,7 @@ impl Compositor {
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment { view: &self.res.depth.view, depth_ops: None, stencil_ops: None }),
                 ..Default::default()
             });
-            super::region::set_scissor(&mut pm, region);
+            crate::render::region::set_scissor(&mut pm, region);
             self.mask.record(&mut pm);
             report.ran.push(pass::SHADOW_MASK);
             self.stencil = Some(StencilState { sun: sun_key, debug: self.config.debug_masks, frame: self.frames });
@@ -293,7 +294,7 @@ impl Compositor {
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment { view: &self.res.depth.view, depth_ops: None, stencil_ops: None }),
                 ..Default::default()
             });
-            super::region::set_scissor(&mut pb, region);
+            crate::render::region::set_scissor(&mut pb, region);
             pb.set_bind_group(0, &self.shading_bg, &[]);
             pb.set_vertex_buffer(0, self.virt.vertices.slice(..));
             pb.set_index_buffer(self.virt.indices.slice(..), wgpu::IndexFormat::Uint32);
@@ -317,7 +318,7 @@ impl Compositor {
         }
 
         // Pass C: composite (and the warped debug masks).
-        let composite = self.composites.get(&format).ok_or_else(|| RenderError::Device(format!("no composite pipeline for {format:?}")))?;
+        let composite = self.composites.get(&format).ok_or_else(|| crate::gpu::GpuError::Device(format!("no composite pipeline for {format:?}")))?;
         {
             let mut pc = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("composite"),

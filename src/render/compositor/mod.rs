@@ -2,7 +2,7 @@
 //!
 //! # How it works
 //! (Jensen §3.2 steps 1–4, §3.3 and §5, made robust; the passes are documented in their own
-//! modules.) On the undistorted canvas ([`super::camera`]), with MSAA when the adapter has it:
+//! modules.) On the undistorted canvas ([`crate::gpu::canvas`]), with MSAA when the adapter has it:
 //!
 //! 1. depth prepass: real proxy, then virtual objects (which set the virtual-surface stencil
 //!    bit);
@@ -12,7 +12,7 @@
 //!    virtual-surface samples are in some shadow;
 //! 4. the virtual objects shaded in one geometry pass: sun term times the pixel's unshadowed
 //!    fraction of virtual-surface samples, ambient from the per-pixel transfer
-//!    ([`super::transfer`], traced on the CPU on the first frame and when the sun has moved past
+//!    ([`super::object_transfer`], traced on the CPU on the first frame and when the sun has moved past
 //!    `bounce_rebuild_deg`), or SH ambient from the probe grid times the objects' own ambient
 //!    occlusion where the transfer has no entry (or is off).
 //!
@@ -29,21 +29,22 @@
 //! stencil and the mask of the earlier frame are kept; only shading and composite run), and a
 //! sun that has not moved more than `bounce_rebuild_deg` (the objects' transfer is kept).
 mod encode;
-mod region;
 mod resources;
 mod volumes;
 
-pub use region::Rect;
-pub use resources::{Layer, Resources, Tex, read_buffer_bytes, read_texture};
+pub use resources::Resources;
+use super::region::Rect;
+use crate::gpu::readback::read_texture;
 pub use volumes::{BuildStats, Builder, Volumes};
 
 use super::RenderError;
-use super::camera::{Canvas, camera_layout};
+use crate::gpu::canvas::{Canvas, camera_layout};
 use super::composite::{self, Composite};
 use super::depth_prepass::DepthPrepass;
-use super::frame::{Darkening, FrameLighting, LightingUniform, PassReport, VideoFrame, pass};
-use super::gpu::{Gpu, MASK_FORMAT, f32_from_f16};
-use super::mesh::{ProxyBuffers, VirtualBuffers, VirtualVertex, material_layout};
+use crate::lighting::Lighting;
+use super::frame::{Darkening, LightingUniform, PassReport, VideoFrame, pass};
+use crate::gpu::{Gpu, MASK_FORMAT, f32_from_f16};
+use crate::gpu::mesh::{ProxyBuffers, VirtualBuffers, VirtualVertex, material_layout};
 use super::occluder::Occluder;
 use super::probes::GpuProbes;
 use super::receivers::Receivers;
@@ -51,16 +52,16 @@ use super::shadow_mask::ShadowMask;
 use super::shadow_volume::ShadowVolumePass;
 use super::stencil::StencilResolve;
 use super::virtual_shading::VirtualShading;
-use super::transfer::{ObjectTransfer, TransferScene};
+use super::object_transfer::{ObjectTransfer, TransferScene};
 use super::volume::OPEN_CAP_OFFSET_M;
 use crate::geometry::ambient::TransportQuality;
 use crate::geometry::raycast::RayScene;
 use crate::io::image::LinearImage;
 use crate::irradiance::ProbeGrid;
-use crate::estimate::EstimatorConfig;
+use crate::scene::settings::EstimatorConfig;
 use crate::geometry::Mesh;
 use crate::scene::Scene;
-use crate::scene::camera::Camera;
+use crate::camera::Camera;
 use glam::Vec3;
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -115,13 +116,13 @@ pub struct CompositorConfig {
     /// Rays per canvas pixel of the virtual objects' own ambient occlusion (0: none), the
     /// ambient's fallback where the per-pixel transfer has no entry.
     pub occlusion_rays: u32,
-    /// Paths per canvas pixel of the virtual objects' ambient transfer ([`super::transfer`]);
+    /// Paths per canvas pixel of the virtual objects' ambient transfer ([`super::object_transfer`]);
     /// 0 turns it off (ambient from the probe grid times ambient occlusion everywhere).
     pub transfer_paths: u32,
     /// Surface hits per path of the transfer.
     pub transfer_bounces: u32,
     /// Lattice spacing of the transfer's traced pixels (0: automatic, within
-    /// [`super::transfer::TRANSFER_PATH_BUDGET`]).
+    /// [`super::object_transfer::TRANSFER_PATH_BUDGET`]).
     pub transfer_stride: u32,
     /// Seed of the integrals.
     pub seed: u64,
@@ -131,11 +132,12 @@ impl CompositorConfig {
     /// Defaults that follow the scene's estimator settings (same `c`, `b` quality, bounce on or
     /// off, no-sun threshold).
     pub fn for_scene(scene: &Scene) -> Self {
-        Self::for_estimator(&scene.estimator)
+        Self::from_estimator_settings(&scene.estimator)
     }
 
-    /// Defaults that follow estimator settings.
-    pub fn for_estimator(e: &EstimatorConfig) -> Self {
+    /// Defaults that follow the scene's `[estimator]` settings (plain data from
+    /// [`crate::scene::settings`]): the same `c`, `b` quality, bounce on or off, no-sun threshold.
+    pub fn from_estimator_settings(e: &EstimatorConfig) -> Self {
         Self {
             supersample: 1.0,
             darkening: Darkening::default(),
@@ -150,8 +152,8 @@ impl CompositorConfig {
             bounce_quality: e.bounce,
             bounce_rebuild_deg: e.sun_rebuild_deg,
             occlusion_rays: super::occlusion::AO_RAYS,
-            transfer_paths: super::transfer::TRANSFER_PATHS,
-            transfer_bounces: super::transfer::TRANSFER_BOUNCES,
+            transfer_paths: super::object_transfer::TRANSFER_PATHS,
+            transfer_bounces: super::object_transfer::TRANSFER_BOUNCES,
             transfer_stride: 0,
             seed: e.seed,
         }
@@ -498,7 +500,7 @@ impl Compositor {
     }
 
     /// Composites one frame offscreen and reads it back.
-    pub fn render(&mut self, video: &VideoFrame, lighting: &FrameLighting) -> Result<(RenderedFrame, PassReport), RenderError> {
+    pub fn render(&mut self, video: &VideoFrame, lighting: &Lighting) -> Result<(RenderedFrame, PassReport), RenderError> {
         let target = self.res.output.view.clone();
         let (encoder, mut report) = self.encode(video, lighting, &target, self.gpu.output_format, 1.0)?;
         let t = std::time::Instant::now();
@@ -527,7 +529,7 @@ impl Compositor {
 
     /// Composites one frame into `view` (a window's surface texture of `format`), with the
     /// output scaled by `exposure`. Submits without waiting.
-    pub fn render_to(&mut self, view: &wgpu::TextureView, format: wgpu::TextureFormat, exposure: f32, video: &VideoFrame, lighting: &FrameLighting) -> Result<PassReport, RenderError> {
+    pub fn render_to(&mut self, view: &wgpu::TextureView, format: wgpu::TextureFormat, exposure: f32, video: &VideoFrame, lighting: &Lighting) -> Result<PassReport, RenderError> {
         if !self.composites.contains_key(&format) {
             let c = Composite::new(&self.gpu.device, &self.composite_layout, format, None)?;
             self.composites.insert(format, c);

@@ -1,85 +1,9 @@
 //! Textures of the compositor: the MSAA canvas (depth-stencil, virtual layer, masks and their
 //! resolves), the footage-sized inputs of the composite (video, proxy data, lens warp) and the
-//! offscreen output with its readback.
+//! offscreen output.
 
-use crate::render::RenderError;
-use crate::render::gpu::{Gpu, LAYER_FORMAT, MASK_FORMAT};
-
-/// Bytes per row of a buffer copy must be a multiple of this.
-const COPY_ALIGN: u32 = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-
-/// A 2D texture and its default view.
-pub struct Tex {
-    /// The texture.
-    pub texture: wgpu::Texture,
-    /// Its view.
-    pub view: wgpu::TextureView,
-}
-
-impl Tex {
-    /// Creates a texture.
-    pub fn new(device: &wgpu::Device, label: &str, (w, h): (u32, u32), format: wgpu::TextureFormat, samples: u32, usage: wgpu::TextureUsages) -> Self {
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some(label),
-            size: wgpu::Extent3d { width: w.max(1), height: h.max(1), depth_or_array_layers: 1 },
-            mip_level_count: 1,
-            sample_count: samples,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage,
-            view_formats: &[],
-        });
-        let view = texture.create_view(&Default::default());
-        Self { texture, view }
-    }
-
-    /// Uploads tightly packed texels covering the whole texture.
-    pub fn write<T: bytemuck::Pod>(&self, queue: &wgpu::Queue, texels: &[T]) {
-        let size = self.texture.size();
-        let bpp = std::mem::size_of::<T>() as u32;
-        queue.write_texture(
-            self.texture.as_image_copy(),
-            bytemuck::cast_slice(texels),
-            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(size.width * bpp), rows_per_image: Some(size.height) },
-            size,
-        );
-    }
-}
-
-/// A colour target rendered with MSAA and resolved, or rendered directly without.
-pub struct Layer {
-    /// The multisampled target (when MSAA is on).
-    pub msaa: Option<Tex>,
-    /// The single-sample result the composite samples.
-    pub resolved: Tex,
-}
-
-impl Layer {
-    fn new(device: &wgpu::Device, label: &str, size: (u32, u32), format: wgpu::TextureFormat, samples: u32) -> Self {
-        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC;
-        Self {
-            msaa: (samples > 1).then(|| Tex::new(device, label, size, format, samples, wgpu::TextureUsages::RENDER_ATTACHMENT)),
-            resolved: Tex::new(device, label, size, format, 1, usage),
-        }
-    }
-
-    /// The attachment that clears to zero, draws, and resolves.
-    pub fn attachment(&self) -> wgpu::RenderPassColorAttachment<'_> {
-        let (view, resolve_target) = match &self.msaa {
-            Some(m) => (&m.view, Some(&self.resolved.view)),
-            None => (&self.resolved.view, None),
-        };
-        wgpu::RenderPassColorAttachment {
-            view,
-            depth_slice: None,
-            resolve_target,
-            ops: wgpu::Operations {
-                load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                store: if self.msaa.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store },
-            },
-        }
-    }
-}
+use crate::gpu::texture::{Layer, Tex};
+use crate::gpu::{Gpu, LAYER_FORMAT, MASK_FORMAT};
 
 /// Every texture of the compositor.
 pub struct Resources {
@@ -103,7 +27,7 @@ pub struct Resources {
     pub ambient_with: Tex,
     /// `b_v`.
     pub bounce_with: Tex,
-    /// Lens warp and footprint ([`crate::render::camera::Canvas::warp_footprint`]).
+    /// Lens warp and footprint ([`crate::gpu::canvas::Canvas::warp_footprint`]).
     pub warp: Tex,
     /// Offscreen output (`Rgba32Float`).
     pub output: Tex,
@@ -179,62 +103,4 @@ impl Resources {
         entries.push(wgpu::BindGroupEntry { binding: n + 1, resource: lighting.as_entire_binding() });
         device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("composite"), layout, entries: &entries })
     }
-}
-
-/// Copies `texture` into a new mappable buffer, waits, and returns the rows without padding.
-pub fn read_texture(gpu: &Gpu, texture: &wgpu::Texture, bytes_per_texel: u32) -> Result<Vec<u8>, RenderError> {
-    let size = texture.size();
-    let row = size.width * bytes_per_texel;
-    let padded = row.div_ceil(COPY_ALIGN) * COPY_ALIGN;
-    let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("readback"),
-        size: padded as u64 * size.height as u64,
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-        mapped_at_creation: false,
-    });
-    let mut enc = gpu.device.create_command_encoder(&Default::default());
-    enc.copy_texture_to_buffer(
-        texture.as_image_copy(),
-        wgpu::TexelCopyBufferInfo {
-            buffer: &buffer,
-            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded), rows_per_image: Some(size.height) },
-        },
-        size,
-    );
-    gpu.queue.submit([enc.finish()]);
-    read_buffer(gpu, &buffer, row, padded, size.height)
-}
-
-/// Maps `buffer` (rows of `padded` bytes) and returns `height` rows of `row` bytes.
-pub fn read_buffer(gpu: &Gpu, buffer: &wgpu::Buffer, row: u32, padded: u32, height: u32) -> Result<Vec<u8>, RenderError> {
-    let slice = buffer.slice(..);
-    let (tx, rx) = std::sync::mpsc::channel();
-    slice.map_async(wgpu::MapMode::Read, move |r| {
-        let _ = tx.send(r);
-    });
-    gpu.wait()?;
-    rx.recv().map_err(|e| RenderError::Device(e.to_string()))?.map_err(|e| RenderError::Device(e.to_string()))?;
-    let data = slice.get_mapped_range().map_err(|e| RenderError::Device(e.to_string()))?;
-    let mut out = Vec::with_capacity((row * height) as usize);
-    for y in 0..height as usize {
-        out.extend_from_slice(&data[y * padded as usize..y * padded as usize + row as usize]);
-    }
-    drop(data);
-    buffer.unmap();
-    Ok(out)
-}
-
-/// Copies the first `size` bytes of `buffer` (which needs `COPY_SRC`) to the CPU.
-pub fn read_buffer_bytes(gpu: &Gpu, buffer: &wgpu::Buffer, size: u64) -> Result<Vec<u8>, RenderError> {
-    let size = size.max(4).next_multiple_of(4);
-    let staging = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("readback"),
-        size,
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-        mapped_at_creation: false,
-    });
-    let mut enc = gpu.device.create_command_encoder(&Default::default());
-    enc.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
-    gpu.queue.submit([enc.finish()]);
-    read_buffer(gpu, &staging, size as u32, size as u32, 1)
 }

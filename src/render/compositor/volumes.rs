@@ -2,7 +2,7 @@
 //! and when they were built.
 
 use crate::render::RenderError;
-use crate::render::gpu::Gpu;
+use crate::gpu::Gpu;
 use crate::render::occluder::Occluder;
 use crate::render::reach::relevant_components;
 use crate::render::volume::{HVertex, Parts, build};

@@ -377,7 +377,7 @@ mod tests {
         let dist = PolarDistribution::new(&map);
         for kind in [SamplerKind::Havran, SamplerKind::HavranCentres, SamplerKind::Standard] {
             for k in 0..500 {
-                let r = dist.sample(kind, crate::vem::pattern::sample(crate::vem::pattern::Pattern::Halton, k)).unwrap();
+                let r = dist.sample(kind, crate::vem::sampling::pattern::sample(crate::vem::sampling::pattern::Pattern::Halton, k)).unwrap();
                 assert_eq!((r.col, r.ring), (123, 40), "{kind:?}");
                 let c = dist.light_rgb(&map, &r);
                 assert!((crate::vem::polar::luminance(c) - 1.0).abs() < 1e-5 && (c[0] / c[2] - 5.0 / 3.0).abs() < 1e-4);

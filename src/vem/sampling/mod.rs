@@ -23,6 +23,7 @@
 //! sum over lights is an unbiased estimate of every RGB channel.
 
 pub mod havran;
+pub mod pattern;
 pub mod standard;
 
 use super::polar::{PolarMap, luminance};

@@ -1,0 +1,202 @@
+//! The shadow-map atlas (`shaders/vem/shadow_atlas.wgsl`; Havran §4.3: shadows for the clustered
+//! lights): one square depth texture holding up to [`DEFAULT_SLOTS`] orthographic maps of
+//! [`DEFAULT_TILE`]² texels, addressed from the light list (each light's `shadow` slot).
+//!
+//! # How it works
+//! - **Slots.** The shadow maps belong to the clustered lights (the decomposer's clusters when
+//!   it clusters, else `H` clustered here into at most `slots` lights with Havran's radius
+//!   `ε = c_f·asin √(2/Q)`); every light of `H` and `L` reads the map of the cluster direction
+//!   nearest to it ([`assign_slots`]).
+//! - **Fit.** Each map is orthographic along its light, its footprint fitted to the casters' (the
+//!   virtual objects') bounds seen from the light, its depth range to their extent along the
+//!   light ([`fit_view`]). Receivers need not be inside: a point outside the footprint has no
+//!   caster between it and the light (lit), and a point beyond the far side compares against
+//!   depth 1, so any caster in front of it shadows it. The whole tile resolution goes to the
+//!   objects.
+//! - **Lookup** (in `shaders/vem/shading.wgsl`): one texel, read through a nearest-texel
+//!   comparison sampler (GL cannot `textureLoad` a depth texture), with a normal offset of
+//!   [`NORMAL_OFFSET_TEXELS`] texels and a depth bias of [`DEPTH_BIAS_TEXELS`] texels against
+//!   self-shadowing acne.
+
+use crate::vem::cluster::{DEFAULT_CF, cluster_lights, cluster_radius};
+use crate::vem::regions::GpuLight;
+use crate::render::RenderError;
+use crate::gpu::shaders;
+use glam::{Mat4, Vec3, Vec4};
+
+/// Default number of shadow maps (the issue's 72).
+pub const DEFAULT_SLOTS: usize = 72;
+/// Default tile size, texels.
+pub const DEFAULT_TILE: u32 = 256;
+/// Normal offset of the lookup, in texels of the map (a surface tilted by up to ~60° to the
+/// light then clears its own depth texel).
+pub const NORMAL_OFFSET_TEXELS: f32 = 1.5;
+/// Depth bias of the lookup, in texels of the map's footprint converted to depth units.
+pub const DEPTH_BIAS_TEXELS: f32 = 1.0;
+/// Depth format of the atlas.
+pub const ATLAS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// Mirrors `ShadowView` in `shaders/common/vem_lights.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ShadowView {
+    /// World → clip of the map, column-major.
+    pub light_from_world: [[f32; 4]; 4],
+    /// Depth bias (clip z units), normal offset (metres), unused, unused.
+    pub bias: [f32; 4],
+}
+
+/// Tiles per side of an atlas holding `slots` maps (the square atlas of the issue).
+pub fn tiles_per_side(slots: usize) -> u32 {
+    (slots.max(1) as f64).sqrt().ceil() as u32
+}
+
+/// The orthographic map along `to_light` (unit) fitted to the box `lo..hi`, for `tile`² texels.
+pub fn fit_view(to_light: Vec3, lo: Vec3, hi: Vec3, tile: u32) -> ShadowView {
+    let f = -to_light.normalize_or(Vec3::NEG_Y);
+    let up = if f.y.abs() < 0.99 { Vec3::Y } else { Vec3::X };
+    let u = up.cross(f).normalize();
+    let w = f.cross(u);
+    let (mut mn, mut mx) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+    for k in 0..8 {
+        let p = Vec3::new(if k & 1 == 0 { lo.x } else { hi.x }, if k & 2 == 0 { lo.y } else { hi.y }, if k & 4 == 0 { lo.z } else { hi.z });
+        let q = Vec3::new(p.dot(u), p.dot(w), p.dot(f));
+        mn = mn.min(q);
+        mx = mx.max(q);
+    }
+    // One texel of margin around the footprint, and a little depth margin so that the casters are
+    // never clipped.
+    let side = (mx.x - mn.x).max(mx.y - mn.y).max(1e-4);
+    let texel = side / tile.max(1) as f32;
+    let (ex, ey) = (0.5 * (mx.x - mn.x) + texel, 0.5 * (mx.y - mn.y) + texel);
+    let (cx, cy) = (0.5 * (mx.x + mn.x), 0.5 * (mx.y + mn.y));
+    let margin = 0.01 * (mx.z - mn.z) + texel;
+    let (d0, d1) = (mn.z - margin, mx.z + margin);
+    let dr = (d1 - d0).max(1e-6);
+    let rows = [
+        Vec4::new(u.x / ex, u.y / ex, u.z / ex, -cx / ex),
+        Vec4::new(w.x / ey, w.y / ey, w.z / ey, -cy / ey),
+        Vec4::new(f.x / dr, f.y / dr, f.z / dr, -d0 / dr),
+        Vec4::new(0.0, 0.0, 0.0, 1.0),
+    ];
+    let m = Mat4::from_cols(rows[0], rows[1], rows[2], rows[3]).transpose();
+    let texel_m = 2.0 * ex.max(ey) / tile.max(1) as f32;
+    ShadowView { light_from_world: m.to_cols_array_2d(), bias: [DEPTH_BIAS_TEXELS * texel_m / dr, NORMAL_OFFSET_TEXELS * texel_m, 0.0, 0.0] }
+}
+
+/// The directions of the shadow maps: `clusters` when given, else `lights` clustered into at
+/// most `slots` (Havran §4.3). At most `slots` directions.
+pub fn shadow_directions(lights: &[GpuLight], clusters: &[Vec3], slots: usize) -> Vec<Vec3> {
+    if !clusters.is_empty() {
+        return clusters.iter().take(slots).copied().collect();
+    }
+    let lights: Vec<crate::vem::Light> =
+        lights.iter().map(|l| crate::vem::Light { index: l.index, dir: Vec3::from_array(l.dir), rgb: l.rgb }).collect();
+    let mut out = Vec::new();
+    cluster_lights(&lights, slots, cluster_radius(slots, DEFAULT_CF), &mut out);
+    out.iter().map(|c| c.dir).collect()
+}
+
+/// Sets every light's `shadow` slot to the nearest of `dirs` (`u32::MAX` without maps).
+pub fn assign_slots(lights: &mut [GpuLight], dirs: &[Vec3]) {
+    for l in lights {
+        let d = Vec3::from_array(l.dir);
+        l.shadow = dirs
+            .iter()
+            .enumerate()
+            .max_by(|a, b| d.dot(*a.1).total_cmp(&d.dot(*b.1)))
+            .map_or(u32::MAX, |(i, _)| i as u32);
+    }
+}
+
+/// The atlas pass: pipeline and layout.
+pub struct ShadowAtlasPass {
+    /// Depth-only pipeline (both faces, so open meshes cast too).
+    pub pipeline: wgpu::RenderPipeline,
+    /// Group 0: the views (storage, vertex stage).
+    pub layout: wgpu::BindGroupLayout,
+}
+
+impl ShadowAtlasPass {
+    /// Builds the pipeline for vertices of `stride` bytes (position first).
+    pub fn new(device: &wgpu::Device, stride: u64) -> Result<Self, RenderError> {
+        let module = shaders::module(device, "vem/shadow_atlas.wgsl")?;
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("vem shadow views"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX,
+                ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { read_only: true }, has_dynamic_offset: false, min_binding_size: None },
+                count: None,
+            }],
+        });
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("vem shadow atlas"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
+        let attrs = [wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x3, offset: 0, shader_location: 0 }];
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("vem shadow atlas"),
+            layout: Some(&pl),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout { array_stride: stride, step_mode: wgpu::VertexStepMode::Vertex, attributes: &attrs })],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: ATLAS_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: wgpu::MultisampleState::default(),
+            fragment: None,
+            multiview_mask: None,
+            cache: None,
+        });
+        Ok(Self { pipeline, layout })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn apply(v: &ShadowView, p: Vec3) -> Vec3 {
+        let q = Mat4::from_cols_array_2d(&v.light_from_world) * p.extend(1.0);
+        q.truncate() / q.w
+    }
+
+    #[test]
+    fn fitted_view_holds_the_box_and_orders_depth_from_the_light() {
+        let (lo, hi) = (Vec3::new(-1.0, 0.0, -0.5), Vec3::new(0.5, 2.0, 1.0));
+        for l in [Vec3::Y, Vec3::new(0.3, 0.8, -0.2).normalize(), Vec3::new(-0.9, 0.1, 0.4).normalize()] {
+            let v = fit_view(l, lo, hi, 256);
+            for k in 0..8 {
+                let p = Vec3::new(if k & 1 == 0 { lo.x } else { hi.x }, if k & 2 == 0 { lo.y } else { hi.y }, if k & 4 == 0 { lo.z } else { hi.z });
+                let q = apply(&v, p);
+                assert!(q.x.abs() < 1.0 && q.y.abs() < 1.0 && q.z > 0.0 && q.z < 1.0, "{l} {p} -> {q}");
+            }
+            // Moving toward the light decreases depth; moving across it keeps it.
+            let c = 0.5 * (lo + hi);
+            assert!(apply(&v, c + 0.1 * l).z < apply(&v, c).z);
+            let side = l.any_orthonormal_vector();
+            assert!((apply(&v, c + 0.1 * side).z - apply(&v, c).z).abs() < 1e-5);
+            assert!(v.bias[0] > 0.0 && v.bias[1] > 0.0);
+        }
+        assert_eq!(tiles_per_side(72), 9);
+        assert_eq!(tiles_per_side(1), 1);
+    }
+
+    #[test]
+    fn slots_go_to_the_nearest_direction() {
+        let mut lights = vec![
+            GpuLight { dir: Vec3::new(0.1, 1.0, 0.0).normalize().to_array(), shadow: 0, rgb: [1.0; 3], index: 0 },
+            GpuLight { dir: Vec3::new(1.0, 0.1, 0.0).normalize().to_array(), shadow: 0, rgb: [1.0; 3], index: 1 },
+        ];
+        assign_slots(&mut lights, &[Vec3::X, Vec3::Y]);
+        assert_eq!((lights[0].shadow, lights[1].shadow), (1, 0));
+        assign_slots(&mut lights, &[]);
+        assert_eq!(lights[0].shadow, u32::MAX);
+    }
+}

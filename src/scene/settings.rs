@@ -1,0 +1,177 @@
+//! Settings of the lighting stages as plain data: `[estimator]` and `[bake]` (with
+//! `[bake.relight]`) of `scene.toml`, with their defaults and range checks.
+//!
+//! This module is a leaf: the scene owns these values, and each stage (the estimator, the bake,
+//! the relighter, the compositor's defaults) builds itself from them, so `scene` never imports a
+//! stage (pbrt-v4's parameter dictionaries work the same way).
+
+use crate::geometry::ambient::TransportQuality;
+use serde::{Deserialize, Serialize};
+
+/// Estimator settings (`[estimator]` in `scene.toml`). Every field has a default.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct EstimatorConfig {
+    /// Pixels drawn per frame (Jensen: 500).
+    pub samples: usize,
+    /// Candidate pixels kept with precomputed `ρ, n, c` (the per-frame draws come from these).
+    pub pool_size: usize,
+    /// Pixels within this distance of a silhouette, crease, image border or shadow boundary are
+    /// not sampled.
+    pub edge_margin_px: u32,
+    /// Quality of the weighted-ambient integral `c`.
+    pub ambient: TransportQuality,
+    /// Quality of the sun-bounce integral.
+    pub bounce: TransportQuality,
+    /// Include the sun-bounce term `b·Pd` in the model.
+    pub sun_bounce: bool,
+    /// Rebuild sun visibility when the sun has moved more than this, degrees.
+    pub sun_rebuild_deg: f64,
+    /// Fewer usable samples than this give status `too_few_samples`.
+    pub min_samples: usize,
+    /// Condition numbers above this give status `sun_not_separable`. The condition number
+    /// bounds how much a relative error in the data (model error, not only noise) can grow in the
+    /// split: at 12, a 1% model error may move `Pd` or `Pa` by about 10%. Well-posed views measure
+    /// 1.5–8 (bundled courtyard ≈ 3–5; grazing sun ≈ 8).
+    pub max_condition: f64,
+    /// `Pd` below this fraction of `Pa` (luminance) gives status `no_direct_sun`.
+    pub no_sun_ratio: f64,
+    /// More than this fraction of drawn samples clipped gives status `saturated`.
+    pub saturated_fraction: f64,
+    /// Random-walk rate of the smoother, relative per √s (see `estimate::smoother`).
+    pub smoothing_rate_per_sqrt_s: f64,
+    /// Relative change of `Pd` or `Pa` that triggers a relight.
+    pub relight_threshold: f64,
+    /// Sun motion that triggers a relight, degrees.
+    pub relight_sun_deg: f64,
+    /// Seed of all random draws.
+    pub seed: u64,
+}
+
+impl Default for EstimatorConfig {
+    fn default() -> Self {
+        Self {
+            samples: 500,
+            pool_size: 4096,
+            edge_margin_px: 3,
+            ambient: TransportQuality { paths: 64, max_bounces: 4 },
+            bounce: TransportQuality { paths: 256, max_bounces: 3 },
+            sun_bounce: true,
+            sun_rebuild_deg: 0.25,
+            min_samples: 30,
+            max_condition: 12.0,
+            no_sun_ratio: 0.05,
+            saturated_fraction: 0.5,
+            smoothing_rate_per_sqrt_s: 0.1,
+            relight_threshold: 0.02,
+            relight_sun_deg: 0.5,
+            seed: 0,
+        }
+    }
+}
+
+impl EstimatorConfig {
+    /// Checks ranges; `Err((field, message))`.
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        if self.samples < 3 {
+            return Err(("samples", "must be at least 3".into()));
+        }
+        if self.pool_size < self.samples {
+            return Err(("pool_size", format!("must be at least samples ({})", self.samples)));
+        }
+        if self.ambient.paths == 0 {
+            return Err(("ambient.paths", "must be positive".into()));
+        }
+        if self.sun_bounce && self.bounce.paths == 0 {
+            return Err(("bounce.paths", "must be positive when sun_bounce is on".into()));
+        }
+        for (name, v) in [
+            ("sun_rebuild_deg", self.sun_rebuild_deg),
+            ("max_condition", self.max_condition),
+            ("no_sun_ratio", self.no_sun_ratio),
+            ("smoothing_rate_per_sqrt_s", self.smoothing_rate_per_sqrt_s),
+            ("relight_threshold", self.relight_threshold),
+            ("relight_sun_deg", self.relight_sun_deg),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err((name, format!("{v} must be a non-negative number")));
+            }
+        }
+        if !(self.saturated_fraction > 0.0 && self.saturated_fraction <= 1.0) {
+            return Err(("saturated_fraction", "must be in (0, 1]".into()));
+        }
+        Ok(())
+    }
+}
+
+/// `[bake]` settings in `scene.toml`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct BakeConfig {
+    /// Quality of the weighted-ambient map `c`.
+    pub ambient: TransportQuality,
+    /// Quality of the sun-bounce integral used by the albedo inversion.
+    pub bounce: TransportQuality,
+    /// Runtime relighting settings.
+    pub relight: RelightConfig,
+    /// Directions per probe of the irradiance-volume transfer.
+    pub probe_directions: usize,
+}
+
+impl Default for BakeConfig {
+    fn default() -> Self {
+        Self {
+            ambient: TransportQuality { paths: 256, max_bounces: 4 },
+            bounce: TransportQuality { paths: 128, max_bounces: 3 },
+            relight: RelightConfig::default(),
+            probe_directions: 1024,
+        }
+    }
+}
+
+impl BakeConfig {
+    /// Checks ranges; `Err((field, message))`.
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        if self.ambient.paths == 0 {
+            return Err(("ambient.paths", "must be positive".into()));
+        }
+        if self.bounce.paths == 0 {
+            return Err(("bounce.paths", "must be positive".into()));
+        }
+        if self.probe_directions < 16 {
+            return Err(("probe_directions", "must be at least 16".into()));
+        }
+        self.relight.validate().map_err(|(f, m)| (f, m))
+    }
+}
+
+/// Runtime relighting settings (`[bake.relight]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RelightConfig {
+    /// Rebuild sun visibility and bounce when the sun has moved more than this, degrees.
+    pub sun_rebuild_deg: f64,
+    /// Include sun light bounced between proxy surfaces in the relit map.
+    pub sun_bounce: bool,
+    /// Quality of that bounce integral per texel.
+    pub bounce: TransportQuality,
+}
+
+impl Default for RelightConfig {
+    fn default() -> Self {
+        Self { sun_rebuild_deg: 0.5, sun_bounce: true, bounce: TransportQuality { paths: 64, max_bounces: 3 } }
+    }
+}
+
+impl RelightConfig {
+    /// Checks ranges; `Err((field, message))`.
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        if !(self.sun_rebuild_deg.is_finite() && self.sun_rebuild_deg >= 0.0) {
+            return Err(("relight.sun_rebuild_deg", "must be a non-negative number".into()));
+        }
+        if self.sun_bounce && self.bounce.paths == 0 {
+            return Err(("relight.bounce.paths", "must be positive when sun_bounce is on".into()));
+        }
+        Ok(())
+    }
+}

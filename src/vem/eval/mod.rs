@@ -1,0 +1,4 @@
+//! Synthetic VEM data and the measures the tests and benchmarks judge the decomposer by.
+
+pub mod metrics;
+pub mod synth;
