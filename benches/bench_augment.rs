@@ -16,7 +16,8 @@ use heliar::estimate::Estimator;
 use heliar::geometry::raycast::RayScene;
 use heliar::io::frames::{Frame, FrameData};
 use heliar::io::video::{VideoSink, VideoSource};
-use heliar::pipeline::{Ambient, Pipeline, cached_bake, probe_source};
+use heliar::run::outdoor::{Ambient, OutdoorStage, cached_bake, probe_source};
+use heliar::run::session::OutdoorSession;
 use heliar::render::output::encode_rgb8;
 use heliar::render::{Compositor, CompositorConfig, SceneParts};
 use heliar::gpu::{Gpu, GpuOptions};
@@ -76,7 +77,7 @@ fn throughput(c: &mut Criterion) {
         let parts = SceneParts::of(&scene, &objects);
         let comp = Compositor::new(gpu.clone(), &parts, ray.clone(), CompositorConfig::for_scene(&scene)).expect("compositor");
         let probes = probe_source(&scene, ray.clone(), Ambient::Volume, |s, r| cached_bake(s, r, &|_: &str, _: u64, _: u64| {})).expect("probes");
-        let mut pipe = Pipeline::new(Estimator::new(&scene, ray.clone()).expect("estimator"), comp, probes);
+        let mut pipe = OutdoorSession::new(OutdoorStage::new(Estimator::new(&scene, ray.clone()).expect("estimator"), probes), comp);
         let mut src = VideoSource::open_file(&video).expect("open");
         let mut sink = VideoSink::create(&dir.join(format!("out_{w}x{h}.mp4")), 10.0, w, h).expect("sink");
         let mut i = 0usize;
@@ -99,7 +100,8 @@ fn throughput(c: &mut Criterion) {
                     // receivers and the relit map) happens about once every 2 minutes of video.
                     let time = seq.times[0] + chrono::Duration::milliseconds(100 * i as i64);
                     let decode = t_frame.elapsed().as_secs_f64() * 1e3;
-                    let (out, passes, rec, vf) = pipe.process(i, &time, &frame, &lin).expect("frame");
+                    let f = pipe.process(i, &time, &frame, &lin).expect("frame");
+                    let (out, passes, rec, vf) = (f.rendered, f.passes, f.record, f.video);
                     let t_enc = Instant::now();
                     sink.write_rgb8(&encode_rgb8(&out.image, out.precision, &vf, &frame, &seq.photometry)).expect("encode");
                     let encode = t_enc.elapsed().as_secs_f64() * 1e3;

@@ -67,9 +67,9 @@ pub mod lighting;
 pub mod live;
 #[cfg(feature = "opencv")]
 pub mod opencv_calib;
-pub mod pipeline;
 pub mod render;
 pub mod report;
+pub mod run;
 pub mod scene;
 pub mod sun;
 pub mod vem;

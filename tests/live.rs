@@ -10,7 +10,9 @@ use heliar::geometry::raycast::RayScene;
 use heliar::io::frames::Frame;
 use heliar::live::source::{CaptureStatus, FrameSource};
 use heliar::live::{Capture, CaptureOptions, FrameClock, LatestSlot, LiveApp, SourceState, TURNED_OFF};
-use heliar::pipeline::Pipeline;
+use heliar::run::outdoor::OutdoorStage;
+use heliar::run::session::OutdoorSession;
+use heliar::run::source::SourceFrame;
 use heliar::render::frame::pass;
 use heliar::irradiance::sources::UniformSky;
 use heliar::render::{Compositor, CompositorConfig};
@@ -53,13 +55,13 @@ impl FrameSource for Script {
     fn label(&self) -> String {
         "scripted camera".into()
     }
-    fn read(&mut self) -> anyhow::Result<Option<(Frame, Option<f64>)>> {
+    fn read(&mut self) -> anyhow::Result<Option<SourceFrame>> {
         if self.fail_after.is_some_and(|n| self.next >= n) {
             anyhow::bail!("scripted camera: device unplugged");
         }
         let f = self.frames[self.next % self.frames.len()].clone();
         self.next += 1;
-        Ok(Some((f, None)))
+        Ok(Some(SourceFrame { frame: f, ts_ms: None, label: "script".into() }))
     }
     fn pace_fps(&self) -> Option<f64> {
         Some(self.fps)
@@ -74,7 +76,7 @@ fn app_with(opener: heliar::live::Opener, options: CaptureOptions) -> LiveApp {
     let ray = Arc::new(RayScene::new(scene.proxy.clone()));
     let est = Estimator::new(&scene, ray.clone()).unwrap();
     let comp = Compositor::for_scene(gpu(), &scene, ray, CompositorConfig::for_scene(&scene)).unwrap();
-    let pipe = Pipeline::new(est, comp, Box::new(UniformSky::for_scene(&scene)));
+    let pipe = OutdoorSession::new(OutdoorStage::new(est, Box::new(UniformSky::for_scene(&scene))), comp);
     let seq = scene.sequence(Some("ldr")).unwrap();
     // From the sequence's start at 25 frames per second (the scripted sources give no
     // timestamps): the sun stays within a few degrees of frame 0's over a test.
@@ -151,7 +153,7 @@ fn the_feed_is_composited_with_status_and_switched_passes_are_reported() {
     h.get_by_label("constant").click();
     h.run_steps(2);
     assert!(h.state_mut().process_next(Duration::from_secs(10)));
-    assert_eq!(h.state().pipe.compositor.config().darkening, heliar::render::Darkening::Constant);
+    assert_eq!(h.state().session.compositor.config().darkening, heliar::render::Darkening::Constant);
     // No irradiance volume was given: the ambient choice stays on the uniform sky.
     assert!(!h.state().can_switch_ambient());
     assert!(!h.state_mut().set_ambient(heliar::live::AmbientChoice::Volume));
@@ -260,13 +262,13 @@ impl FrameSource for Hanging {
     fn label(&self) -> String {
         "hanging stream".into()
     }
-    fn read(&mut self) -> anyhow::Result<Option<(Frame, Option<f64>)>> {
+    fn read(&mut self) -> anyhow::Result<Option<SourceFrame>> {
         self.n += 1;
         if self.n > 2 {
             // Blocks until the test releases the gate.
             let _g = self.gate.lock().unwrap();
         }
-        Ok(Some((self.frame.clone(), None)))
+        Ok(Some(SourceFrame { frame: self.frame.clone(), ts_ms: None, label: "stall".into() }))
     }
     fn pace_fps(&self) -> Option<f64> {
         Some(50.0)
@@ -380,13 +382,13 @@ fn the_ambient_source_switches_between_the_irradiance_volume_and_the_uniform_sky
 
     let scene = Scene::load(&dst).unwrap();
     let ray = Arc::new(RayScene::new(scene.proxy.clone()));
-    let baked = heliar::pipeline::cached_bake(&scene, ray.clone(), &|_, _, _| {}).unwrap();
+    let baked = heliar::run::outdoor::cached_bake(&scene, ray.clone(), &|_, _, _| {}).unwrap();
     let volume = Box::new(VolumeProbes::new(&scene, ray.clone(), &baked));
     let est = Estimator::new(&scene, ray.clone()).unwrap();
     // The probe source lights the statue only where its per-pixel transfer does not: off here,
     // so the probe source is what the statue shows.
     let comp = Compositor::for_scene(gpu(), &scene, ray, CompositorConfig { transfer_paths: 0, ..CompositorConfig::for_scene(&scene) }).unwrap();
-    let pipe = Pipeline::new(est, comp, volume);
+    let pipe = OutdoorSession::new(OutdoorStage::new(est, volume), comp);
     let ldr = self::scene();
     let seq = ldr.sequence(Some("ldr")).unwrap();
     let frames = vec![ldr_frame(0)];

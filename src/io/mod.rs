@@ -67,3 +67,22 @@ pub enum IoError {
         want_h: u32,
     },
 }
+
+/// A temporary path beside `path` for writing it atomically: same folder (so a rename replaces
+/// it in one step), hidden, and unique to the process.
+pub fn temp_path_for(path: &std::path::Path) -> PathBuf {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
+    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so that an
+/// interrupted write leaves the old file whole (or no file) rather than a torn one.
+pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> Result<(), IoError> {
+    let tmp = temp_path_for(path);
+    let file_err = |p: &std::path::Path, source| IoError::File { path: p.to_owned(), source };
+    std::fs::write(&tmp, bytes).map_err(|e| file_err(&tmp, e))?;
+    std::fs::rename(&tmp, path).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        file_err(path, e)
+    })
+}

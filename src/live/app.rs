@@ -1,8 +1,9 @@
 //! The live window's state and its egui drawing: the composited feed, the pass switches, the
 //! estimator's status and the live plots.
 //!
-//! [`LiveApp::process`] runs one captured frame through the [`Pipeline`] (estimate → relight →
-//! probes → composite offscreen → read back) and turns the result into 8-bit RGB through the
+//! [`LiveApp::process`] runs one captured frame through the [`OutdoorSession`] (estimate →
+//! relight → probes → composite offscreen → read back), or, with the VEM panel's compositing on,
+//! through the VEM renderer with the panel's lights and turns the result into 8-bit RGB through the
 //! camera's response ([`encode_rgb8`]: untouched pixels keep their own codes), which the window
 //! shows as an egui texture. [`LiveApp::ui`] takes the newest frame from the capture slot,
 //! processes it and draws; it is a plain function of the state, so the tests drive it headless
@@ -13,11 +14,13 @@ use super::source::{Capture, CaptureStatus, Captured, SourceState};
 use crate::estimate::FrameEstimate;
 use crate::io::frames::Linearizer;
 use crate::io::image::LinearImage;
-use crate::pipeline::{FrameRecord, Pipeline};
+use crate::run::clock::FrameClock;
+use crate::run::session::{FrameRecord, OutdoorSession};
 use crate::render::frame::luma;
 use crate::render::output::encode_rgb8;
 use crate::io::image::Rgb8;
 use crate::irradiance::sources::ProbeSource;
+use crate::render::vem::VemReport;
 use crate::render::{Darkening, PassReport, PassSwitches, VideoFrame};
 use crate::io::frames::Photometry;
 use chrono::{DateTime, FixedOffset};
@@ -34,48 +37,12 @@ pub const HISTORY_SECS: f64 = 300.0;
 /// The window over which the frame rate is measured, seconds.
 const FPS_WINDOW_SECS: f64 = 2.0;
 
-/// The time of each frame.
-#[derive(Clone, Debug)]
-pub enum FrameClock {
-    /// The wall clock at capture plus an offset (cameras; `--start` or `--time-offset` set it).
-    Wall {
-        /// Added to the wall clock.
-        offset: chrono::Duration,
-    },
-    /// A start time plus the source's timestamps (files), or the frame index over `fps`.
-    Start {
-        /// Time of the first frame.
-        t0: DateTime<FixedOffset>,
-        /// Frame rate for frames without a timestamp.
-        fps: f64,
-    },
-    /// A scene sequence's times, by frame index (a looped file starts over).
-    List(Vec<DateTime<FixedOffset>>),
-}
+/// The reason the outdoor compositor's report gives when the VEM panel lights the objects.
+pub const VEM_COMPOSITES: &str = "the VEM panel lights the virtual objects (VEM renderer)";
 
-impl FrameClock {
-    /// A wall clock whose first reading is `start` (when given), shifted by `offset_secs`.
-    pub fn wall(start: Option<DateTime<FixedOffset>>, offset_secs: f64) -> Self {
-        let now = chrono::Utc::now().fixed_offset();
-        let base = start.map(|s| s - now).unwrap_or_else(chrono::Duration::zero);
-        Self::Wall { offset: base + chrono::Duration::microseconds((offset_secs * 1e6).round() as i64) }
-    }
-
-    /// The time of a captured frame.
-    pub fn time(&self, c: &Captured) -> DateTime<FixedOffset> {
-        match self {
-            FrameClock::Wall { offset } => {
-                let age = chrono::Duration::from_std(c.at.elapsed()).unwrap_or_else(|_| chrono::Duration::zero());
-                chrono::Utc::now().fixed_offset() - age + *offset
-            }
-            FrameClock::Start { t0, fps } => {
-                let ms = c.ts_ms.filter(|v| v.is_finite() && *v >= 0.0).unwrap_or(c.index as f64 * 1e3 / fps);
-                *t0 + chrono::Duration::microseconds((ms * 1e3).round() as i64)
-            }
-            FrameClock::List(times) => times[c.index as usize % times.len().max(1)],
-        }
-    }
-}
+/// What a frame's processing gives the window: its record, the outdoor passes, the VEM
+/// renderer's report, the composite and the linearised footage.
+type Processed = (FrameRecord, PassReport, Option<VemReport>, Rgb8, VideoFrame);
 
 /// One point of the plots.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -103,8 +70,10 @@ pub struct Shown {
     pub time: DateTime<FixedOffset>,
     /// Estimate, lighting, relight and timings.
     pub record: FrameRecord,
-    /// The compositor's report.
+    /// The outdoor compositor's report.
     pub passes: PassReport,
+    /// The VEM renderer's report, when the VEM panel lit the objects.
+    pub vem: Option<VemReport>,
     /// The composited frame, 8-bit RGB through the camera response.
     pub composited: Rgb8,
     /// The input frame, the same way.
@@ -126,8 +95,8 @@ pub enum AmbientChoice {
 
 /// The live view.
 pub struct LiveApp {
-    /// The pipeline.
-    pub pipe: Pipeline,
+    /// The outdoor stage and the compositor.
+    pub session: OutdoorSession,
     /// The probe source not in use (the other [`AmbientChoice`]), when there is one.
     other_probes: Option<Box<dyn ProbeSource + Send>>,
     photometry: Photometry,
@@ -160,11 +129,11 @@ pub struct LiveApp {
 impl LiveApp {
     /// The live view over `capture`'s frames. `other_probes` is the probe source for the other
     /// ambient choice (e.g. the uniform sky when the pipeline uses the irradiance volume).
-    pub fn new(title: &str, pipe: Pipeline, other_probes: Option<Box<dyn ProbeSource + Send>>, photometry: Photometry, clock: FrameClock, capture: Capture) -> Self {
-        let darkening = pipe.compositor.config().darkening;
-        let switches = pipe.compositor.switches();
+    pub fn new(title: &str, session: OutdoorSession, other_probes: Option<Box<dyn ProbeSource + Send>>, photometry: Photometry, clock: FrameClock, capture: Capture) -> Self {
+        let darkening = session.compositor.config().darkening;
+        let switches = session.compositor.switches();
         Self {
-            pipe,
+            session,
             other_probes,
             lin: photometry.linearizer(),
             photometry,
@@ -231,7 +200,7 @@ impl LiveApp {
 
     /// The ambient source in use.
     pub fn ambient(&self) -> AmbientChoice {
-        if self.pipe.probes.name() == "irradiance_volume" { AmbientChoice::Volume } else { AmbientChoice::Uniform }
+        if self.session.stage.probes.name() == "irradiance_volume" { AmbientChoice::Volume } else { AmbientChoice::Uniform }
     }
 
     /// True when the other ambient source is available.
@@ -247,8 +216,7 @@ impl LiveApp {
         }
         match self.other_probes.as_mut() {
             Some(other) => {
-                std::mem::swap(other, &mut self.pipe.probes);
-                self.pipe.force_relight();
+                self.session.stage.swap_probes(other);
                 true
             }
             None => false,
@@ -274,19 +242,28 @@ impl LiveApp {
         }
     }
 
-    /// Runs one captured frame through the pipeline with the current switches.
+    /// Runs one captured frame through the outdoor session with the current switches, or, when
+    /// the VEM panel composes, estimates it and lights the objects with the panel's lights.
     pub fn process(&mut self, c: Captured) {
         let t = Instant::now();
-        let canvas = self.pipe.compositor.canvas();
+        let canvas = self.session.compositor.canvas();
         let (w, h) = (canvas.out_width, canvas.out_height);
         if (c.frame.width, c.frame.height) != (w, h) {
             self.error = Some(format!("frame {} is {}×{} but the camera calibration is {w}×{h}", c.index, c.frame.width, c.frame.height));
             return;
         }
-        self.pipe.compositor.set_switches(self.switches, TURNED_OFF);
-        self.pipe.compositor.set_darkening(self.darkening);
-        let time = self.clock.time(&c);
-        let (rendered, passes, record, video) = match self.pipe.process(c.index as usize, &time, &c.frame, &self.lin) {
+        self.session.compositor.set_switches(self.switches, TURNED_OFF);
+        self.session.compositor.set_darkening(self.darkening);
+        let time = match self.clock.time(c.index as usize, c.ts_ms, Some(c.at)) {
+            Ok(t) => t,
+            Err(e) => {
+                self.error = Some(format!("frame {}: {e}", c.index));
+                return;
+            }
+        };
+        let composes = self.vem.as_ref().is_some_and(|v| v.composes());
+        let result = if composes { self.process_vem(&c, &time) } else { self.process_outdoor(&c, &time) };
+        let (record, passes, vem, composited, video) = match result {
             Ok(x) => x,
             Err(e) => {
                 self.error = Some(format!("frame {}: {e:#}", c.index));
@@ -294,7 +271,6 @@ impl LiveApp {
             }
         };
         self.error = None;
-        let composited = rgb8(encode_rgb8(&rendered.image, rendered.precision, &video, &c.frame, &self.photometry), w, h);
         let input = rgb8(encode_rgb8(&linear_of(&video), 0.0, &video, &c.frame, &self.photometry), w, h);
         self.push_history(&record);
         let now = Instant::now();
@@ -303,8 +279,29 @@ impl LiveApp {
             self.shown_at.pop_front();
         }
         self.processed += 1;
-        self.last = Some(Shown { index: c.index, time, record, passes, composited, input, frame_ms: t.elapsed().as_secs_f64() * 1e3, latency_ms: c.at.elapsed().as_secs_f64() * 1e3 });
+        self.last = Some(Shown { index: c.index, time, record, passes, vem, composited, input, frame_ms: t.elapsed().as_secs_f64() * 1e3, latency_ms: c.at.elapsed().as_secs_f64() * 1e3 });
         self.texture_dirty = true;
+    }
+
+    /// The outdoor compositor's frame.
+    fn process_outdoor(&mut self, c: &Captured, time: &DateTime<FixedOffset>) -> anyhow::Result<Processed> {
+        let f = self.session.process(c.index as usize, time, &c.frame, &self.lin)?;
+        let composited = rgb8(encode_rgb8(&f.rendered.image, f.rendered.precision, &f.video, &c.frame, &self.photometry), f.video.width, f.video.height);
+        Ok((f.record, f.passes, None, composited, f.video))
+    }
+
+    /// The VEM renderer's frame over the feed (the estimator still runs, for the status and the
+    /// plots); the outdoor compositor's passes are reported as skipped.
+    fn process_vem(&mut self, c: &Captured, time: &DateTime<FixedOffset>) -> anyhow::Result<Processed> {
+        let record = self.session.prepare(c.index as usize, time, &c.frame, &self.lin)?;
+        let video = VideoFrame::from_frame(&c.frame, &self.lin);
+        let dt_s = self.last.as_ref().map_or(0.0, |l| (*time - l.time).num_microseconds().unwrap_or(0) as f64 * 1e-6).max(0.0);
+        let panel = self.vem.as_mut().ok_or_else(|| anyhow::anyhow!("no VEM panel"))?;
+        let out = panel.render_over(&linear_of(&video), dt_s).ok_or_else(|| anyhow::anyhow!("the VEM panel has no frame yet"))??;
+        let composited = rgb8(out.srgb.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect(), video.width, video.height);
+        let mut passes = PassReport::default();
+        passes.skip(crate::render::frame::pass::COMPOSITE, VEM_COMPOSITES);
+        Ok((record, passes, Some(out.report), composited, video))
     }
 
     fn push_history(&mut self, r: &FrameRecord) {
@@ -498,6 +495,13 @@ impl LiveApp {
         }
         let t = &s.passes.timings;
         ui.label(format!("volumes {:.1} ms, upload {:.1} ms, GPU {:.1} ms, read-back {:.1} ms", t.volume_build_ms, t.upload_ms, t.gpu_ms, t.readback_ms));
+        if let Some(v) = &s.vem {
+            ui.label(format!("VEM renderer ran: {}", v.ran.join(", ")));
+            for k in &v.skipped {
+                ui.label(format!("skipped {}: {}", k.pass, k.reason));
+            }
+            ui.label(format!("{} lights, {} shadow maps, {:.1} ms", v.lights, v.shadow_maps, v.timings.total_ms));
+        }
     }
 
     fn plots_ui(&mut self, ui: &mut egui::Ui) {
@@ -554,45 +558,4 @@ fn linear_of(v: &VideoFrame) -> LinearImage {
 
 fn snake<T: serde::Serialize + std::fmt::Debug>(v: &T) -> String {
     serde_json::to_value(v).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_else(|| format!("{v:?}"))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::io::frames::{Frame, FrameData};
-
-    fn captured(index: u64, ts_ms: Option<f64>, age: Duration) -> Captured {
-        let frame = Frame { width: 1, height: 1, data: FrameData::Ldr { bits: 8, codes: vec![0; 3] } };
-        Captured { frame, index, ts_ms, at: Instant::now() - age }
-    }
-
-    fn t(s: &str) -> DateTime<FixedOffset> {
-        DateTime::parse_from_rfc3339(s).unwrap()
-    }
-
-    #[test]
-    fn frame_clocks_give_wall_shifted_file_and_sequence_times() {
-        // A camera with --start: a frame captured now is at the start; one captured 2 s ago,
-        // 2 s before it; --time-offset shifts both.
-        let start = t("2024-06-21T15:30:00+02:00");
-        for offset_s in [0.0, 90.0] {
-            let clock = FrameClock::wall(Some(start), offset_s);
-            for age_s in [0.0, 2.0] {
-                let got = clock.time(&captured(0, None, Duration::from_secs_f64(age_s)));
-                let want = start + chrono::Duration::milliseconds(((offset_s - age_s) * 1e3) as i64);
-                assert!((got - want).num_milliseconds().abs() < 500, "offset {offset_s}, age {age_s}: {got} vs {want}");
-            }
-        }
-        // Without --start: the wall clock itself.
-        let got = FrameClock::wall(None, 0.0).time(&captured(0, None, Duration::ZERO));
-        assert!((got - chrono::Utc::now().fixed_offset()).num_milliseconds().abs() < 500);
-        // A file: its timestamps from the start, else index / fps.
-        let clock = FrameClock::Start { t0: start, fps: 4.0 };
-        assert_eq!(clock.time(&captured(9, Some(1500.0), Duration::ZERO)), t("2024-06-21T15:30:01.5+02:00"));
-        assert_eq!(clock.time(&captured(6, None, Duration::ZERO)), t("2024-06-21T15:30:01.5+02:00"));
-        // A scene sequence: its own times, starting over when the file loops.
-        let clock = FrameClock::List(vec![start, t("2024-06-21T15:30:10+02:00")]);
-        assert_eq!(clock.time(&captured(1, None, Duration::ZERO)), t("2024-06-21T15:30:10+02:00"));
-        assert_eq!(clock.time(&captured(2, None, Duration::ZERO)), start);
-    }
 }

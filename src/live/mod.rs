@@ -8,7 +8,9 @@
 //!   completeness. A lost camera (read error, no frames, cannot open) is reopened every second;
 //!   a read that blocks is abandoned after a stall timeout.
 //! - **Processing** ([`app`]): on the window's thread, each repaint takes the newest frame and
-//!   runs [`crate::pipeline::Pipeline::process`]: estimate → (relight → probes) → composite.
+//!   runs the outdoor session ([`crate::run::session::OutdoorSession::process`]): estimate →
+//!   (relight → probes) → composite; with the VEM panel's compositing on, the objects are lit by
+//!   the VEM's lights instead ([`crate::run::vem::VemOverlay`]).
 //!   The compositor renders **offscreen on its own headless wgpu device** and reads the frame
 //!   back ([`crate::render::Compositor::render`]); the app encodes it through the camera's
 //!   response ([`crate::render::output::encode_rgb8`]) and uploads it as an egui texture.
@@ -24,13 +26,15 @@
 //!   relight, frame rate and dropped frames; plots of `Pd`, `Pa` and the residual over the last
 //!   five minutes (egui_plot).
 //! - **VEM** ([`vem`], `--vem-input`): a captured video environment map sequence decomposed
-//!   into lights, drawn on a polar plot, with a slider for the light count.
+//!   into lights, drawn on a polar plot, with a slider for the light count and a switch that
+//!   lights and shadows the virtual objects with those lights over the feed (the VEM renderer).
 
 pub mod app;
 pub mod slot;
 pub mod source;
 pub mod vem;
 
-pub use app::{AmbientChoice, FrameClock, LiveApp, TURNED_OFF};
+pub use crate::run::clock::FrameClock;
+pub use app::{AmbientChoice, LiveApp, TURNED_OFF};
 pub use slot::LatestSlot;
 pub use source::{Capture, CaptureOptions, Captured, FrameSource, Opener, SourceState};

@@ -1,8 +1,8 @@
-//! Where live frames come from, and the capture thread that reads them.
+//! The capture thread of the live window.
 //!
-//! A [`FrameSource`] is a camera, a stream, a video file or a folder of PNG/EXR frames; files
-//! play as if they were a camera, paced at their frame rate. [`Capture`] runs one source on its
-//! own thread and hands every frame to a [`LatestSlot`] (the newest frame wins).
+//! A [`FrameSource`] (`crate::run::source`: a camera, a stream, a video file or a folder of
+//! PNG/EXR frames) is read on its own thread; files play as if they were a camera, paced at their
+//! frame rate. [`Capture`] hands every frame to a [`LatestSlot`] (the newest frame wins).
 //!
 //! # Camera loss
 //! A read error, a camera that stops giving frames (a read that returns none), or a source that
@@ -12,128 +12,11 @@
 //! frame it abandons that thread (it exits once its read returns) and starts a fresh one.
 
 use super::slot::LatestSlot;
-use crate::io::frames::{Frame, list_frame_files};
-use anyhow::{Context, Result, bail};
-use std::path::{Path, PathBuf};
+use crate::io::frames::Frame;
+pub use crate::run::source::{FrameSource, Opener};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
-
-/// A source of frames.
-pub trait FrameSource: Send {
-    /// What it reads, for messages.
-    fn label(&self) -> String;
-    /// The next frame and its timestamp in ms from the start of the source (when it has one);
-    /// `None` at the end of a file, or when a camera gave no frame.
-    fn read(&mut self) -> Result<Option<(Frame, Option<f64>)>>;
-    /// Frame rate to pace reading at (files), or `None` for a source that paces itself (cameras).
-    fn pace_fps(&self) -> Option<f64>;
-    /// True for files and folders: the end of the frames is the end of the input, not a loss.
-    fn is_file(&self) -> bool;
-}
-
-/// Opens (and reopens) a source.
-pub type Opener = Box<dyn FnMut() -> Result<Box<dyn FrameSource>> + Send>;
-
-/// A folder of PNG/EXR frames, sorted by name, played at `fps`.
-pub struct FolderSource {
-    dir: PathBuf,
-    files: Vec<PathBuf>,
-    next: usize,
-    fps: f64,
-}
-
-impl FolderSource {
-    /// Lists the folder's frames.
-    pub fn open(dir: &Path, fps: f64) -> Result<Self> {
-        let files = list_frame_files(dir)?;
-        if files.is_empty() {
-            bail!("{}: no .png or .exr frames", dir.display());
-        }
-        if !(fps.is_finite() && fps > 0.0) {
-            bail!("{}: frame rate {fps} must be positive", dir.display());
-        }
-        Ok(Self { dir: dir.to_owned(), files, next: 0, fps })
-    }
-}
-
-impl FrameSource for FolderSource {
-    fn label(&self) -> String {
-        self.dir.display().to_string()
-    }
-    fn read(&mut self) -> Result<Option<(Frame, Option<f64>)>> {
-        let Some(p) = self.files.get(self.next) else { return Ok(None) };
-        let ts = self.next as f64 * 1e3 / self.fps;
-        self.next += 1;
-        Ok(Some((Frame::load(p)?, Some(ts))))
-    }
-    fn pace_fps(&self) -> Option<f64> {
-        Some(self.fps)
-    }
-    fn is_file(&self) -> bool {
-        true
-    }
-}
-
-/// A video file (container timestamps), played at its frame rate or a given one.
-pub struct VideoFileSource {
-    video: crate::io::video::VideoSource,
-    fps: f64,
-}
-
-impl VideoFileSource {
-    /// Opens `path`; `fps` overrides the container's rate (needed when it gives none).
-    pub fn open(path: &Path, fps: Option<f64>) -> Result<Self> {
-        let video = crate::io::video::VideoSource::open_file(path)?;
-        let fps = match fps.or((video.fps() > 0.0).then_some(video.fps())) {
-            Some(f) if f.is_finite() && f > 0.0 => f,
-            _ => bail!("{}: the container gives no frame rate: give --fps", path.display()),
-        };
-        Ok(Self { video, fps })
-    }
-}
-
-impl FrameSource for VideoFileSource {
-    fn label(&self) -> String {
-        self.video.label().display().to_string()
-    }
-    fn read(&mut self) -> Result<Option<(Frame, Option<f64>)>> {
-        Ok(self.video.read()?.map(|(f, ts)| (f, ts.is_finite().then_some(ts))))
-    }
-    fn pace_fps(&self) -> Option<f64> {
-        Some(self.fps)
-    }
-    fn is_file(&self) -> bool {
-        true
-    }
-}
-
-/// A camera (by index) or a stream (by URL).
-pub struct CameraSource {
-    video: crate::io::video::VideoSource,
-}
-
-impl CameraSource {
-    /// Opens `spec`: a camera index (`0`) or a stream URL.
-    pub fn open(spec: &str) -> Result<Self> {
-        Ok(Self { video: crate::io::video::VideoSource::open_camera(spec)? })
-    }
-}
-
-impl FrameSource for CameraSource {
-    fn label(&self) -> String {
-        self.video.label().display().to_string()
-    }
-    fn read(&mut self) -> Result<Option<(Frame, Option<f64>)>> {
-        Ok(self.video.read()?.map(|(f, ts)| (f, ts.is_finite().then_some(ts))))
-    }
-    fn pace_fps(&self) -> Option<f64> {
-        None
-    }
-    fn is_file(&self) -> bool {
-        false
-    }
-}
 
 /// A captured frame.
 #[derive(Clone, Debug)]
@@ -362,7 +245,8 @@ fn capture_loop(shared: &Shared, slot: &LatestSlot<Captured>, opener: &Mutex<Ope
             }
         };
         match src.read() {
-            Ok(Some((frame, ts_ms))) => {
+            Ok(Some(f)) => {
+                let (frame, ts_ms) = (f.frame, f.ts_ms);
                 if let Some(fps) = src.pace_fps() {
                     let due = play_start + Duration::from_secs_f64(k as f64 / fps);
                     let now = Instant::now();
@@ -407,29 +291,5 @@ fn capture_loop(shared: &Shared, slot: &LatestSlot<Captured>, opener: &Mutex<Ope
                 shared.sleep(generation, opts.retry);
             }
         }
-    }
-}
-
-/// The opener of `--input` (a folder of frames or a video file) or `--camera` (an index or a
-/// URL).
-pub fn opener_for(input: Option<&Path>, camera: Option<&str>, fps: Option<f64>) -> Result<Opener> {
-    match (input, camera) {
-        (Some(p), None) if p.is_dir() => {
-            let fps = fps.context("--fps is needed to play a folder of frames")?;
-            let p = p.to_owned();
-            FolderSource::open(&p, fps)?; // fail early on an empty folder
-            Ok(Box::new(move || Ok(Box::new(FolderSource::open(&p, fps)?) as Box<dyn FrameSource>)))
-        }
-        (Some(p), None) => {
-            VideoFileSource::open(p, fps)?;
-            let p = p.to_owned();
-            Ok(Box::new(move || Ok(Box::new(VideoFileSource::open(&p, fps)?) as Box<dyn FrameSource>)))
-        }
-        (None, Some(spec)) => {
-            let spec = spec.to_owned();
-            // A camera that is not there yet is retried like a lost one.
-            Ok(Box::new(move || Ok(Box::new(CameraSource::open(&spec)?) as Box<dyn FrameSource>)))
-        }
-        _ => bail!("give exactly one of --input and --camera"),
     }
 }

@@ -1,14 +1,15 @@
 //! The VEM panel of the live window (`--vem-input FRAMES --vem-calib calib/fisheye.toml`): a
-//! captured video environment map sequence played at its capture rate through the
-//! [`Decomposer`] (Havran et al. 2005), its lights drawn as dots on a polar plot of the upper
-//! hemisphere, and a slider for the light count that re-runs the decomposer on the current map.
-//!
-//! The lights are not yet fed to the compositor (the VEM shaders and shadow-map atlas do not
-//! exist yet); the panel shows what the decomposition gives, live.
+//! captured video environment map sequence played at its capture rate through the lighting
+//! stage of the VEM mode ([`VemStage`]: Havran et al. 2005), its lights drawn as dots on a polar
+//! plot of the upper hemisphere, a slider for the light count that re-runs the decomposer on the
+//! current map, and, when the panel has the scene's renderer ([`VemPanel::with_overlay`]), a
+//! switch that lights and shadows the virtual objects with these lights over the feed through
+//! the VEM renderer ([`VemOverlay`]): the same stage and renderer `heliar vem --scene` uses.
 
-use crate::vem::capture::input::VemInput;
-use crate::vem::polar::PolarMap;
-use crate::vem::{Decomposer, Light, VemConfig};
+use crate::io::image::LinearImage;
+use crate::render::vem::VemOutput;
+use crate::run::vem::{VemOverlay, VemStage};
+use crate::vem::{Light, Status, VemConfig};
 use anyhow::{Context, Result};
 use egui::{Color32, Pos2, Sense, Stroke, Vec2};
 use std::path::Path;
@@ -19,9 +20,11 @@ pub const MAX_LIGHTS: usize = 1024;
 
 /// A VEM sequence being decomposed for the window.
 pub struct VemPanel {
-    input: VemInput,
-    map: PolarMap,
-    dec: Decomposer,
+    stage: VemStage,
+    status: Status,
+    overlay: Option<VemOverlay>,
+    /// Light the virtual objects with the panel's lights (needs [`VemPanel::with_overlay`]).
+    pub compose: bool,
     /// The slider's light count.
     pub light_count: usize,
     frame: Option<usize>,
@@ -35,43 +38,62 @@ impl VemPanel {
     /// Opens the sequence (and its fisheye calibration) for `lights` lights.
     pub fn open(frames: &Path, calib: Option<&Path>, lights: usize) -> Result<Self> {
         let cfg = VemConfig { lights: lights.clamp(1, MAX_LIGHTS), ..VemConfig::default() };
-        let input = VemInput::open(frames, calib, cfg.polar_width, cfg.polar_height).with_context(|| format!("opening the VEM sequence {}", frames.display()))?;
-        let map = PolarMap::new(cfg.polar_width, cfg.polar_height);
         let interval = Duration::from_secs_f64(1.0 / cfg.rate_hz.max(1e-3));
         let light_count = cfg.lights;
-        let dec = Decomposer::new(cfg)?;
-        Ok(Self { input, map, dec, light_count, frame: None, last: None, interval, decompose_ms: 0.0, error: None })
+        let stage = VemStage::open(frames, calib, cfg)?;
+        Ok(Self { stage, status: Status::Dark, overlay: None, compose: false, light_count, frame: None, last: None, interval, decompose_ms: 0.0, error: None })
+    }
+
+    /// Gives the panel the scene's VEM renderer, so it can light the virtual objects; compositing
+    /// starts switched on.
+    pub fn with_overlay(mut self, overlay: VemOverlay) -> Self {
+        self.overlay = Some(overlay);
+        self.compose = true;
+        self
+    }
+
+    /// True when the panel lights the virtual objects (it has the renderer, the switch is on and
+    /// a frame has been decomposed).
+    pub fn composes(&self) -> bool {
+        self.compose && self.overlay.is_some() && self.frame.is_some()
+    }
+
+    /// Renders the virtual objects lit by the current lights over `background` (the feed,
+    /// linear radiance); `None` when the panel does not compose.
+    pub fn render_over(&mut self, background: &LinearImage, dt_s: f64) -> Option<Result<VemOutput>> {
+        if !self.composes() {
+            return None;
+        }
+        let overlay = self.overlay.as_mut()?;
+        Some(overlay.render(&self.stage, self.status, background, dt_s))
     }
 
     /// Loads and decomposes the next frame (the sequence loops).
     pub fn advance(&mut self) -> Result<()> {
-        let i = self.frame.map_or(0, |f| (f + 1) % self.input.len().max(1));
-        self.input.load(i, &mut self.map).with_context(|| format!("VEM frame {i}"))?;
+        let i = self.frame.map_or(0, |f| (f + 1) % self.stage.len().max(1));
+        let f = self.stage.light(i).with_context(|| format!("VEM frame {i}"))?;
         self.frame = Some(i);
-        self.decompose();
+        self.status = f.summary.status;
+        self.decompose_ms = f.decompose_ms;
         Ok(())
     }
 
     /// Changes the light count and re-runs the decomposer on the current map.
     pub fn set_light_count(&mut self, n: usize) -> Result<()> {
         let n = n.clamp(1, MAX_LIGHTS);
-        self.dec.set_lights(n)?;
+        self.stage.dec.set_lights(n)?;
         self.light_count = n;
         if self.frame.is_some() {
-            self.decompose();
+            let t = Instant::now();
+            self.status = self.stage.redo().status;
+            self.decompose_ms = t.elapsed().as_secs_f64() * 1e3;
         }
         Ok(())
     }
 
-    fn decompose(&mut self) {
-        let t = Instant::now();
-        self.dec.process(&self.map);
-        self.decompose_ms = t.elapsed().as_secs_f64() * 1e3;
-    }
-
     /// The current lights.
     pub fn lights(&self) -> &[Light] {
-        self.dec.lights()
+        self.stage.dec.lights()
     }
 
     /// Advances when a capture interval has passed (the window calls it every repaint).
@@ -93,7 +115,10 @@ impl VemPanel {
         {
             self.error = Some(format!("{e:#}"));
         }
-        ui.label(format!("{} lights, frame {} of {}, decomposed in {:.2} ms", self.lights().len(), self.frame.map_or(0, |f| f + 1), self.input.len(), self.decompose_ms));
+        ui.label(format!("{} lights, frame {} of {}, decomposed in {:.2} ms", self.lights().len(), self.frame.map_or(0, |f| f + 1), self.stage.len(), self.decompose_ms));
+        if self.overlay.is_some() {
+            ui.checkbox(&mut self.compose, "Light the virtual objects with these lights");
+        }
         if let Some(e) = &self.error {
             ui.label(egui::RichText::new(format!("Error: {e}")).color(Color32::from_rgb(235, 80, 70)));
         }

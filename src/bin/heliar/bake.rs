@@ -1,7 +1,8 @@
 //! `heliar bake`, `heliar relight`, `heliar irradiance`: the offline maps, the relit map and
 //! probe queries.
 
-use crate::common::{build_estimator, load_scene, pick_sequence};
+use crate::common::{build_estimator, load_scene};
+use heliar::run::source::pick_sequence;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use glam::Vec3;

@@ -1,6 +1,7 @@
 //! `heliar bench`: error-against-run-time sweeps of the quality knobs.
 
-use crate::common::{frame_bar, load_scene, pick_sequence};
+use crate::common::{frame_bar, load_scene};
+use heliar::run::source::pick_sequence;
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand, ValueEnum};
 use heliar::estimate::{EstimatorConfig, Estimator};

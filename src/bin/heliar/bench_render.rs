@@ -8,7 +8,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use heliar::estimate::Estimator;
 use heliar::io::frames::Frame;
-use heliar::pipeline::{Ambient, lighting_of, probe_source};
+use heliar::run::outdoor::{Ambient, lighting_of, probe_source};
 use heliar::render::reference::{Classes, CompositeError, References, composite_error};
 use heliar::lighting::Lighting;
 use heliar::render::{Compositor, CompositorConfig, VideoFrame};

@@ -1,12 +1,14 @@
-//! Set-up shared by the subcommands.
+//! Set-up shared by the subcommands: spinners and progress bars (the [`BarObserver`] of the
+//! library's frame loops), scene loading, the estimator, and the interrupt counter.
 
-use anyhow::{Context, Result, anyhow};
+use anyhow::{Context, Result};
 use heliar::estimate::Estimator;
 use heliar::geometry::raycast::RayScene;
-use heliar::scene::{Scene, Sequence};
+use heliar::scene::Scene;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::Path;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// A spinner on stderr for a set-up step.
 pub fn spinner(msg: &str) -> ProgressBar {
@@ -27,6 +29,63 @@ pub fn frame_bar(n: usize, what: &str) -> ProgressBar {
     );
     pb.set_prefix(what.to_owned());
     pb
+}
+
+/// Progress bars and notes of the library's frame loops on stderr.
+#[derive(Default)]
+pub struct BarObserver {
+    bar: Option<ProgressBar>,
+}
+
+impl heliar::run::Observer for BarObserver {
+    fn start(&mut self, what: &str, total: Option<usize>, done: usize) {
+        let bar = match total {
+            Some(n) => frame_bar(n, what),
+            None => {
+                let b = ProgressBar::new_spinner();
+                b.set_style(ProgressStyle::with_template("{prefix} {pos} frames, {per_sec} [{elapsed}]").unwrap_or_else(|_| ProgressStyle::default_spinner()));
+                b.set_prefix(what.to_owned());
+                b
+            }
+        };
+        bar.set_position(done as u64);
+        bar.reset_eta();
+        self.bar = Some(bar);
+    }
+    fn advance(&mut self) {
+        if let Some(b) = &self.bar {
+            b.inc(1);
+        }
+    }
+    fn finish(&mut self) {
+        if let Some(b) = self.bar.take() {
+            b.finish_and_clear();
+        }
+    }
+    fn note(&mut self, message: &str) {
+        match &self.bar {
+            Some(b) => b.suspend(|| eprintln!("{message}")),
+            None => eprintln!("{message}"),
+        }
+    }
+}
+
+/// Counts Ctrl-C and SIGTERM: the first asks the running loop to finish the frame in hand and
+/// close its output; the second exits at once (status 130).
+pub fn interrupt_counter() -> Arc<AtomicUsize> {
+    let stop = Arc::new(AtomicUsize::new(0));
+    let flag = stop.clone();
+    if let Err(e) = ctrlc::set_handler(move || {
+        if flag.fetch_add(1, Ordering::SeqCst) == 0 {
+            eprintln!("\ninterrupted: finishing the current frame and closing the output (again to quit at once)");
+        } else {
+            eprintln!("\ninterrupted twice: exiting without closing the output");
+            std::process::exit(130);
+        }
+    }) {
+        eprintln!("warning: cannot catch Ctrl-C ({e}); an interrupt will end the run without closing the output");
+    }
+    stop
 }
 
 /// Loads a scene and builds the proxy's BVH.
@@ -50,16 +109,4 @@ pub fn build_estimator(scene: &Scene, ray: Arc<RayScene>) -> Result<Estimator> {
         s.diffuse_pixels, s.candidate_pixels, s.pool_entries, s.pixel_map_ms, s.pool_ms
     );
     Ok(est)
-}
-
-/// The named sequence (or the first).
-pub fn pick_sequence<'a>(scene: &'a Scene, name: Option<&str>) -> Result<&'a Sequence> {
-    scene.sequence(name).ok_or_else(|| match name {
-        Some(n) => anyhow!(
-            "{}: no sequence named '{n}' (have: {})",
-            scene.root.join(heliar::scene::MANIFEST_FILE).display(),
-            scene.sequences.iter().map(|s| s.name.as_str()).collect::<Vec<_>>().join(", ")
-        ),
-        None => anyhow!("{}: the scene has no [[sequences]]", scene.root.join(heliar::scene::MANIFEST_FILE).display()),
-    })
 }

@@ -1,6 +1,7 @@
 //! `heliar estimate`: per-frame sun and sky intensities as JSON lines.
 
-use crate::common::{build_estimator, frame_bar, load_scene, pick_sequence};
+use crate::common::{build_estimator, frame_bar, load_scene};
+use heliar::run::source::pick_sequence;
 use anyhow::{Context, Result};
 use clap::Args;
 use heliar::estimate::{FrameEstimate, Status};

@@ -84,78 +84,39 @@ pub fn run(a: LiveArgs) -> anyhow::Result<()> {
 #[cfg(feature = "opencv")]
 mod imp {
     use super::LiveArgs;
-    use crate::common::{build_estimator, load_scene};
-    use anyhow::{Context, Result, anyhow, bail};
-    use heliar::live::source::opener_for;
-    use heliar::live::{Capture, CaptureOptions, FrameClock, LatestSlot, LiveApp};
-    use heliar::pipeline::{Ambient, Pipeline, probe_source};
+    use crate::common::load_scene;
+    use anyhow::{Result, anyhow};
     use heliar::irradiance::sources::{ProbeSource, UniformSky};
+    use heliar::live::{Capture, CaptureOptions, LatestSlot, LiveApp};
     use heliar::render::CompositorConfig;
+    use heliar::render::vem::VemRenderConfig;
     use heliar::report::median;
-    use heliar::scene::{Scene, parse_time};
-    use std::path::Path;
+    use heliar::run::source::{InputOptions, resolve_input};
+    use heliar::run::vem::VemOverlay;
     use std::sync::Arc;
     use std::sync::atomic::{AtomicBool, Ordering};
     use std::time::Duration;
 
-    /// Photometry, clock and playback rate of the input.
-    fn timing(scene: &Scene, a: &LiveArgs) -> Result<(heliar::io::frames::Photometry, FrameClock, Option<f64>)> {
-        let borrowed = a.sequence.as_deref().map(|n| crate::common::pick_sequence(scene, Some(n)).context("--sequence")).transpose()?;
-        let start = a.start.as_deref().map(|s| parse_time(Path::new("--start"), "start", s)).transpose()?;
-        if let Some(f) = a.fps
-            && !(f.is_finite() && f > 0.0)
-        {
-            bail!("--fps {f}: must be a positive number of frames per second");
-        }
-        let mut photometry = borrowed.map(|s| s.photometry.clone()).unwrap_or_else(|| scene.photometry.clone());
-        let (clock, fps) = match &a.input {
-            None => (FrameClock::wall(start, a.time_offset), None),
-            Some(p) => {
-                if !p.exists() {
-                    bail!("{}: input not found", p.display());
-                }
-                let want = std::fs::canonicalize(p).ok();
-                let seq = scene.sequences.iter().find(|s| s.files.first().and_then(|f| f.parent()).and_then(|d| std::fs::canonicalize(d).ok()) == want && p.is_dir());
-                match (seq, start) {
-                    (Some(s), None) => {
-                        photometry = s.photometry.clone();
-                        let seq_fps = if s.times.len() > 1 { 1e6 / (s.times[1] - s.times[0]).num_microseconds().unwrap_or(1_000_000).max(1) as f64 } else { 1.0 };
-                        (FrameClock::List(s.times.clone()), Some(a.fps.unwrap_or(seq_fps)))
-                    }
-                    (_, Some(t0)) => (FrameClock::Start { t0, fps: a.fps.unwrap_or(25.0) }, a.fps),
-                    (None, None) if p.is_dir() => bail!("{} is not one of the scene's sequences: give --start and --fps", p.display()),
-                    (None, None) => {
-                        let seq = borrowed.or(scene.sequences.first()).filter(|s| !s.times.is_empty()).ok_or_else(|| anyhow!("{}: give --start (the time of the first frame)", p.display()))?;
-                        eprintln!("note: frame times start at sequence '{}''s start {} (give --start for the video's own)", seq.name, seq.times[0].to_rfc3339());
-                        (FrameClock::Start { t0: seq.times[0], fps: a.fps.unwrap_or(25.0) }, a.fps)
-                    }
-                }
-            }
-        };
-        if let Some(e) = a.exposure {
-            if !(e.is_finite() && e > 0.0) {
-                bail!("--exposure {e}: must be positive");
-            }
-            photometry.exposure = e;
-        }
-        Ok((photometry, clock, fps))
-    }
-
     pub fn run(a: LiveArgs) -> Result<()> {
         let (scene, ray) = load_scene(&a.scene)?;
-        let (photometry, clock, fps) = timing(&scene, &a)?;
-        let opener = opener_for(a.input.as_deref(), a.camera.as_deref(), fps)?;
-
-        let estimator = build_estimator(&scene, ray.clone())?;
+        let options = InputOptions {
+            input: a.input.clone(),
+            camera: a.camera.clone(),
+            sequence: a.sequence.clone(),
+            start: a.start.clone(),
+            fps: a.fps,
+            exposure: a.exposure,
+            time_offset_s: a.time_offset,
+            looped: a.looped,
+        };
+        let input = resolve_input(&scene, &options)?;
         let mut config = CompositorConfig::for_scene(&scene);
         config.darkening = a.darkening.into();
         config.transfer_paths = a.transfer_paths;
-        let (_gpu, comp) = crate::augment::gpu_compositor(&scene, ray.clone(), a.samples, config)?;
-        let ambient: Ambient = a.ambient.into();
-        let probes = probe_source(&scene, ray.clone(), ambient, |s, r| crate::bake::bake_with_progress(s, r, false))?;
+        let session = crate::augment::outdoor_session(&scene, ray, a.samples, config, a.ambient.into())?;
         // The uniform sky is always at hand as the other choice of the volume.
-        let other: Option<Box<dyn ProbeSource + Send>> = (probes.name() != "uniform_sky").then(|| Box::new(UniformSky::for_scene(&scene)) as Box<dyn ProbeSource + Send>);
-        let pipe = Pipeline::new(estimator, comp, probes);
+        let other: Option<Box<dyn ProbeSource + Send>> =
+            (session.stage.probes.name() != "uniform_sky").then(|| Box::new(UniformSky::for_scene(&scene)) as Box<dyn ProbeSource + Send>);
 
         let stop = Arc::new(AtomicBool::new(false));
         {
@@ -168,12 +129,15 @@ mod imp {
                 eprintln!("warning: cannot catch Ctrl-C ({e})");
             }
         }
-        let options = CaptureOptions { looped: a.looped, ..Default::default() };
-        let capture = Capture::start(opener, Arc::new(LatestSlot::new()), options);
+        let gpu = session.compositor.gpu().clone();
+        let capture = Capture::start(input.opener(), Arc::new(LatestSlot::new()), CaptureOptions { looped: a.looped, ..Default::default() });
         let title = format!("heliar live — {}", scene.manifest.name);
-        let mut app = LiveApp::new(&title, pipe, other, photometry, clock, capture).quit_on(stop.clone());
+        let mut app = LiveApp::new(&title, session, other, input.photometry.clone(), input.clock.clone(), capture).quit_on(stop.clone());
         if let Some(v) = &a.vem_input {
-            app.vem = Some(heliar::live::vem::VemPanel::open(v, a.vem_calib.as_deref(), a.vem_lights)?);
+            let panel = heliar::live::vem::VemPanel::open(v, a.vem_calib.as_deref(), a.vem_lights)?;
+            // The VEM renderer shares the compositor's device: the objects can be lit by the
+            // panel's lights over the feed (switchable in the panel).
+            app.vem = Some(panel.with_overlay(VemOverlay::new(gpu, &scene, VemRenderConfig::default())?));
         }
 
         if let Some(n) = a.headless_frames {
@@ -193,6 +157,9 @@ mod imp {
         let mut composite_ms = Vec::new();
         let t = std::time::Instant::now();
         while app.processed() < n as u64 && !stop.load(Ordering::SeqCst) {
+            if let Some(v) = app.vem.as_mut() {
+                v.tick();
+            }
             if !app.process_next(Duration::from_millis(200)) {
                 let s = app.capture_status();
                 if s.state == heliar::live::SourceState::Ended && app.slot().counts().put == app.slot().counts().taken + app.dropped() {

@@ -11,7 +11,6 @@ mod estimate;
 mod live;
 mod sun;
 mod vem;
-mod vem_render;
 
 use clap::{Parser, Subcommand};
 

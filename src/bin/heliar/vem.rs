@@ -1,22 +1,16 @@
 //! `heliar vem`: captured HDR video environment maps → directional lights, one JSON line per frame;
 //! with `--scene`, the scene's virtual objects composited with those lights on the GPU
-//! ([`crate::vem_render`]).
+//! (`heliar::run::vem`).
 
-use crate::common::frame_bar;
+use crate::common::BarObserver;
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
-use heliar::report::{JsonLines, Series, Table, line_plot_svg, median};
-use heliar::vem::cluster::Cluster;
-use heliar::vem::capture::input::VemInput;
-use heliar::vem::sampling::pattern::Pattern;
-use heliar::vem::polar::PolarMap;
-use heliar::vem::capture::resample::ResampleStats;
-use heliar::vem::sampling::SamplerKind;
 use heliar::render::vem::VemRenderConfig;
-use heliar::vem::{Decomposer, FrameSummary, Light, Status, VemConfig};
-use crate::vem_render::VemCompositing;
-use serde::Serialize;
-use std::collections::BTreeMap;
+use heliar::report::{JsonLines, Series, Table, line_plot_svg, median};
+use heliar::run::vem::{VemScene, VemStage, run_vem};
+use heliar::vem::VemConfig;
+use heliar::vem::sampling::SamplerKind;
+use heliar::vem::sampling::pattern::Pattern;
 use std::path::PathBuf;
 
 /// The inverse transform, as named on the command line.
@@ -97,25 +91,6 @@ pub struct VemArgs {
     plot: Option<PathBuf>,
 }
 
-#[derive(Serialize)]
-struct Record<'a> {
-    frame: usize,
-    file: String,
-    #[serde(flatten)]
-    summary: FrameSummary,
-    #[serde(flatten)]
-    input: ResampleStats,
-    delay_frames: usize,
-    lights: &'a [Light],
-    #[serde(skip_serializing_if = "Option::is_none")]
-    clusters: Option<&'a [Cluster]>,
-    region_list_fraction: f64,
-    decode_ms: f64,
-    decompose_ms: f64,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    render: Option<crate::vem_render::FrameRender>,
-}
-
 fn parse_size(s: &str) -> Result<(u32, u32)> {
     let (w, h) = s.split_once(['x', 'X']).with_context(|| format!("--polar {s}: expected WIDTHxHEIGHT, e.g. 360x90"))?;
     Ok((w.trim().parse().with_context(|| format!("--polar {s}: bad width"))?, h.trim().parse().with_context(|| format!("--polar {s}: bad height"))?))
@@ -143,9 +118,9 @@ pub fn run(a: VemArgs) -> Result<()> {
     if !(0.0..=1.0).contains(&a.max_invalid_fraction) {
         bail!("--max-invalid-fraction {} must be in [0, 1]", a.max_invalid_fraction);
     }
-    let mut input = VemInput::open(&a.input, a.calib.as_deref(), pw, ph)?;
-    input.max_invalid_fraction = a.max_invalid_fraction;
-    if let Some(c) = &input.calib
+    let mut stage = VemStage::open(&a.input, a.calib.as_deref(), cfg)?;
+    stage.input.max_invalid_fraction = a.max_invalid_fraction;
+    if let Some(c) = &stage.input.calib
         && let Some((lr, Some(rep))) = &c.log_response
     {
         eprintln!(
@@ -157,12 +132,13 @@ pub fn run(a: VemArgs) -> Result<()> {
             rep.check_max_rel_error.map_or("none".into(), |e| format!("{:.1}%", 100.0 * e))
         );
     }
-    let mut dec = Decomposer::new(cfg)?;
-    let delay = dec.filter_design().delay_frames();
-    let mut compositing = match (&a.scene, &a.output) {
+    let delay = stage.dec.filter_design().delay_frames();
+    let mut scene = match (&a.scene, &a.output) {
         (Some(scene), Some(dir)) => {
             let rcfg = VemRenderConfig { shadow_slots: a.shadow_maps, tile: a.shadow_tile, culling: !a.no_culling, shadows: !a.no_shadows, ..Default::default() };
-            Some(VemCompositing::new(scene, dir, rcfg, a.rate_hz)?)
+            let s = VemScene::new(scene, dir, rcfg, a.rate_hz)?;
+            eprintln!("GPU: {}", s.adapter());
+            Some(s)
         }
         _ => None,
     };
@@ -175,65 +151,27 @@ pub fn run(a: VemArgs) -> Result<()> {
         Some(p) => JsonLines::create(p).with_context(|| format!("creating {}", p.display()))?,
         None => JsonLines::stdout(),
     };
-    let pb = frame_bar(input.len(), "vem");
-    let mut map = PolarMap::new(pw, ph);
-    let (mut decode, mut decompose) = (vec![], vec![]);
-    let mut statuses: BTreeMap<Status, usize> = BTreeMap::new();
-    let (mut raw_pts, mut filt_pts) = (vec![], vec![]);
-    for i in 0..input.len() {
-        let t = std::time::Instant::now();
-        let stats = input.load(i, &mut map)?;
-        let decode_ms = t.elapsed().as_secs_f64() * 1e3;
-        let t = std::time::Instant::now();
-        let summary = dec.process(&map);
-        let decompose_ms = t.elapsed().as_secs_f64() * 1e3;
-        *statuses.entry(summary.status).or_default() += 1;
-        let ts = i as f64 / a.rate_hz;
-        raw_pts.push((ts, summary.power));
-        filt_pts.push((ts, summary.filtered_power));
-        decode.push(decode_ms);
-        decompose.push(decompose_ms);
-        let render = match &mut compositing {
-            Some(c) => Some(c.frame(i, input.len(), &map, &dec, summary.status)?),
-            None => None,
-        };
-        let (_, lists) = dec.region_lists();
-        out.write(&Record {
-            frame: i,
-            file: input.files[i].display().to_string(),
-            summary,
-            input: stats,
-            delay_frames: delay,
-            lights: dec.lights(),
-            clusters: a.clusters.map(|_| dec.clusters()),
-            region_list_fraction: lists.mean_fraction(),
-            decode_ms,
-            decompose_ms,
-            render,
-        })?;
-        pb.inc(1);
-    }
-    pb.finish_and_clear();
+    let stats = run_vem(&mut stage, scene.as_mut(), &mut out, a.rate_hz, a.clusters.is_some(), &mut BarObserver::default())?;
     let mut t = Table::new(&["quantity", "value"]);
-    t.push(vec!["frames".into(), input.len().to_string()]);
-    for (s, n) in &statuses {
+    t.push(vec!["frames".into(), stage.len().to_string()]);
+    for (s, n) in &stats.statuses {
         t.push(vec![format!("status {}", serde_json::to_value(s)?.as_str().unwrap_or("?")), n.to_string()]);
     }
     t.push(vec!["lights".into(), a.lights.to_string()]);
     t.push(vec!["filter delay".into(), format!("{delay} frames ({:.3} s)", delay as f64 / a.rate_hz)]);
-    t.push(vec!["median decode + resample per frame".into(), format!("{:.3} ms", median(&decode))]);
-    t.push(vec!["median decomposition per frame".into(), format!("{:.3} ms", median(&decompose))]);
+    t.push(vec!["median decode + resample per frame".into(), format!("{:.3} ms", median(&stats.decode_ms))]);
+    t.push(vec!["median decomposition per frame".into(), format!("{:.3} ms", median(&stats.decompose_ms))]);
     eprint!("{t}");
     if let Some(p) = out.path() {
         eprintln!("wrote {}", p.display());
     }
-    if let Some(c) = compositing {
-        eprintln!("wrote {}", c.finish()?.display());
+    if let Some(s) = scene {
+        eprintln!("wrote {}", s.finish()?.display());
     }
     if let Some(path) = &a.plot {
         let series = vec![
-            Series { name: "frame power".into(), points: raw_pts, reference: true },
-            Series { name: format!("filtered ({delay}-frame delay)"), points: filt_pts, reference: false },
+            Series { name: "frame power".into(), points: stats.power.iter().map(|p| (p.0, p.1)).collect(), reference: true },
+            Series { name: format!("filtered ({delay}-frame delay)"), points: stats.power.iter().map(|p| (p.0, p.2)).collect(), reference: false },
         ];
         line_plot_svg(path, "VEM power (luminance), raw and FIR-filtered", "time (s)", "power (scaled radiance × sr)", &series, false, false)
             .with_context(|| format!("writing {}", path.display()))?;

@@ -1,0 +1,442 @@
+//! Recorded footage in, augmented footage out: the frame loop of `heliar augment` (and of any
+//! front end that augments a file: the Python package, chunked runs).
+//!
+//! # How it works
+//! [`augment`] reads the [`Input`]'s frames in order, runs each through the
+//! [`OutdoorSession`] (estimate → relight → probes → composite) and writes the composite through
+//! a [`FrameWriter`], one JSON line per frame into the report, thumbnails into the contact sheet
+//! and per-stage timings into the summary.
+//!
+//! An interrupt (the `stop` counter set by Ctrl-C or SIGTERM) finishes the frame in hand, closes
+//! the container and writes the summary; the report then lists exactly the frames in the output.
+//! `resume` continues such a run: the frames already written are kept (a video's are copied into
+//! the new file: bit-exact for `.mkv`, re-encoded once for `.mp4`/`.avi`), the estimator is
+//! replayed over them (decode and estimate only) so its temporal smoothing continues as if never
+//! interrupted, and compositing starts at the first missing frame.
+
+use super::session::OutdoorSession;
+use super::sink::{Format, FrameWriter, Outputs, StageTime, Thumbs, output_kind, thumb_of};
+use super::source::{FrameSource, Input, SourceFrame};
+use super::{Observer, RunCounts};
+use crate::estimate::{Fallback, Status};
+use crate::io::frames::{Frame, Linearizer};
+use crate::io::image::Rgb8;
+use crate::report::{JsonLines, Table};
+use crate::run::outdoor::RelightReport;
+use crate::render::PassReport;
+use crate::scene::{Scene, Truth};
+use anyhow::{Context, Result, bail};
+use serde::Serialize;
+use std::path::Path;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// Most thumbnails the contact sheet keeps, halved: 2·16.
+const SHEET_KEEP: usize = 16;
+/// Width of a contact-sheet tile, pixels.
+const SHEET_TILE_WIDTH: u32 = 320;
+
+/// How to augment.
+#[derive(Clone, Debug)]
+pub struct AugmentOptions {
+    /// A folder, or a video file.
+    pub output: std::path::PathBuf,
+    /// Frame format in an output folder (default: the input's).
+    pub format: Option<Format>,
+    /// Continue an interrupted run into the same output.
+    pub resume: bool,
+    /// Stop after this many frames (counting frames already written by a resumed run).
+    pub max_frames: Option<usize>,
+    /// Columns of the contact sheet.
+    pub sheet_columns: u32,
+}
+
+/// A per-frame report line.
+#[derive(Serialize)]
+struct Record<'a> {
+    frame: usize,
+    input: String,
+    output: String,
+    time: &'a str,
+    status: Status,
+    fallback: Option<Fallback>,
+    sun_dir: [f32; 3],
+    sun_above_horizon: bool,
+    pd: [f32; 3],
+    pa: [f32; 3],
+    condition_number: Option<f64>,
+    relight: &'a RelightReport,
+    passes: &'a PassReport,
+    decode_ms: f64,
+    estimate_ms: f64,
+    composite_ms: f64,
+    encode_ms: f64,
+    truth: Option<Truth>,
+}
+
+/// Per-stage timings of a run.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Stages {
+    /// Reading and decoding frames.
+    pub decode: StageTime,
+    /// The estimator.
+    pub estimate: StageTime,
+    /// Relight and probe update.
+    pub relight: StageTime,
+    /// GPU passes and readback.
+    pub composite: StageTime,
+    /// Writing the output.
+    pub encode: StageTime,
+}
+
+/// The run's summary (`summary.json`, and a table on the terminal).
+#[derive(Clone, Debug, Serialize)]
+pub struct AugmentSummary {
+    /// The input.
+    pub input: String,
+    /// The output folder or video.
+    pub output: String,
+    /// Frames in the output.
+    pub frames_written: usize,
+    /// Frames composited by this run.
+    pub frames_this_run: usize,
+    /// Frames kept from the run being resumed.
+    pub resumed_after: usize,
+    /// The run was interrupted.
+    pub interrupted: bool,
+    /// What stopped the run early, if anything did.
+    pub error: Option<String>,
+    /// Frames the input announces.
+    pub input_frames: Option<usize>,
+    /// The input's frame rate.
+    pub fps_in: f64,
+    /// Wall time of this run, s.
+    pub wall_s: f64,
+    /// This run's throughput.
+    pub frames_per_second: f64,
+    /// The GPU adapter.
+    pub gpu: String,
+    /// The probe source.
+    pub probe_source: String,
+    /// Statuses and passes.
+    pub counts: RunCounts,
+    /// Per-stage timings.
+    pub stages: Stages,
+}
+
+impl AugmentSummary {
+    /// The summary as a table for the terminal.
+    pub fn table(&self) -> Table {
+        let mut t = Table::new(&["quantity", "value"]);
+        let resumed = if self.resumed_after > 0 { format!(", resumed after {}", self.resumed_after) } else { String::new() };
+        t.push(vec!["frames written".into(), format!("{} ({} this run{resumed})", self.frames_written, self.frames_this_run)]);
+        t.push(vec!["throughput".into(), format!("{:.2} frames/s over {:.1} s", self.frames_per_second, self.wall_s)]);
+        let statuses: Vec<String> = self.counts.statuses.iter().map(|(k, v)| format!("{k} {v}")).collect();
+        t.push(vec!["estimator status".into(), statuses.join(", ")]);
+        t.push(vec!["relights (probe updates)".into(), format!("{} ({})", self.counts.relights, self.probe_source)]);
+        for (pass, reasons) in &self.counts.passes_skipped {
+            let n: usize = reasons.values().sum();
+            let first = reasons.iter().max_by_key(|(_, v)| **v).map(|(r, _)| r.as_str()).unwrap_or("");
+            t.push(vec![format!("skipped {pass}"), format!("{n} frames (mostly: {first})")]);
+        }
+        let s = &self.stages;
+        for (name, st) in [("decode", &s.decode), ("estimate", &s.estimate), ("relight", &s.relight), ("composite", &s.composite), ("encode", &s.encode)] {
+            t.push(vec![format!("time: {name}"), format!("{:.1} s total, median {:.2} ms/frame", st.total_s, st.median_ms)]);
+        }
+        t
+    }
+}
+
+/// How a run ended.
+#[derive(Debug)]
+pub struct AugmentOutcome {
+    /// The summary (also written to the outputs' summary file).
+    pub summary: AugmentSummary,
+    /// The outputs.
+    pub outputs: Outputs,
+    /// Why the loop stopped early, when it failed (the frames before are kept and listed).
+    pub error: Option<anyhow::Error>,
+}
+
+/// Frames of an earlier run that can be kept: leading report lines `frame = 0, 1, …` that parse
+/// and whose output file exists (folders), capped by `frames_in_video` (videos). The report is
+/// cut back to them.
+fn resume_point(out: &Outputs, frames_in_video: Option<usize>) -> Result<usize> {
+    let text = match std::fs::read_to_string(&out.report) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(0),
+        Err(e) => return Err(e).with_context(|| format!("reading {}", out.report.display())),
+    };
+    let mut keep = 0usize;
+    let mut bytes = 0usize;
+    for line in text.split_inclusive('\n') {
+        if !line.ends_with('\n') {
+            break;
+        }
+        let Ok(v) = serde_json::from_str::<serde_json::Value>(line) else { break };
+        if v["frame"].as_u64() != Some(keep as u64) {
+            break;
+        }
+        if !out.video && !v["output"].as_str().is_some_and(|p| Path::new(p).exists()) {
+            break;
+        }
+        keep += 1;
+        bytes += line.len();
+    }
+    if let Some(n) = frames_in_video
+        && n < keep
+    {
+        keep = n;
+        bytes = text.split_inclusive('\n').take(n).map(str::len).sum();
+    }
+    std::fs::write(&out.report, &text.as_bytes()[..bytes]).with_context(|| format!("cutting {} back to {keep} frames", out.report.display()))?;
+    Ok(keep)
+}
+
+/// What a resume keeps: the frames already written, the estimator replayed over them.
+struct Resumed {
+    done: usize,
+    writer: FrameWriter,
+}
+
+/// Opens the output for `done` kept frames: the folder, or a video (a resumed one copies the
+/// earlier frames into a partial file that replaces the output when closed).
+#[cfg_attr(not(feature = "opencv"), allow(unused_variables))]
+fn open_writer(out: &Outputs, opts: &AugmentOptions, input: &Input, scene: &Scene, done: usize, old: Option<&mut Box<dyn FrameSource>>, thumbs: &mut Thumbs) -> Result<FrameWriter> {
+    if !out.video {
+        return Ok(FrameWriter::Dir { dir: opts.output.clone(), format: opts.format });
+    }
+    #[cfg(feature = "opencv")]
+    {
+        let partial = (done > 0).then(|| {
+            let ext = super::source::extension(&out.target).unwrap_or_default();
+            out.target.with_extension(format!("partial.{ext}"))
+        });
+        let path = partial.clone().unwrap_or_else(|| out.target.clone());
+        let k = &scene.camera.intrinsics;
+        let mut sink = crate::io::video::VideoSink::create(&path, input.fps, k.width, k.height).with_context(|| format!("{}: cannot write the output video", path.display()))?;
+        if let Some(v) = old {
+            for i in 0..done {
+                let Some(f) = v.read()? else { bail!("{}: ended after {i} frames while copying {done}", out.target.display()) };
+                let rgb: Vec<u8> = match &f.frame.data {
+                    crate::io::frames::FrameData::Ldr { codes, .. } => codes.iter().map(|&c| c as u8).collect(),
+                    crate::io::frames::FrameData::Hdr(_) => bail!("{}: unexpected HDR frame from a video", out.target.display()),
+                };
+                sink.write_rgb8(&rgb)?;
+                thumbs.push(i, &thumb_of(&f.frame, &input.photometry));
+            }
+        }
+        Ok(FrameWriter::Video { sink, target: out.target.clone(), partial })
+    }
+    #[cfg(not(feature = "opencv"))]
+    bail!("{}: writing video needs heliar built with `--features opencv`", out.target.display())
+}
+
+/// Keeps what an earlier run wrote and replays the estimator over it.
+#[allow(clippy::too_many_arguments)]
+fn resume(out: &Outputs, opts: &AugmentOptions, input: &Input, scene: &Scene, source: &mut dyn FrameSource, session: &mut OutdoorSession, lin: &Linearizer, thumbs: &mut Thumbs, obs: &mut dyn Observer) -> Result<Resumed> {
+    let mut old: Option<Box<dyn FrameSource>> = None;
+    let in_video = if !out.video {
+        None
+    } else if out.target.exists() {
+        #[cfg(feature = "opencv")]
+        {
+            let v = super::source::VideoFileSource::open(&out.target, Some(input.fps.max(1e-3))).with_context(|| format!("{}: the earlier output cannot be read to resume", out.target.display()))?;
+            let n = v.len();
+            old = Some(Box::new(v));
+            Some(n.unwrap_or(usize::MAX))
+        }
+        #[cfg(not(feature = "opencv"))]
+        Some(0)
+    } else {
+        Some(0)
+    };
+    let done = resume_point(out, in_video)?;
+    if done > 0 {
+        obs.start("replaying the estimator over the frames written", Some(done), 0);
+        for i in 0..done {
+            let Some(f) = source.read()? else { bail!("{}: the input has fewer frames ({i}) than the run being resumed ({done})", input.label) };
+            let t = input.clock.time(i, f.ts_ms, None)?;
+            session.stage.estimate_only(i, &t, &f.frame, lin).with_context(|| f.label.clone())?;
+            if !out.video {
+                let p = opts.output.join(format!("{}.{}", source.stem(i), output_kind(opts.format, &f.frame).extension()));
+                if thumbs.wants(i)
+                    && let Ok(fr) = Frame::load(&p)
+                {
+                    thumbs.push(i, &thumb_of(&fr, &input.photometry));
+                }
+            }
+            obs.advance();
+        }
+        obs.finish();
+        obs.note(&format!("resuming after {done} frames"));
+    } else {
+        obs.note(&format!("note: nothing to resume in {}: starting from the first frame", out.report.display()));
+    }
+    let writer = open_writer(out, opts, input, scene, done, old.as_mut(), thumbs)?;
+    Ok(Resumed { done, writer })
+}
+
+/// Augments `input` into `opts.output` (see the module docs). `stop` counts interrupts: the
+/// loop ends after the frame in hand once it is non-zero. Returns the outcome, whose `error`
+/// says why the loop stopped early; set-up failures (unreadable input, unwritable output) are
+/// returned as errors.
+pub fn augment(scene: &Scene, input: &Input, session: &mut OutdoorSession, opts: &AugmentOptions, obs: &mut dyn Observer, stop: &AtomicUsize) -> Result<AugmentOutcome> {
+    let out = Outputs::of(&opts.output)?;
+    std::fs::create_dir_all(out.parent()).with_context(|| format!("{}: cannot create the output folder", out.parent().display()))?;
+    let lin = input.photometry.linearizer();
+    let mut source = input.open()?;
+    let mut thumbs = Thumbs::new(SHEET_KEEP, SHEET_TILE_WIDTH);
+    let Resumed { done, mut writer } = if opts.resume {
+        resume(&out, opts, input, scene, source.as_mut(), session, &lin, &mut thumbs, obs)?
+    } else {
+        if out.report.exists() {
+            obs.note(&format!("note: overwriting the earlier run in {} (--resume continues one instead)", out.target.display()));
+        }
+        Resumed { done: 0, writer: open_writer(&out, opts, input, scene, 0, None, &mut thumbs)? }
+    };
+    let mut report = if done > 0 { JsonLines::append(&out.report) } else { JsonLines::create(&out.report) }.with_context(|| format!("{}: cannot write the report", out.report.display()))?;
+
+    let total = input.count.map(|n| opts.max_frames.map_or(n, |m| n.min(m)));
+    obs.start(&format!("augment {}", input.sequence.as_deref().unwrap_or(&input.label)), total, done);
+    let started = std::time::Instant::now();
+    let (mut counts, mut stages) = (RunCounts::default(), Stages::default());
+    let mut frames = FrameLoop { scene, input, source: source.as_mut(), session, lin: &lin, writer: &mut writer, report: &mut report, thumbs: &mut thumbs, counts: &mut counts, stages: &mut stages, out: &out };
+    let (i, interrupted, result) = frames.run(done, opts.max_frames, stop, obs);
+    obs.finish();
+
+    // Close everything, whatever happened: the output and its reports cover frames 0..i.
+    drop(report);
+    let close_err = writer.finish().err();
+    let wall = started.elapsed().as_secs_f64();
+    for s in [&mut stages.decode, &mut stages.estimate, &mut stages.relight, &mut stages.composite, &mut stages.encode] {
+        s.finish();
+    }
+    if let Err(e) = thumbs.write(&out.sheet, opts.sheet_columns) {
+        obs.note(&format!("warning: contact sheet not written: {e:#}"));
+    }
+    let this_run = i - done;
+    let summary = AugmentSummary {
+        input: input.label.clone(),
+        output: out.target.display().to_string(),
+        frames_written: i,
+        frames_this_run: this_run,
+        resumed_after: done,
+        interrupted,
+        error: result.as_ref().err().map(|e| format!("{e:#}")),
+        input_frames: input.count,
+        fps_in: input.fps,
+        wall_s: wall,
+        frames_per_second: if wall > 0.0 { this_run as f64 / wall } else { 0.0 },
+        gpu: session.compositor.gpu().describe(),
+        probe_source: session.stage.probes.name().to_owned(),
+        counts,
+        stages,
+    };
+    if let Err(e) = std::fs::write(&out.summary, serde_json::to_string_pretty(&summary)?) {
+        obs.note(&format!("warning: {}: summary not written: {e}", out.summary.display()));
+    }
+    if let Some(n) = input.count
+        && i < n
+        && result.is_ok()
+        && !interrupted
+        && opts.max_frames.is_none_or(|m| i < m)
+    {
+        obs.note(&format!("warning: {} ended after {i} of the {n} frames its container announces (truncated or corrupt)", input.label));
+    }
+    let error = match (close_err, result) {
+        (Some(e), _) => Some(e.context(format!("closing {}", out.target.display()))),
+        (None, Err(e)) => Some(e.context(format!("stopped after {i} frames; they are kept in {} (listed in {}); `--resume` continues", out.target.display(), out.report.display()))),
+        (None, Ok(())) => None,
+    };
+    Ok(AugmentOutcome { summary, outputs: out, error })
+}
+
+/// The loop's state over one run.
+struct FrameLoop<'a> {
+    scene: &'a Scene,
+    input: &'a Input,
+    source: &'a mut dyn FrameSource,
+    session: &'a mut OutdoorSession,
+    lin: &'a Linearizer,
+    writer: &'a mut FrameWriter,
+    report: &'a mut JsonLines,
+    thumbs: &'a mut Thumbs,
+    counts: &'a mut RunCounts,
+    stages: &'a mut Stages,
+    out: &'a Outputs,
+}
+
+impl FrameLoop<'_> {
+    /// Frames from `first` on, until the input ends, `max_frames`, an interrupt or an error.
+    /// Returns the frames in the output, whether it was interrupted, and the error.
+    fn run(&mut self, first: usize, max_frames: Option<usize>, stop: &AtomicUsize, obs: &mut dyn Observer) -> (usize, bool, Result<()>) {
+        let mut i = first;
+        loop {
+            if stop.load(Ordering::SeqCst) > 0 {
+                return (i, true, Ok(()));
+            }
+            if max_frames.is_some_and(|m| i >= m) {
+                return (i, false, Ok(()));
+            }
+            let t = std::time::Instant::now();
+            let f = match self.source.read() {
+                Ok(Some(f)) => f,
+                Ok(None) => return (i, false, Ok(())),
+                Err(e) => return (i, false, Err(e.context(format!("{}: reading frame {i}", self.input.label)))),
+            };
+            let decode_ms = t.elapsed().as_secs_f64() * 1e3;
+            if let Err(e) = self.frame(i, f, decode_ms) {
+                return (i, false, Err(e));
+            }
+            i += 1;
+            obs.advance();
+        }
+    }
+
+    /// Composites, writes and reports frame `i`.
+    fn frame(&mut self, i: usize, f: SourceFrame, decode_ms: f64) -> Result<()> {
+        let k = &self.scene.camera.intrinsics;
+        f.frame
+            .check_size(Path::new(&f.label), k.width, k.height)
+            .map_err(anyhow::Error::new)
+            .with_context(|| format!("the camera calibration {} is {}×{}", self.scene.camera_path.display(), k.width, k.height))?;
+        let time = self.input.clock.time(i, f.ts_ms, None)?;
+        let done = self.session.process(i, &time, &f.frame, self.lin).with_context(|| f.label.clone())?;
+        let t = std::time::Instant::now();
+        let photometry = &self.input.photometry;
+        let written = self.writer.write(i, &self.source.stem(i), &done.rendered.image, done.rendered.precision, &done.video, &f.frame, photometry).context("writing the output")?;
+        let encode_ms = t.elapsed().as_secs_f64() * 1e3;
+        if self.thumbs.wants(i) {
+            self.thumbs.push(i, &Rgb8::from_radiance(&done.rendered.image, photometry));
+        }
+        let (rec, e) = (&done.record, &done.record.estimate);
+        let line = Record {
+            frame: i,
+            input: f.label,
+            output: written,
+            time: &e.time,
+            status: e.status,
+            fallback: e.fallback,
+            sun_dir: e.sun.dir_world,
+            sun_above_horizon: e.sun.above_horizon,
+            pd: rec.lighting.pd.to_array(),
+            pa: rec.lighting.pa.to_array(),
+            condition_number: e.condition_number,
+            relight: &rec.relight,
+            passes: &done.passes,
+            decode_ms,
+            estimate_ms: rec.estimate_ms,
+            composite_ms: rec.composite_ms,
+            encode_ms,
+            truth: self.input.truth.as_ref().and_then(|t| t.get(i).copied()),
+        };
+        self.report.write(&line).with_context(|| format!("writing {}", self.out.report.display()))?;
+        self.counts.add(e.status, &done.passes, &rec.relight);
+        self.stages.decode.add(decode_ms);
+        self.stages.estimate.add(rec.estimate_ms);
+        self.stages.relight.add(rec.relight.ms);
+        self.stages.composite.add(rec.composite_ms);
+        self.stages.encode.add(encode_ms);
+        Ok(())
+    }
+}

@@ -1,0 +1,158 @@
+//! The outdoor lighting stage: estimate → (relight → probes), Jensen §3.1, §3.3–3.4 and §4.2.
+//!
+//! [`OutdoorStage`] owns the estimator (with its temporal state) and the probe source. Per frame
+//! it estimates the sun and sky, and on frames whose estimate says `relight` (the smoothed
+//! lighting moved past the change detector's thresholds, or the sun moved past the relighter's
+//! rebuild angle), and on the first frame, it relights the irradiance volume; other frames
+//! reuse the probes and say why. It emits one [`OutdoorLight`]: the estimate, the [`Lighting`]
+//! the renderer uses, and the relit probe grid when there is a new one.
+
+use crate::envmap::bake::{Baked, Progress};
+use crate::estimate::{Estimator, FrameEstimate};
+use crate::geometry::raycast::RayScene;
+use crate::io::frames::{Frame, Linearizer};
+use crate::irradiance::ProbeGrid;
+use crate::irradiance::sources::{ProbeSource, UniformSky, VolumeProbes};
+use crate::lighting::Lighting;
+use crate::scene::Scene;
+use chrono::{DateTime, FixedOffset};
+use glam::Vec3;
+use serde::Serialize;
+use std::sync::Arc;
+
+/// Where the virtual objects' ambient light comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Ambient {
+    /// The irradiance volume when the scene has an `[envmap]`, else the uniform sky.
+    Auto,
+    /// The baked irradiance volume, relit per frame.
+    Volume,
+    /// A uniform, unoccluded sky of the frame's `Pa` everywhere.
+    Uniform,
+}
+
+/// Whether the relight → probe-update hook ran this frame, and why (not).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RelightReport {
+    /// The hook ran.
+    pub ran: bool,
+    /// The probe source (`irradiance_volume` or `uniform_sky`).
+    pub source: &'static str,
+    /// Why it ran, or why not.
+    pub reason: String,
+    /// Time of the relight and probe update, ms (0 when it did not run).
+    pub ms: f64,
+}
+
+/// What the stage gives the renderer for one frame.
+#[derive(Clone, Debug)]
+pub struct OutdoorLight<'a> {
+    /// The estimator's output.
+    pub estimate: FrameEstimate,
+    /// The lighting the renderer uses.
+    pub lighting: Lighting,
+    /// The relight hook.
+    pub relight: RelightReport,
+    /// Estimation time, ms.
+    pub estimate_ms: f64,
+    /// The relit probe grid, when the hook ran this frame.
+    pub grid: Option<&'a ProbeGrid>,
+}
+
+/// The lighting the renderer uses for an estimate: the smoothed values, else the frame's own,
+/// else none (a frame the estimator could not use).
+pub fn lighting_of(e: &FrameEstimate) -> Lighting {
+    let v = |a: [f64; 3]| Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
+    let (pd, pa) = match (&e.smoothed, e.pd, e.pa) {
+        (Some(s), _, _) => (v(s.pd), v(s.pa)),
+        (None, pd, pa) => (pd.map(v).unwrap_or(Vec3::ZERO), pa.map(v).unwrap_or(Vec3::ZERO)),
+    };
+    Lighting { sun_dir: Vec3::from(e.sun.dir_world), above_horizon: e.sun.above_horizon, pd, pa }
+}
+
+/// Builds the probe source `ambient` asks for. `bake` supplies the scene's bake (cached or
+/// fresh) when the irradiance volume is wanted.
+pub fn probe_source(
+    scene: &Scene,
+    ray: Arc<RayScene>,
+    ambient: Ambient,
+    bake: impl FnOnce(&Scene, Arc<RayScene>) -> anyhow::Result<Baked>,
+) -> anyhow::Result<Box<dyn ProbeSource + Send>> {
+    let volume = match ambient {
+        Ambient::Uniform => false,
+        Ambient::Volume => true,
+        Ambient::Auto => scene.manifest.envmap.is_some(),
+    };
+    if !volume {
+        return Ok(Box::new(UniformSky::for_scene(scene)));
+    }
+    let baked = bake(scene, ray.clone())?;
+    Ok(Box::new(VolumeProbes::new(scene, ray, &baked)))
+}
+
+/// A bake from the scene's cache, or a fresh one saved to it.
+pub fn cached_bake(scene: &Scene, ray: Arc<RayScene>, progress: Progress) -> anyhow::Result<Baked> {
+    use anyhow::Context;
+    Ok(crate::envmap::bake::bake_cached(scene, ray, false, progress).with_context(|| format!("baking {}", scene.root.display()))?.0)
+}
+
+/// The estimator and the probe source of one scene.
+pub struct OutdoorStage {
+    /// The estimator (its temporal state spans the frames given to it).
+    pub estimator: Estimator,
+    /// The probe source.
+    pub probes: Box<dyn ProbeSource + Send>,
+    relit_once: bool,
+    relights: usize,
+}
+
+impl OutdoorStage {
+    /// Joins the estimator and the probe source.
+    pub fn new(estimator: Estimator, probes: Box<dyn ProbeSource + Send>) -> Self {
+        Self { estimator, probes, relit_once: false, relights: 0 }
+    }
+
+    /// Probe updates so far.
+    pub fn relights(&self) -> usize {
+        self.relights
+    }
+
+    /// Forces a relight on the next frame (after a jump in the footage, or a new probe source).
+    pub fn force_relight(&mut self) {
+        self.relit_once = false;
+    }
+
+    /// Swaps the probe source for `other` (the live window's ambient switch) and relights on
+    /// the next frame.
+    pub fn swap_probes(&mut self, other: &mut Box<dyn ProbeSource + Send>) {
+        std::mem::swap(other, &mut self.probes);
+        self.force_relight();
+    }
+
+    /// Estimates frame `index` (taken at `time`) without relighting: keeps the estimator's
+    /// temporal state going over frames whose output exists already (a resumed run).
+    pub fn estimate_only(&mut self, index: usize, time: &DateTime<FixedOffset>, frame: &Frame, lin: &Linearizer) -> anyhow::Result<FrameEstimate> {
+        Ok(self.estimator.estimate(index, time, frame, lin)?)
+    }
+
+    /// Estimates the frame and runs the relight hook.
+    pub fn light(&mut self, index: usize, time: &DateTime<FixedOffset>, frame: &Frame, lin: &Linearizer) -> anyhow::Result<OutdoorLight<'_>> {
+        let t = std::time::Instant::now();
+        let estimate = self.estimator.estimate(index, time, frame, lin)?;
+        let estimate_ms = t.elapsed().as_secs_f64() * 1e3;
+        let lighting = lighting_of(&estimate);
+        let source = self.probes.name();
+        if self.relit_once && !estimate.relight {
+            let relight = RelightReport { ran: false, source, reason: "lighting unchanged (relight = false)".into(), ms: 0.0 };
+            return Ok(OutdoorLight { estimate, lighting, relight, estimate_ms, grid: None });
+        }
+        let t = std::time::Instant::now();
+        let reason = if !self.relit_once { "first frame".to_owned() } else { format!("{:?}", estimate.change) };
+        self.relit_once = true;
+        self.relights += 1;
+        let grid = self.probes.relight(&lighting);
+        let relight = RelightReport { ran: true, source, reason, ms: t.elapsed().as_secs_f64() * 1e3 };
+        Ok(OutdoorLight { estimate, lighting, relight, estimate_ms, grid: Some(grid) })
+    }
+}

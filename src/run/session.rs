@@ -1,0 +1,75 @@
+//! A lighting stage joined to its renderer: what one frame of the outdoor mode does, end to end
+//! (estimate → relight → probes → composite), for every front end.
+
+use super::outdoor::{OutdoorStage, RelightReport};
+use crate::estimate::FrameEstimate;
+use crate::io::frames::{Frame, Linearizer};
+use crate::lighting::Lighting;
+use crate::render::{Compositor, PassReport, RenderedFrame, VideoFrame};
+use chrono::{DateTime, FixedOffset};
+
+/// What one outdoor frame did.
+#[derive(Clone, Debug)]
+pub struct FrameRecord {
+    /// The estimator's output.
+    pub estimate: FrameEstimate,
+    /// The lighting the compositor used.
+    pub lighting: Lighting,
+    /// The relight hook (its time includes the probe upload).
+    pub relight: RelightReport,
+    /// Estimation time, ms.
+    pub estimate_ms: f64,
+    /// Compositing time (GPU passes and readback), ms; 0 when only estimated.
+    pub composite_ms: f64,
+}
+
+/// One composited outdoor frame.
+#[derive(Clone, Debug)]
+pub struct OutdoorFrame {
+    /// The composite (scene radiance, the footage's size).
+    pub rendered: RenderedFrame,
+    /// The compositor's pass report.
+    pub passes: PassReport,
+    /// Estimate, lighting, relight and timings.
+    pub record: FrameRecord,
+    /// The footage, linearised.
+    pub video: VideoFrame,
+}
+
+/// The outdoor stage and the compositor of one scene.
+pub struct OutdoorSession {
+    /// Estimator and probe source.
+    pub stage: OutdoorStage,
+    /// The GPU compositor.
+    pub compositor: Compositor,
+}
+
+impl OutdoorSession {
+    /// Joins the stage and the compositor.
+    pub fn new(stage: OutdoorStage, compositor: Compositor) -> Self {
+        Self { stage, compositor }
+    }
+
+    /// Estimates the frame and relights when needed; the compositor's probes are up to date
+    /// afterwards. For front ends that render to their own target.
+    pub fn prepare(&mut self, index: usize, time: &DateTime<FixedOffset>, frame: &Frame, lin: &Linearizer) -> anyhow::Result<FrameRecord> {
+        let light = self.stage.light(index, time, frame, lin)?;
+        let mut relight = light.relight;
+        if let Some(grid) = light.grid {
+            let t = std::time::Instant::now();
+            self.compositor.set_probes(grid);
+            relight.ms += t.elapsed().as_secs_f64() * 1e3;
+        }
+        Ok(FrameRecord { estimate: light.estimate, lighting: light.lighting, relight, estimate_ms: light.estimate_ms, composite_ms: 0.0 })
+    }
+
+    /// One frame: estimate, relight when needed, composite offscreen and read back.
+    pub fn process(&mut self, index: usize, time: &DateTime<FixedOffset>, frame: &Frame, lin: &Linearizer) -> anyhow::Result<OutdoorFrame> {
+        let mut record = self.prepare(index, time, frame, lin)?;
+        let video = VideoFrame::from_frame(frame, lin);
+        let t = std::time::Instant::now();
+        let (rendered, passes) = self.compositor.render(&video, &record.lighting)?;
+        record.composite_ms = t.elapsed().as_secs_f64() * 1e3;
+        Ok(OutdoorFrame { rendered, passes, record, video })
+    }
+}

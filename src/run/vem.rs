@@ -1,0 +1,365 @@
+//! The captured-VEM mode's frame loop: HDR environment frames → directional lights (the
+//! decomposer, Havran 2005 §3–4), and with a scene, its virtual objects lit and shadowed by those
+//! lights over the scene's footage (the VEM renderer, Havran §4–5).
+//!
+//! [`VemStage`] is the lighting stage: the capture's frames resampled into the polar map and
+//! decomposed. [`VemScene`] is the renderer's side: the background of each frame (the scene's
+//! footage frame, or the VEM seen through the camera) and the GPU render, tone mapped, written
+//! as PNG. [`run_vem`] drives both over a sequence, one JSON line per frame.
+
+use super::Observer;
+use super::sink::Thumbs;
+use crate::gpu::{Gpu, GpuOptions};
+use crate::io::frames::Frame;
+use crate::io::image::{LinearImage, Rgb8};
+use crate::render::frame::Skipped;
+use crate::render::vem::{VemLights, VemOutput, VemRenderConfig, VemRenderer, VemReport, environment_background, ground_radiance};
+use crate::report::{JsonLines, median};
+use crate::scene::Scene;
+use crate::vem::capture::input::VemInput;
+use crate::vem::capture::resample::ResampleStats;
+use crate::vem::cluster::Cluster;
+use crate::vem::polar::PolarMap;
+use crate::vem::{Decomposer, FrameSummary, Light, Status, VemConfig};
+use anyhow::{Context, Result};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Width of a contact-sheet tile, pixels.
+const SHEET_TILE_WIDTH: u32 = 240;
+/// Tiles per contact-sheet row.
+const SHEET_COLUMNS: u32 = 4;
+/// Most thumbnails kept, halved (see [`Thumbs`]).
+const SHEET_KEEP: usize = 8;
+
+/// The VEM lighting stage: a capture sequence and its decomposer.
+pub struct VemStage {
+    /// The capture's frames.
+    pub input: VemInput,
+    /// The current frame's polar map.
+    pub map: PolarMap,
+    /// The decomposer (its temporal filter spans the frames given to it).
+    pub dec: Decomposer,
+}
+
+/// What the stage did with one frame.
+#[derive(Clone, Debug)]
+pub struct VemFrame {
+    /// Frame index in the capture.
+    pub index: usize,
+    /// Resampling counts.
+    pub stats: ResampleStats,
+    /// The decomposer's summary.
+    pub summary: FrameSummary,
+    /// Decode and resample time, ms.
+    pub decode_ms: f64,
+    /// Decomposition time, ms.
+    pub decompose_ms: f64,
+}
+
+impl VemStage {
+    /// Opens the capture `frames` (with its lens file `calib`) for `cfg`'s polar map.
+    pub fn open(frames: &Path, calib: Option<&Path>, cfg: VemConfig) -> Result<Self> {
+        let input = VemInput::open(frames, calib, cfg.polar_width, cfg.polar_height).with_context(|| format!("opening the VEM sequence {}", frames.display()))?;
+        let map = PolarMap::new(cfg.polar_width, cfg.polar_height);
+        Ok(Self { input, map, dec: Decomposer::new(cfg)? })
+    }
+
+    /// Frames in the capture.
+    pub fn len(&self) -> usize {
+        self.input.len()
+    }
+
+    /// True for an empty capture.
+    pub fn is_empty(&self) -> bool {
+        self.input.is_empty()
+    }
+
+    /// Loads capture frame `i` and decomposes it.
+    pub fn light(&mut self, i: usize) -> Result<VemFrame> {
+        let t = std::time::Instant::now();
+        let stats = self.input.load(i, &mut self.map)?;
+        let decode_ms = t.elapsed().as_secs_f64() * 1e3;
+        let t = std::time::Instant::now();
+        let summary = self.dec.process(&self.map);
+        let decompose_ms = t.elapsed().as_secs_f64() * 1e3;
+        Ok(VemFrame { index: i, stats, summary, decode_ms, decompose_ms })
+    }
+
+    /// Decomposes the current map again (after a change of the light count).
+    pub fn redo(&mut self) -> FrameSummary {
+        self.dec.process(&self.map)
+    }
+
+    /// The current frame's lights as the renderer takes them.
+    pub fn lights(&self, status: Status) -> VemLights<'_> {
+        VemLights::of(&self.dec, status)
+    }
+}
+
+/// The VEM renderer over footage: a scene's virtual objects lit and shadowed by a
+/// [`VemStage`]'s lights, composited over a background and tone mapped (the live window's VEM
+/// compositing and `heliar vem --scene` both render through it).
+pub struct VemOverlay {
+    renderer: VemRenderer,
+}
+
+impl VemOverlay {
+    /// The renderer of `scene`'s camera, proxy (the shadow catcher; a ground plane without one)
+    /// and virtual objects on `gpu`.
+    pub fn new(gpu: Arc<Gpu>, scene: &Scene, cfg: VemRenderConfig) -> Result<Self> {
+        let objects: Vec<&crate::geometry::Mesh> = scene.virtual_objects.iter().map(|o| &o.mesh).collect();
+        let proxy = (!scene.proxy.triangles.is_empty()).then_some(&scene.proxy);
+        Ok(Self { renderer: VemRenderer::new(gpu, &scene.camera, proxy, &objects, cfg)? })
+    }
+
+    /// The renderer.
+    pub fn renderer(&self) -> &VemRenderer {
+        &self.renderer
+    }
+
+    /// Renders the stage's current lights (of `status`) over `background` (linear radiance in
+    /// the camera's pixel grid); `dt_s` is the time since the previous frame.
+    pub fn render(&mut self, stage: &VemStage, status: Status, background: &LinearImage, dt_s: f64) -> Result<VemOutput> {
+        Ok(self.renderer.render(&stage.lights(status), background, dt_s)?)
+    }
+}
+
+/// What the render adds to a frame's JSON line.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameRender {
+    /// The PNG written.
+    pub png: String,
+    /// "footage" or "environment".
+    pub background: &'static str,
+    /// Passes, lights, shadow maps, tone parameters, timings.
+    #[serde(flatten)]
+    pub report: VemReport,
+}
+
+/// The renderer's side of a VEM run over a scene: backgrounds, GPU render, PNG frames, the
+/// contact sheet and the run's render summary.
+pub struct VemScene {
+    scene: Scene,
+    overlay: VemOverlay,
+    adapter: String,
+    out_dir: PathBuf,
+    dt_s: f64,
+    sheet: Thumbs,
+    reports: Vec<VemReport>,
+    backgrounds: BTreeMap<&'static str, usize>,
+}
+
+#[derive(Serialize)]
+struct SkipCount {
+    pass: &'static str,
+    reason: String,
+    frames: usize,
+}
+
+#[derive(Serialize)]
+struct ConfigOut {
+    shadow_slots: usize,
+    tile: u32,
+    culling: bool,
+    shadows: bool,
+}
+
+#[derive(Serialize)]
+struct RenderSummary<'a> {
+    scene: String,
+    adapter: String,
+    frames: usize,
+    receivers: &'static str,
+    virtual_objects: usize,
+    backgrounds: &'a BTreeMap<&'static str, usize>,
+    /// Lights in H and L, and shadow maps, per frame (median over the run).
+    median_lights: f64,
+    median_glossy_lights: f64,
+    median_shadow_maps: f64,
+    config: ConfigOut,
+    passes_run: BTreeMap<&'static str, usize>,
+    passes_skipped: Vec<SkipCount>,
+    median_ms: BTreeMap<&'static str, f64>,
+    mean_list_fraction: f64,
+    contact_sheet: String,
+}
+
+impl VemScene {
+    /// Loads the scene, opens the GPU and the renderer; frames go into `out_dir`; `rate_hz` is
+    /// the capture rate (the tone mapper's smoothing).
+    pub fn new(scene_dir: &Path, out_dir: &Path, cfg: VemRenderConfig, rate_hz: f64) -> Result<Self> {
+        let scene = Scene::load(scene_dir).with_context(|| format!("loading scene {}", scene_dir.display()))?;
+        std::fs::create_dir_all(out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
+        let gpu = Arc::new(Gpu::new(GpuOptions { samples: 1 })?);
+        let adapter = gpu.describe();
+        let overlay = VemOverlay::new(gpu, &scene, cfg)?;
+        Ok(Self {
+            scene,
+            overlay,
+            adapter,
+            out_dir: out_dir.to_owned(),
+            dt_s: 1.0 / rate_hz,
+            sheet: Thumbs::new(SHEET_KEEP, SHEET_TILE_WIDTH),
+            reports: Vec::new(),
+            backgrounds: BTreeMap::new(),
+        })
+    }
+
+    /// The GPU adapter.
+    pub fn adapter(&self) -> &str {
+        &self.adapter
+    }
+
+    /// The frame's background: the scene's footage frame `i` when its first sequence has one
+    /// of the camera's size, else the VEM map seen through the camera (the ground below the
+    /// horizon).
+    fn background(&self, i: usize, stage: &VemStage) -> Result<(LinearImage, &'static str)> {
+        if let Some(seq) = self.scene.sequences.first()
+            && let Some(path) = seq.files.get(i)
+        {
+            let frame = Frame::load(path).with_context(|| format!("reading footage {}", path.display()))?;
+            let want = (self.scene.camera.intrinsics.width, self.scene.camera.intrinsics.height);
+            if (frame.width, frame.height) == want {
+                return Ok((seq.photometry.linearizer().linear_image(&frame), "footage"));
+            }
+            eprintln!("note: {} is {}×{}, not the camera's {}×{}: using the environment", path.display(), frame.width, frame.height, want.0, want.1);
+        }
+        let ground = ground_radiance(&stage.dec.region_lists().1.lights, self.overlay.renderer().config().ground_albedo);
+        Ok((environment_background(&stage.map, &self.scene.camera, ground), "environment"))
+    }
+
+    /// Renders frame `i` and writes its PNG.
+    pub fn frame(&mut self, i: usize, stage: &VemStage, status: Status) -> Result<FrameRender> {
+        let (bg, kind) = self.background(i, stage)?;
+        let out = self.overlay.render(stage, status, &bg, self.dt_s)?;
+        let (w, h) = (bg.width, bg.height);
+        let rgb: Vec<u8> = out.srgb.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
+        let png = self.out_dir.join(format!("frame_{i:04}.png"));
+        image::save_buffer(&png, &rgb, w, h, image::ExtendedColorType::Rgb8).with_context(|| format!("writing {}", png.display()))?;
+        if self.sheet.wants(i) {
+            self.sheet.push(i, &Rgb8 { width: w, height: h, data: rgb });
+        }
+        *self.backgrounds.entry(kind).or_default() += 1;
+        self.reports.push(out.report.clone());
+        Ok(FrameRender { png: png.display().to_string(), background: kind, report: out.report })
+    }
+
+    /// Writes the contact sheet and `report.json`; returns the report's path.
+    pub fn finish(self) -> Result<PathBuf> {
+        let sheet_path = self.out_dir.join("contact_sheet.png");
+        self.sheet.write(&sheet_path, SHEET_COLUMNS)?;
+        let mut ran: BTreeMap<&'static str, usize> = BTreeMap::new();
+        let mut skipped: BTreeMap<(&'static str, String), usize> = BTreeMap::new();
+        for r in &self.reports {
+            for p in &r.ran {
+                *ran.entry(p).or_default() += 1;
+            }
+            for Skipped { pass, reason } in &r.skipped {
+                *skipped.entry((pass, reason.clone())).or_default() += 1;
+            }
+        }
+        let med = |f: fn(&VemReport) -> f64| median(&self.reports.iter().map(f).collect::<Vec<_>>());
+        let median_ms = BTreeMap::from([
+            ("prepare", med(|r| r.timings.prepare_ms)),
+            ("upload", med(|r| r.timings.upload_ms)),
+            ("gpu", med(|r| r.timings.gpu_ms)),
+            ("readback", med(|r| r.timings.readback_ms)),
+            ("tonemap", med(|r| r.timings.tonemap_ms)),
+            ("total", med(|r| r.timings.total_ms)),
+        ]);
+        let cfg = self.overlay.renderer().config();
+        let summary = RenderSummary {
+            scene: self.scene.root.display().to_string(),
+            adapter: self.adapter.clone(),
+            frames: self.reports.len(),
+            receivers: self.overlay.renderer().receivers_kind(),
+            virtual_objects: self.scene.virtual_objects.len(),
+            backgrounds: &self.backgrounds,
+            median_lights: med(|r| r.lights as f64),
+            median_glossy_lights: med(|r| r.glossy_lights as f64),
+            median_shadow_maps: med(|r| r.shadow_maps as f64),
+            config: ConfigOut { shadow_slots: cfg.shadow_slots, tile: cfg.tile, culling: cfg.culling, shadows: cfg.shadows },
+            passes_run: ran,
+            passes_skipped: skipped.into_iter().map(|((pass, reason), frames)| SkipCount { pass, reason, frames }).collect(),
+            median_ms,
+            mean_list_fraction: self.reports.iter().map(|r| r.list_fraction).sum::<f64>() / self.reports.len().max(1) as f64,
+            contact_sheet: sheet_path.display().to_string(),
+        };
+        let path = self.out_dir.join("report.json");
+        crate::io::write_atomic(&path, serde_json::to_string_pretty(&summary)?.as_bytes()).with_context(|| format!("writing {}", path.display()))?;
+        Ok(path)
+    }
+}
+
+/// A frame's JSON line.
+#[derive(Serialize)]
+struct Record<'a> {
+    frame: usize,
+    file: String,
+    #[serde(flatten)]
+    summary: FrameSummary,
+    #[serde(flatten)]
+    input: ResampleStats,
+    delay_frames: usize,
+    lights: &'a [Light],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    clusters: Option<&'a [Cluster]>,
+    region_list_fraction: f64,
+    decode_ms: f64,
+    decompose_ms: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    render: Option<FrameRender>,
+}
+
+/// What a VEM run measured, for the terminal summary and the plot.
+#[derive(Clone, Debug, Default)]
+pub struct VemRunStats {
+    /// Frames per status.
+    pub statuses: BTreeMap<Status, usize>,
+    /// Decode + resample time per frame, ms.
+    pub decode_ms: Vec<f64>,
+    /// Decomposition time per frame, ms.
+    pub decompose_ms: Vec<f64>,
+    /// `(time s, power)` of every frame, raw and filtered.
+    pub power: Vec<(f64, f64, f64)>,
+}
+
+/// Decomposes every frame of `stage` (rendering it with `scene` when given), one JSON line each
+/// into `out`. `rate_hz` gives the frame times of the plot; `clusters` adds the clustered lights
+/// to the lines.
+pub fn run_vem(stage: &mut VemStage, mut scene: Option<&mut VemScene>, out: &mut JsonLines, rate_hz: f64, clusters: bool, obs: &mut dyn Observer) -> Result<VemRunStats> {
+    let delay = stage.dec.filter_design().delay_frames();
+    let mut stats = VemRunStats::default();
+    obs.start("vem", Some(stage.len()), 0);
+    for i in 0..stage.len() {
+        let f = stage.light(i)?;
+        *stats.statuses.entry(f.summary.status).or_default() += 1;
+        stats.power.push((i as f64 / rate_hz, f.summary.power, f.summary.filtered_power));
+        stats.decode_ms.push(f.decode_ms);
+        stats.decompose_ms.push(f.decompose_ms);
+        let render = match scene.as_deref_mut() {
+            Some(s) => Some(s.frame(i, stage, f.summary.status)?),
+            None => None,
+        };
+        let (_, lists) = stage.dec.region_lists();
+        out.write(&Record {
+            frame: i,
+            file: stage.input.files[i].display().to_string(),
+            summary: f.summary,
+            input: f.stats,
+            delay_frames: delay,
+            lights: stage.dec.lights(),
+            clusters: clusters.then(|| stage.dec.clusters()),
+            region_list_fraction: lists.mean_fraction(),
+            decode_ms: f.decode_ms,
+            decompose_ms: f.decompose_ms,
+            render,
+        })?;
+        obs.advance();
+    }
+    obs.finish();
+    Ok(stats)
+}
