@@ -62,6 +62,7 @@ pub mod estimate;
 pub mod geometry;
 pub mod io;
 pub mod irradiance;
+pub mod lamps;
 #[cfg(feature = "opencv")]
 pub mod live;
 pub mod pipeline;
