@@ -88,10 +88,20 @@ impl StorageFormat {
         }
     }
 
-    /// An image after encoding and decoding every texel.
+    /// An image after encoding and decoding every texel, stored with a per-image scale: the
+    /// power of two at or above the image's largest `|channel|` (one uniform per texture layer on
+    /// the GPU; a power of two, so the scaling itself is exact). Without it half floats would
+    /// fall into their subnormal range on dim images (light-field values are often near 10⁻⁵).
     pub fn round_trip_image(self, img: &LinearImage) -> LinearImage {
-        LinearImage { width: img.width, height: img.height, data: img.data.iter().map(|&p| self.round_trip(p)).collect() }
+        let scale = image_scale(img);
+        LinearImage { width: img.width, height: img.height, data: img.data.iter().map(|&p| self.round_trip(p.map(|c| c / scale)).map(|c| c * scale)).collect() }
     }
+}
+
+/// The per-image scale of [`StorageFormat::round_trip_image`] (1 for a black image).
+pub fn image_scale(img: &LinearImage) -> f32 {
+    let peak = img.data.iter().flat_map(|p| p.iter()).fold(0.0f32, |a, v| if v.is_finite() { a.max(v.abs()) } else { a });
+    if peak > 0.0 { (2.0f64).powi((peak as f64).log2().ceil() as i32) as f32 } else { 1.0 }
 }
 
 /// NaN → 0, ±∞ → ±f32::MAX.
@@ -162,7 +172,8 @@ pub struct FormatError {
     pub negative_fraction: f64,
 }
 
-/// Measures `format` on `images` (each normalised by its own peak).
+/// Measures `format` on `images`, each stored with its per-image scale
+/// ([`StorageFormat::round_trip_image`]).
 pub fn measure(format: StorageFormat, images: &[LinearImage]) -> FormatError {
     let (mut n_rel, mut n_all, mut n_neg) = (0usize, 0usize, 0usize);
     let mut e = FormatError::default();
@@ -171,8 +182,8 @@ pub fn measure(format: StorageFormat, images: &[LinearImage]) -> FormatError {
         if peak <= 0.0 {
             continue;
         }
-        for &p in &img.data {
-            let d = format.round_trip(p);
+        let stored = format.round_trip_image(img);
+        for (&p, &d) in img.data.iter().zip(&stored.data) {
             let err = (0..3).map(|c| (d[c] as f64 - p[c] as f64).abs()).fold(0.0, f64::max);
             let mag = p.iter().fold(0.0f32, |a, v| a.max(v.abs()));
             n_all += 1;

@@ -9,7 +9,7 @@
 
 use anyhow::{Context, Result};
 use clap::Parser;
-use heliar::lamps::lightfield::curves::{format_table, torch_acquisition};
+use heliar::lamps::lightfield::curves::{format_table, spacing_for, torch_acquisition};
 use heliar::lamps::lightfield::synthetic::{write_synthetic_folder, TorchEmitter};
 use std::path::PathBuf;
 
@@ -39,7 +39,8 @@ fn main() -> Result<()> {
     anyhow::ensure!(cli.s.is_finite() && cli.s > 0.0, "--s {} must be > 0", cli.s);
     anyhow::ensure!(cli.resolution >= 1 && cli.emitter_points >= 1, "--resolution and --emitter-points must be ≥ 1");
     let torch = TorchEmitter::default();
-    let acq = torch_acquisition(&torch, cli.filters, cli.s, cli.resolution, cli.emitter_points);
+    let d = 2.0 * spacing_for(torch.radius_m, cli.filters) / cli.s;
+    let acq = torch_acquisition(&torch, cli.filters, d, cli.resolution, cli.emitter_points);
     let lf = write_synthetic_folder(&cli.out, &torch, &acq).with_context(|| format!("writing {}", cli.out.display()))?;
     println!(
         "{out}: {m}×{m} filters at h = {h:.4} m, d = {d:.3} m, {r}×{r} texels over {w:.3} m",

@@ -29,8 +29,8 @@ use rayon::prelude::*;
 pub const LIT_FRACTION: f64 = 0.05;
 /// Receiver points per axis on a plane.
 pub const RECEIVERS_PER_AXIS: usize = 24;
-/// Half-angle of the receiver planes' extent (the torch's beam stays within 16°).
-pub const RECEIVER_HALF_ANGLE_DEG: f64 = 18.0;
+/// Half-angle of the receiver planes' extent (the torch's beam stays within 20°).
+pub const RECEIVER_HALF_ANGLE_DEG: f64 = 22.0;
 
 /// Granier §3.1: `E_r(θ₀)` for relative filter width `s` (module docs).
 pub fn geometric_term_error(theta0_deg: f64, s: f64) -> f64 {
@@ -104,11 +104,10 @@ pub fn spacing_for(radius_m: f64, filters: usize) -> f64 {
     radius_m / ((filters as f64 - 1.0) / 2.0 - 1.0).max(1.0)
 }
 
-/// The measurement set-up of the curves for `filters²` positions: `d` from the relative width
-/// `s = 2h/d`, a plane as wide as the receiver planes at that depth (the beam with margin).
-pub fn torch_acquisition(torch: &TorchEmitter, filters: usize, s: f64, resolution: u32, emitter_points: usize) -> Acquisition {
+/// The measurement set-up of the curves for `filters²` positions ([`spacing_for`]) at distance
+/// `d`, on a plane as wide as the receiver planes at that depth (the beam with margin).
+pub fn torch_acquisition(torch: &TorchEmitter, filters: usize, d: f64, resolution: u32, emitter_points: usize) -> Acquisition {
     let h = spacing_for(torch.radius_m, filters);
-    let d = 2.0 * h / s;
     let size = 2.0 * (torch.radius_m + d * RECEIVER_HALF_ANGLE_DEG.to_radians().tan());
     Acquisition { grid: FilterGrid { counts: [filters; 2], spacing_m: h }, distance_m: d, size_m: [size; 2], resolution: [resolution; 2], emitter_points }
 }
@@ -118,7 +117,7 @@ pub fn torch_acquisition(torch: &TorchEmitter, filters: usize, s: f64, resolutio
 pub fn shift_invariant_curve(torch: &TorchEmitter, widths: &[f64], resolution: u32, emitter_points: usize) -> Result<Table, LightFieldError> {
     let mut t = Table::new(&["s", "d_m", "Er_0deg", "Er_15deg", "Er_45deg", "rel_rms", "max_rel"]);
     for &s in widths {
-        let acq = torch_acquisition(torch, 5, s, resolution, emitter_points);
+        let acq = torch_acquisition(torch, 5, 2.0 * spacing_for(torch.radius_m, 5) / s, resolution, emitter_points);
         let lf = acquire(torch, &acq)?;
         let pts = beam_plane(acq.distance_m, torch.radius_m);
         let exact = irradiance_map(&lf, Method::Exact(Default::default()), &pts);
@@ -164,15 +163,15 @@ pub struct SweepRow {
 }
 
 /// The sweep of `heliar bench lamps` (CPU side): for each grid and resolution, acquire the torch
-/// at `s = 0.04`, store the images in each format, and compare the exact and the spot
+/// at `distance_m`, store the images in each format, and compare the exact and the spot
 /// reconstructions with the truth on a receiver plane at `depth_m`.
-pub fn sweep(torch: &TorchEmitter, filters: &[usize], resolutions: &[u32], formats: &[StorageFormat], depth_m: f64, emitter_points: usize) -> Result<Vec<SweepRow>, LightFieldError> {
+pub fn sweep(torch: &TorchEmitter, filters: &[usize], resolutions: &[u32], formats: &[StorageFormat], distance_m: f64, depth_m: f64, emitter_points: usize) -> Result<Vec<SweepRow>, LightFieldError> {
     let pts = beam_plane(depth_m, torch.radius_m);
     let truth = truth_map(torch, &pts, emitter_points);
     let mut rows = Vec::new();
     for &m in filters {
         for &res in resolutions {
-            let lf = acquire(torch, &torch_acquisition(torch, m, 0.04, res, emitter_points))?;
+            let lf = acquire(torch, &torch_acquisition(torch, m, distance_m, res, emitter_points))?;
             for &format in formats {
                 let stored = lf.map_images(|img| format.round_trip_image(img))?;
                 let exact = compare(&irradiance_map(&stored, Method::Exact(Default::default()), &pts), &truth);

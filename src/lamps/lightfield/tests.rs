@@ -39,24 +39,29 @@ fn an_emitter_in_the_span_is_measured_and_reconstructed_exactly() {
         let exact = irradiance_map(&lf, Method::Exact(Default::default()), &pts);
         let truth = truth_map(&em, &pts, 96);
         let e = compare(&exact, &truth);
-        assert!(e.rel_rms < 0.01 && e.lit > 100, "depth {depth}: {e:?}");
+        assert!(e.rel_rms < 0.01 && e.lit >= 64, "depth {depth}: {e:?}");
     }
 }
 
 #[test]
 fn torch_reconstruction_converges_with_the_grid() {
-    // The exact reconstruction of the torch against the truth, 1 m away, for three grids.
+    // The exact reconstruction of the torch against the truth, 1 m away, for three grids
+    // measured at d = 0.5 m (so s = 2h/d falls from 0.04 to 0.013 as the grid refines).
     let torch = TorchEmitter::default();
     let pts = beam_plane(1.0, torch.radius_m);
     let truth = truth_map(&torch, &pts, 64);
     let mut errs = Vec::new();
-    for m in [3, 5, 9] {
-        let lf = acquire(&torch, &curves::torch_acquisition(&torch, m, 0.04, 32, 40)).unwrap();
+    for (m, res) in [(5, 48), (7, 48), (9, 48), (9, 96)] {
+        let lf = acquire(&torch, &curves::torch_acquisition(&torch, m, 0.5, res, 40)).unwrap();
         let e = compare(&irradiance_map(&lf, Method::Exact(Default::default()), &pts), &truth);
-        println!("{m}×{m}: exact vs truth at 1 m: rel RMS {:.4}, max {:.4}", e.rel_rms, e.max_rel);
+        println!("{m}×{m}, {res}² texels: exact vs truth at 1 m: rel RMS {:.4}, max {:.4}", e.rel_rms, e.max_rel);
         errs.push(e.rel_rms);
     }
-    assert!(errs[2] < errs[1] && errs[1] < errs[0], "{errs:?}");
+    // finer filters help until the texels limit (7×7 and 9×9 at 48² within 10 % of each other);
+    // then finer texels help
+    assert!(errs[1] < 0.8 * errs[0], "{errs:?}");
+    assert!(errs[2] < 1.1 * errs[1], "{errs:?}");
+    assert!(errs[3] < 0.8 * errs[2], "{errs:?}");
 }
 
 #[test]
@@ -64,7 +69,7 @@ fn synthetic_folder_round_trip_with_truth() {
     let dir = std::env::temp_dir().join(format!("heliar-lf-synth-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let torch = TorchEmitter::default();
-    let acq = curves::torch_acquisition(&torch, 3, 0.04, 16, 24);
+    let acq = curves::torch_acquisition(&torch, 3, 0.5, 16, 24);
     let lf = write_synthetic_folder(&dir, &torch, &acq).unwrap();
     assert_eq!(LightField::load(&dir).unwrap(), lf);
     let truth = read_truth(&dir).unwrap();
@@ -106,13 +111,19 @@ fn approximation_error_curves() {
     assert!(measured.windows(2).all(|w| w[0] < w[1]), "{measured:?}");
 
     // (b) textured spot lights (Eq. 14) against the exact reconstruction, by distance.
-    let lf = acquire(&torch, &curves::torch_acquisition(&torch, 5, 0.04, 32, 32)).unwrap();
+    let lf = acquire(&torch, &curves::torch_acquisition(&torch, 5, 0.5, 32, 32)).unwrap();
     let depths = [0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0];
     let b = curves::spot_curve(&torch, &lf, &depths, 48);
     println!("(b) textured spot lights against the exact reconstruction and the truth, 5×5 torch at s = 0.04:\n{b}");
     let spots: Vec<f64> = b.rows.iter().map(|r| r[2].parse().unwrap()).collect();
-    // the spot approximation improves with distance from the lamp
-    assert!(spots.windows(2).all(|w| w[1] <= w[0]), "{spots:?}");
+    let support: Vec<f64> = b.rows.iter().map(|r| r[3].parse().unwrap()).collect();
+    // The centre lookup improves with distance up to the measurement plane (0.5 m), where it is
+    // Eq. 5 itself (f_mn = g_c there and every ray meets M at x); beyond, it misses the average
+    // over the support's footprint on M, 2h |1 − d/z'|, and its error grows again.
+    assert!(spots[..5].windows(2).all(|w| w[1] < w[0]), "{spots:?}");
+    assert!(spots[4] < 1e-3, "{spots:?}");
+    // With the support average (Eq. 13) the spots stay within 2 % of Eq. 5 from 10 h on.
+    assert!(support[2..].iter().all(|&e| e < 0.02), "{support:?}");
 
     // storage formats on the torch's images
     let f = curves::format_table(&lf);
@@ -126,8 +137,8 @@ fn approximation_error_curves() {
 #[test]
 fn sweep_over_grids_resolutions_and_formats() {
     let torch = TorchEmitter::default();
-    let rows = curves::sweep(&torch, &[3, 5, 7], &[16, 32], &[StorageFormat::F32, StorageFormat::Half, StorageFormat::Srgbe, StorageFormat::Rgb9e5], 1.0, 32).unwrap();
-    println!("\nsweep (CPU): torch at s = 0.04, receivers 1 m away, errors against the truth:\n{}", curves::sweep_table(&rows));
+    let rows = curves::sweep(&torch, &[3, 5, 7], &[16, 32], &[StorageFormat::F32, StorageFormat::Half, StorageFormat::Srgbe, StorageFormat::Rgb9e5], 0.5, 1.0, 32).unwrap();
+    println!("\nsweep (CPU): torch measured at d = 0.5 m, receivers 1 m away, errors against the truth:\n{}", curves::sweep_table(&rows));
     assert_eq!(rows.len(), 3 * 2 * 4);
     // half float changes the reconstruction by far less than the reconstruction's own error
     for pair in rows.chunks(4) {

@@ -75,7 +75,7 @@ fn ldt_of(isym: u8, mc: usize, f: impl Fn(f64, f64) -> f64) -> LdtFile {
         intensities: Vec::new(),
     };
     let planes = f0.stored_planes_deg();
-    f0.intensities = planes.iter().flat_map(|&c| f0.gamma_deg.iter().map(move |&g| f(c, g))).collect();
+    f0.intensities = planes.iter().flat_map(|&c| f0.gamma_deg.iter().map(|&g| (c, g)).collect::<Vec<_>>()).map(|(c, g)| f(c, g)).collect();
     f0
 }
 
@@ -108,8 +108,8 @@ fn ies_round_trips_every_version_symmetry_and_tilt() {
         ies_of(PhotometricType::C, vec![0.0], v.clone(), |_, g| 100.0 + g),
         ies_of(PhotometricType::C, steps(0.0, 90.0, 15.0), v.clone(), quadrant_symmetric),
         ies_of(PhotometricType::C, steps(0.0, 360.0, 30.0), v.clone(), quadrant_symmetric),
-        ies_of(PhotometricType::B, steps(-90.0, 90.0, 30.0), steps(-90.0, 90.0, 10.0), |h, v| 50.0 + h + v),
-        ies_of(PhotometricType::A, steps(0.0, 90.0, 30.0), steps(-90.0, 90.0, 10.0), |h, v| 50.0 + h + v),
+        ies_of(PhotometricType::B, steps(-90.0, 90.0, 30.0), steps(-90.0, 90.0, 10.0), |h, v| 200.0 + h + v),
+        ies_of(PhotometricType::A, steps(0.0, 90.0, 30.0), steps(-90.0, 90.0, 10.0), |h, v| 200.0 + h + v),
     ];
     files[1].version = IesVersion::Lm63_1995;
     files[2].version = IesVersion::Lm63_1986;
@@ -235,6 +235,8 @@ fn bad_ldt_files_name_file_line_and_field() {
         l.join("\n")
     };
     let n = lines.len();
+    let last_line = format!("bad.ldt:{n}");
+    let last_needles = [last_line.as_str(), "intensities", "-1"];
     let cases: Vec<(String, &[&str])> = vec![
         (lines[..n - 3].join("\n"), &["bad.ldt", "ends after line", "intensities"]),
         (format!("{good}12\n"), &["bad.ldt:", "end of file", "'12'"]),
@@ -243,7 +245,7 @@ fn bad_ldt_files_name_file_line_and_field() {
         (with_line(24, "abc"), &["bad.ldt:24", "conversion factor", "'abc'"]),
         // the first γ angle line comes after 26 + 6 + 10 + 24 C-angle lines
         (with_line(26 + 6 + 10 + 24 + 2, "0"), &["bad.ldt:67", "γ angles", "increase"]),
-        (with_line(n, "-1"), &[&format!("bad.ldt:{n}"), "intensities", "-1"]),
+        (with_line(n, "-1"), &last_needles),
     ];
     for (text, needles) in cases {
         let e = LdtFile::parse(&text, Path::new("bad.ldt")).unwrap_err().to_string();
