@@ -49,7 +49,7 @@ pub trait FarField {
     /// surface facing away, and within [`MIN_FAR_FIELD_DISTANCE_M`] of the light.
     fn irradiance_at(&self, point_in_lamp: DVec3, normal_in_lamp: DVec3) -> f64 {
         let r = point_in_lamp.length();
-        if !(r >= MIN_FAR_FIELD_DISTANCE_M) {
+        if r.is_nan() || r < MIN_FAR_FIELD_DISTANCE_M {
             return 0.0;
         }
         let dir = point_in_lamp / r;

@@ -45,13 +45,13 @@ pub fn dual_coefficients() -> &'static [f64; 4] {
         let rule = gauss_legendre(3);
         let mut a = [[0.0; 4]; 4];
         let mut b = [0.0; 4];
-        for n in 0..3 {
-            for k in 0..4 {
+        for (n, row) in a.iter_mut().take(3).enumerate() {
+            for (k, cell) in row.iter_mut().enumerate() {
                 let f = |x: f64| {
                     let pair = if k == 0 { bellq(2.0 * x) } else { bellq(2.0 * x - k as f64) + bellq(2.0 * x + k as f64) };
                     pair * bellq(x - n as f64)
                 };
-                a[n][k] = integrate_cells(&f, -3.0, 4.0, 28, &rule);
+                *cell = integrate_cells(&f, -3.0, 4.0, 28, &rule);
             }
         }
         b[0] = 1.0;
@@ -69,6 +69,7 @@ fn integrate_cells(f: &dyn Fn(f64) -> f64, lo: f64, hi: f64, cells: usize, rule:
 
 /// Solves a 4×4 system by Gaussian elimination with partial pivoting (the system above is well
 /// conditioned; a singular one would give non-finite coefficients, caught by the tests).
+#[allow(clippy::needless_range_loop)] // row operations read one row while writing another
 fn solve4(mut a: [[f64; 4]; 4], mut b: [f64; 4]) -> [f64; 4] {
     for col in 0..4 {
         let p = (col..4).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs())).unwrap_or(col);

@@ -89,7 +89,7 @@ impl LightField {
 
     fn integrate_plane(&self, x: DVec3, n: DVec3, q: Quadrature, exact: bool) -> [f64; 3] {
         let z = -x.z;
-        if !(z > 0.0) {
+        if z.is_nan() || z <= 0.0 {
             return [0.0; 3];
         }
         let g = *self.grid();
@@ -138,7 +138,7 @@ impl LightField {
 
     fn spots(&self, x: DVec3, n: DVec3, footprint: Footprint) -> [f64; 3] {
         let z = -x.z;
-        if !(z > 0.0) {
+        if z.is_nan() || z <= 0.0 {
             return [0.0; 3];
         }
         let g = *self.grid();

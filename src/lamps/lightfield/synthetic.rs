@@ -115,7 +115,7 @@ fn emitter_nodes(em: &dyn Emitter, n: usize) -> Vec<(DVec2, f64)> {
 /// The true irradiance at `x` (luminaire frame, depth `−x_z > 0`) on a surface of unit normal
 /// `n`: `∫ L cos θ_S cos θ_x / δ² dA` over the emitter, midpoint rule on `points_per_axis²` nodes.
 pub fn emitter_irradiance(em: &dyn Emitter, x: DVec3, n: DVec3, points_per_axis: usize) -> [f64; 3] {
-    if !(x.z < 0.0) {
+    if x.z.is_nan() || x.z >= 0.0 {
         return [0.0; 3];
     }
     let mut acc = [0.0; 3];
@@ -152,6 +152,9 @@ pub struct Acquisition {
     pub emitter_points: usize,
 }
 
+/// An emitter node, its area, and the filters that see it with their transmittances.
+type SeenNode = (DVec2, f64, Vec<(usize, f64)>);
+
 /// Simulates the measurement of `em` (module docs). Deterministic; parallel over image rows.
 pub fn acquire(em: &dyn Emitter, acq: &Acquisition) -> Result<LightField, LightFieldError> {
     let g = acq.grid;
@@ -159,7 +162,7 @@ pub fn acquire(em: &dyn Emitter, acq: &Acquisition) -> Result<LightField, LightF
     let [w, h] = acq.resolution;
     // emitter nodes that some filter sees, with the filter weights of each
     // (filter index, transmittance) of the filters that see each node; most see none or few
-    let nodes: Vec<(DVec2, f64, Vec<(usize, f64)>)> = emitter_nodes(em, acq.emitter_points)
+    let nodes: Vec<SeenNode> = emitter_nodes(em, acq.emitter_points)
         .into_iter()
         .map(|(p, area)| (p, area, (0..g.len()).map(|k| (k, g.dual(k % g.counts[0], k / g.counts[0], p))).filter(|&(_, v)| v != 0.0).collect::<Vec<_>>()))
         .filter(|(_, _, duals)| !duals.is_empty())

@@ -357,9 +357,9 @@ mod tests {
     #[test]
     fn direction_angle_round_trip_for_each_type() {
         for kind in [PhotometricType::C, PhotometricType::B, PhotometricType::A] {
-            for &(h, v) in &[(10.0, 20.0), (80.0, 45.0), (-30.0, 60.0), (170.0, -40.0)] {
+            for &(h, v) in &[(10.0f64, 20.0f64), (80.0, 45.0), (-30.0, 60.0), (170.0, -40.0)] {
                 let (h, v) = match kind {
-                    PhotometricType::C => ((h as f64).rem_euclid(360.0), (v as f64).abs()),
+                    PhotometricType::C => (h.rem_euclid(360.0), v.abs()),
                     _ => (h, v),
                 };
                 let d = kind.dir_from_angles(h, v);
