@@ -62,6 +62,7 @@ pub mod geometry;
 pub mod gpu;
 pub mod io;
 pub mod irradiance;
+pub mod lamps;
 pub mod lighting;
 #[cfg(feature = "opencv")]
 pub mod live;

@@ -24,6 +24,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("envmap", &["camera", "estimate", "geometry", "io", "lighting", "scene", "sun"]),
     ("irradiance", &["envmap", "geometry", "lighting", "scene"]),
     ("vem", &["camera", "geometry", "io", "report", "scene"]),
+    ("lamps", &["geometry", "io", "report"]),
     ("opencv_calib", &["camera", "geometry", "io"]),
     ("gpu", &["camera", "geometry", "io"]),
     ("render", &["camera", "geometry", "gpu", "io", "irradiance", "lighting", "scene", "vem"]),
