@@ -57,6 +57,7 @@
 
 #[cfg(feature = "opencv")]
 pub mod calib;
+pub mod cuts;
 pub mod envmap;
 pub mod estimate;
 pub mod geometry;
