@@ -268,7 +268,7 @@ pub fn check_tiling(levels: u32, heights: impl Iterator<Item = u32>) -> Result<(
         if first >= total {
             return Err(CutsError::InvalidCut { levels, reason: format!("node {k} lies past the last leaf") });
         }
-        if first % (1u64 << h) != 0 {
+        if !first.is_multiple_of(1u64 << h) {
             return Err(CutsError::InvalidCut { levels, reason: format!("node {k} of height {h} would start at leaf {first}, not a multiple of 2^{h}") });
         }
         first += 1u64 << h;

@@ -116,13 +116,13 @@ impl PackedCuts {
         let quantised: Vec<u16> = cut.nodes().iter().enumerate().map(|(k, n)| self.quantise(k, n.value)).collect::<Result<_, _>>()?;
         let mut g = self.node_count();
         for (n, q) in cut.nodes().iter().zip(quantised) {
-            if g % 2 == 0 {
+            if g.is_multiple_of(2) {
                 self.heights.push(n.height);
             } else if let Some(last) = self.heights.last_mut() {
                 *last |= n.height << 4;
             }
             match self.encoding {
-                ValueEncoding::Bits if g % 8 == 0 => self.values.push(q as u8),
+                ValueEncoding::Bits if g.is_multiple_of(8) => self.values.push(q as u8),
                 ValueEncoding::Bits => {
                     if let Some(last) = self.values.last_mut() {
                         *last |= (q as u8) << (g % 8);

@@ -48,7 +48,7 @@ impl ProxyGrid {
             if self.counts[a] == 0 {
                 return bad("proxy counts", format!("{:?}", self.counts), "each count must be at least 1");
             }
-            if self.counts[a] > 1 && !(self.max[a] > self.min[a]) {
+            if self.counts[a] > 1 && self.max[a] <= self.min[a] {
                 return bad("proxy box", format!("{:?}..{:?}", self.min, self.max), "max must exceed min along every axis with more than one point");
             }
         }

@@ -193,7 +193,7 @@ impl VisibilityCutField {
         check_mesh(what, mesh)?;
         sampling.check()?;
         let (centre, radius_m) = bounding_sphere(mesh).ok_or_else(|| CutsError::Mesh { what: what.to_owned(), reason: "no vertices".into() })?;
-        if !(radius_m > 0.0) {
+        if radius_m <= 0.0 || !radius_m.is_finite() {
             return Err(CutsError::Mesh { what: what.to_owned(), reason: "all vertices coincide (bounding radius 0)".into() });
         }
         let encoding = if sampling.threshold == 0.0 { ValueEncoding::Bits } else { ValueEncoding::Unorm8 };

@@ -109,8 +109,8 @@ fn the_sweep_orders_its_settings_by_error() {
     assert!(fine.receiver_rel_rmse < coarse.receiver_rel_rmse, "{} vs {}", fine.receiver_rel_rmse, coarse.receiver_rel_rmse);
     assert!(fine.vertex_rel_rmse < blunt.vertex_rel_rmse, "{} vs {}", fine.vertex_rel_rmse, blunt.vertex_rel_rmse);
     assert!(blunt.mean_svc_cut < fine.mean_svc_cut);
-    // At S = 2^10 with 16³ field points, the vertices are within 5 % and the contact shadows
-    // within 25 % of the traced reference (what the sampling can resolve; the bench sweeps finer).
-    assert!(fine.vertex_rel_rmse < 0.05, "{}", fine.vertex_rel_rmse);
-    assert!(fine.receiver_rel_rmse < 0.25, "{}", fine.receiver_rel_rmse);
+    // At S = 2^10 with 16³ field points the vertices came within 0.6 % and the contact shadows
+    // within 8.4 % of the traced reference; allow 2 % and 15 % (the example sweeps finer).
+    assert!(fine.vertex_rel_rmse < 0.02, "{}", fine.vertex_rel_rmse);
+    assert!(fine.receiver_rel_rmse < 0.15, "{}", fine.receiver_rel_rmse);
 }

@@ -37,15 +37,15 @@ fn diffuse_sphere_under_skies_matches_closed_forms() {
             let views = [svc.cuts.view(v)];
             // Uniform light: each node's value is its leaves' mean, so Σ l_k v_k is the leaf sum
             // Σ cos⁺ Δω whatever the threshold; the Fibonacci quadrature of ∫cos⁺ = π is within
-            // 0.3 % at S = 4096.
+            // 2·10⁻⁵ at S = 4096 here (plus the Unorm16 steps, 8·10⁻⁶): allow 10⁻⁴.
             let b = shade(&tree, &uniform, &views, &surface, n, n).expect("same tree");
-            assert!((b - rho).abs().max_element() < 3e-3, "uniform, vertex {v}, threshold {threshold}: {b}");
+            assert!((b - rho).abs().max_element() < 1e-4, "uniform, vertex {v}, threshold {threshold}: {b}");
             let want = rho * (1.0 + n.y) / 2.0;
-            // The horizon cuts cells: the leaf quadrature of the sky view factor is within 1 %
-            // (threshold 0); a threshold t moves each leaf's cosine by ≤ t, so the sum by
-            // ≤ ρ/π · t · 2π = 2ρt.
+            // The horizon cuts cells: the leaf quadrature of the sky view factor is within
+            // 4·10⁻⁴ ρ here, allow 2·10⁻³ (threshold 0); a threshold t moves each leaf's cosine by
+            // ≤ t, so the sum by ≤ ρ/π · t · 2π = 2ρt (a bound: the uniform sky is far inside it).
             let b = shade(&tree, &sky, &views, &surface, n, n).expect("same tree");
-            let tol = 0.01 + 2.0 * threshold;
+            let tol = 2e-3 + 2.0 * threshold;
             assert!((b - want).abs().max_element() <= tol * rho.max_element(), "sky, vertex {v} (n_y {}), threshold {threshold}: {b} vs {want}", n.y);
         }
     }
@@ -55,7 +55,8 @@ fn diffuse_sphere_under_skies_matches_closed_forms() {
 fn gltf_shading_matches_the_leafwise_sum() {
     // With threshold 0 the cut has one node per lit leaf, so Eq. 3 becomes Eq. 2: the cut sum
     // equals Σ_j L_j f(ω_j) cos θ_j Δω evaluated leaf by leaf, except on leaves within 3° of
-    // the horizon where the BRDF is read at 3° elevation (weighted by cos < 0.052).
+    // the horizon where the BRDF is read at 3° elevation (weighted by cos < 0.052), and for the
+    // Unorm16 steps of the stored cosines: within 10⁻⁴ here, allow 10⁻³.
     let tree = DirectionTree::new(11).expect("valid levels");
     let sphere = icosphere(Vec3::ZERO, 1.0, 1);
     let svc = self_visibility_cuts("sphere", &sphere, &tree, &SvcSettings { threshold: 0.0, ..SvcSettings::default() }, &no_progress).expect("valid mesh");
@@ -69,7 +70,7 @@ fn gltf_shading_matches_the_leafwise_sum() {
         let b = shade(&tree, &lighting, &[svc.cuts.view(v)], &Reflectance::Gltf(surface), n, view).expect("same tree");
         let dw = tree.leaf_solid_angle_sr();
         let reference: Vec3 = tree.leaf_dirs().iter().map(|&d| radiance(d) * surface.eval_cos(n, view, d) * dw).sum();
-        assert!((b - reference).abs().max_element() < 0.01 * reference.max_element(), "vertex {v}: {b} vs {reference}");
+        assert!((b - reference).abs().max_element() < 1e-3 * reference.max_element(), "vertex {v}: {b} vs {reference}");
     }
 }
 
@@ -133,7 +134,10 @@ fn a_moving_occluder_darkens_a_vertex_and_the_scene_is_deterministic() {
         scene.vertex_radiance(0, top, &lambert, Vec3::Y).expect("valid scene")
     };
     let (far, above, below) = (radiance(Vec3::new(40.0, 0.0, 0.0)), radiance(Vec3::new(0.0, 1.3, 0.0)), radiance(Vec3::new(0.0, -3.0, 0.0)));
-    assert!(above.radiance.x < 0.8 * far.radiance.x, "an object overhead: {} vs {}", above.radiance.x, far.radiance.x);
+    // B overhead at 1.6 r leaves 1 − (0.5/0.8)² = 61 % of the cosine-weighted sky. The field's
+    // radial interpolation (spheres at 1.2 r and 2.96 r) is linear in a convex Ω(d), so it can
+    // only over-darken: below 61 % plus the leaf count (2 % at S = 512).
+    assert!(above.radiance.x < 0.63 * far.radiance.x, "an object overhead: {} vs {}", above.radiance.x, far.radiance.x);
     // Below the vertex's horizon the other object is culled (§V-B) and changes nothing.
     assert_eq!(below.occluders, 0);
     assert_eq!(below.radiance, radiance(Vec3::new(0.0, -30.0, 0.0)).radiance);
