@@ -276,8 +276,12 @@ impl<'a> Reader<'a> {
         }
         let code = self.u8(field)?;
         let encoding = ValueEncoding::from_code(code).ok_or_else(|| self.corrupt(format!("{field}: unknown value encoding {code}")))?;
+        // Each node takes at least 4 bits: a node count past twice the bytes left is corrupt.
         let cuts = self.count(field, 0)?;
         let nodes = self.count(field, 0)?;
+        if nodes > 2 * (self.bytes.len() - self.pos) || cuts > nodes {
+            return Err(self.corrupt(format!("{field}: {cuts} cuts of {nodes} nodes do not fit the {} bytes left", self.bytes.len() - self.pos)));
+        }
         let heights = self.take(nodes.div_ceil(2), field)?.to_vec();
         let values = self.take((nodes * encoding.bits()).div_ceil(8), field)?.to_vec();
         PackedCuts::from_parts(levels, encoding, cuts, nodes, heights, values).map_err(|e| self.corrupt(format!("{field}: {e}")))

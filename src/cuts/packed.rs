@@ -196,6 +196,10 @@ impl PackedCuts {
     /// heights (aligned nodes covering each leaf once) and the parts' lengths.
     pub fn from_parts(levels: u32, encoding: ValueEncoding, cuts: usize, nodes: usize, heights: Vec<u8>, values: Vec<u8>) -> Result<Self, CutsError> {
         check_levels(levels)?;
+        // Every cut has a node: more cuts than nodes is a bad header (checked before allocating).
+        if cuts > nodes || nodes > 2 * heights.len() {
+            return Err(CutsError::InvalidCut { levels, reason: format!("{cuts} cuts of {nodes} nodes in {} height bytes", heights.len()) });
+        }
         let value_bytes = (nodes * encoding.bits()).div_ceil(8);
         if heights.len() != nodes.div_ceil(2) || values.len() != value_bytes {
             return Err(CutsError::InvalidCut { levels, reason: format!("{nodes} nodes need {} height bytes and {value_bytes} value bytes, got {} and {}", nodes.div_ceil(2), heights.len(), values.len()) });

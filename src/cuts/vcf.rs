@@ -6,7 +6,8 @@
 //! radius `r`), radii spaced evenly from `inner·r` to `outer·r` (the paper: 32 spheres from
 //! 1.2 r to 10 r). On each sphere the points form a `rows × cols` latitude–longitude grid in the
 //! crate's equirect convention ([`crate::envmap::dir_from_texel_centre`]; the paper's 32² points
-//! per sphere). At each point `x_s` the leaf value is the binary occlusion `V_i(x_s, ω_j)`: 0 when
+//! per sphere; its total of 196,608 points per field, §VI, is 32 spheres × 6·32², a cube map's
+//! count, which `rows = 64, cols = 96` matches). At each point `x_s` the leaf value is the binary occlusion `V_i(x_s, ω_j)`: 0 when
 //! the ray hits the object, 1 otherwise; directions outside the cone of the bounding sphere are
 //! 1 without a ray. Leaves are cut at threshold 0 by default (the paper's rule for sharp shadows,
 //! §V-A.1) and stored with one bit per value.

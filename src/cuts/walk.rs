@@ -21,11 +21,13 @@ use super::CutsError;
 use super::cut::{Cut, CutNode};
 use super::packed::CutView;
 
-/// Walk state over `cuts` (checked to share a tree depth and be non-empty).
+/// Walk state over `cuts` (checked to share a tree depth and be non-empty): per operand the
+/// pointer `p_j`, the counter `c_j` and the current node's height `h_j`.
 struct Walker<'c, 'a> {
     cuts: &'c [CutView<'a>],
     pointer: Vec<usize>,
     counter: Vec<u32>,
+    height: Vec<u32>,
 }
 
 fn check_operands(cuts: &[CutView]) -> Result<u32, CutsError> {
@@ -41,7 +43,8 @@ fn check_operands(cuts: &[CutView]) -> Result<u32, CutsError> {
 impl<'c, 'a> Walker<'c, 'a> {
     fn new(cuts: &'c [CutView<'a>]) -> Self {
         // Step 1: every pointer at its first node, every counter at zero.
-        Self { cuts, pointer: vec![0; cuts.len()], counter: vec![0; cuts.len()] }
+        let height = cuts.iter().map(|c| c.height(0)).collect();
+        Self { cuts, pointer: vec![0; cuts.len()], counter: vec![0; cuts.len()], height }
     }
 
     /// Advances operand `j` by `leaves` leaves that lie either inside its current node or over
@@ -49,12 +52,14 @@ impl<'c, 'a> Walker<'c, 'a> {
     #[inline]
     fn advance(&mut self, j: usize, mut leaves: u32) {
         while leaves > 0 {
-            let size = 1u32 << self.cuts[j].height(self.pointer[j]);
-            let left = size - self.counter[j];
+            let left = (1u32 << self.height[j]) - self.counter[j];
             if leaves >= left {
                 leaves -= left;
                 self.pointer[j] += 1;
                 self.counter[j] = 0;
+                if self.pointer[j] < self.cuts[j].len() {
+                    self.height[j] = self.cuts[j].height(self.pointer[j]);
+                }
             } else {
                 self.counter[j] += leaves;
                 leaves = 0;
@@ -74,7 +79,7 @@ pub fn for_each_common_node(cuts: &[CutView], mut visit: impl FnMut(u32, u32, &[
         // Step 2: the operation on the current nodes, stored at the lowest height.
         let mut h_min = u32::MAX;
         for (j, c) in cuts.iter().enumerate() {
-            h_min = h_min.min(c.height(walk.pointer[j]));
+            h_min = h_min.min(walk.height[j]);
             values[j] = c.value(walk.pointer[j]);
         }
         visit(h_min, first, &values);
@@ -96,7 +101,7 @@ pub fn product_for_each(cuts: &[CutView], mut visit: impl FnMut(u32, u32, f32)) 
     while (first as u64) < total {
         let (mut h_min, mut h_zero, mut product) = (u32::MAX, None::<u32>, 1.0f32);
         for (j, c) in cuts.iter().enumerate() {
-            let (h, v) = (c.height(walk.pointer[j]), c.value(walk.pointer[j]));
+            let (h, v) = (walk.height[j], c.value(walk.pointer[j]));
             h_min = h_min.min(h);
             product *= v;
             // A zero node entered at its first leaf is skipped whole (the highest such node).

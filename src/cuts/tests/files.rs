@@ -86,6 +86,16 @@ fn damaged_files_give_errors_naming_the_file() {
     let mut magic = bytes;
     magic[0] = b'X';
     expect_corrupt(from_bytes(path, &magic), path, "magic");
+    // Forged counts with a valid body hash: a clear error, no huge allocation. The first bank's
+    // cut count sits after the header (84 bytes), levels and object count (8), 12 positions and
+    // 12 normals (2 × 152) and the bank's levels and encoding (5).
+    for (offset, what) in [(401, "cuts of"), (409, "cuts of")] {
+        let mut forged = to_bytes(&cuts);
+        forged[offset..offset + 8].copy_from_slice(&u64::MAX.to_le_bytes());
+        let hash = *blake3::hash(&forged[84..]).as_bytes();
+        forged[52..84].copy_from_slice(&hash);
+        expect_corrupt(from_bytes(path, &forged), path, what);
+    }
     // A file that cannot be opened names its path.
     let err = read(Path::new("/nonexistent/heliar/cuts.bin")).expect_err("no such file");
     assert!(err.to_string().contains("/nonexistent/heliar/cuts.bin"), "{err}");
