@@ -26,7 +26,7 @@
 //!   node `l_k` (mean radiance × solid angle); a vertex's outgoing radiance is
 //!   `B(x, ω_o) ≈ Σ_k l_k v_k f_r(ω_k, ω_o)` over the nodes of the product cut
 //!   `V = V_s · Π_i V_i` (Eqs. 3 and 4).
-//! - **Files and sweeps**: [`file`] stores a scene's cuts with a hash of their inputs;
+//! - **Files and sweeps**: [`mod@file`] stores a scene's cuts with a hash of their inputs;
 //!   [`sweep`] measures error against cost.
 //!
 //! # Frames and limits

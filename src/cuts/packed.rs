@@ -7,7 +7,7 @@
 //! VCF), or 8 or 16 bits of `[0, 1]` fixed point for cosine-folded self-visibility. Node
 //! positions are implicit: walking a cut's heights from the left and adding `2^h` leaves per
 //! node says where each node starts and where the cut ends, so the bank needs no per-node index
-//! (the paper's saving over the 2-byte index of [5], [6]) and no per-cut offset in a file: the
+//! (the paper's saving over the 2-byte index of refs. \[5\], \[6\]) and no per-cut offset in a file: the
 //! offsets are rebuilt, and the heights checked, on load ([`PackedCuts::from_parts`]).
 //!
 //! [`CutView`] reads a cut from a bank or from a plain [`Cut`] alike; the walks in
@@ -182,7 +182,7 @@ impl PackedCuts {
     }
 
     /// Bytes the same cuts take with a 2-byte node index per node instead of a 4-bit height and
-    /// one offset per cut, the representation of the earlier methods [5], [6] (§V-A.2).
+    /// one offset per cut, the representation of the earlier methods, refs. \[5\], \[6\] (§V-A.2).
     pub fn index_representation_bytes(&self) -> usize {
         2 * self.node_count() + self.values.len() + 4 * self.len()
     }

@@ -50,6 +50,17 @@ fn svc_of_a_convex_sphere_is_the_cosine_over_the_upper_hemisphere() {
 }
 
 #[test]
+fn svc_does_not_depend_on_the_thread_count() {
+    let tree = DirectionTree::new(8).expect("valid levels");
+    let mesh = torus(Vec3::ZERO, 0.5, 0.2, 16, 8);
+    let settings = SvcSettings::default();
+    let many = self_visibility_cuts("torus", &mesh, &tree, &settings, &no_progress).expect("valid mesh");
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a thread pool");
+    let one = pool.install(|| self_visibility_cuts("torus", &mesh, &tree, &settings, &no_progress)).expect("valid mesh");
+    assert_eq!(many, one);
+}
+
+#[test]
 fn svc_of_a_torus_sees_its_hemisphere_outside_and_itself_inside() {
     // Outer-equator vertices lie on a supporting plane of the torus: the whole hemisphere is
     // visible. Inner-equator vertices face the hole, where the far side of the tube blocks the
@@ -196,9 +207,13 @@ fn proxy_field_of_a_wall_matches_its_solid_angle() {
     let field = ProxyField::compute(&proxy, &tree, &grid, &no_progress).expect("valid grid");
     let tol = counting_tolerance_sr(levels);
     let (x0, x1, h) = (x0 as f64, x1 as f64, h as f64);
-    // At grid points: the analytic solid angle.
+    // At grid points: the stored cut is the first-hit trace leaf by leaf, and its occluded
+    // solid angle is the analytic one.
     for ijk in [[0, 0, 0], [2, 2, 2], [4, 1, 3], [1, 4, 4]] {
         let p = grid.point(ijk);
+        let index = ((ijk[2] * 5 + ijk[1]) * 5 + ijk[0]) as usize;
+        let traced: Vec<f32> = tree.leaf_dirs().iter().map(|d| if proxy.intersect(p, *d, f32::MAX).is_some() { 0.0 } else { 1.0 }).collect();
+        assert_eq!(field.cuts.get(index).to_leaves(), traced, "grid point {ijk:?}");
         let (cut, region) = field.lookup(p).expect("finite point");
         assert_eq!(region, FieldRegion::Within);
         let (got, want) = (occluded_sr(&cut), wall_sr(p, x0, x1, h));
