@@ -269,6 +269,10 @@ fn meshes_and_samplings_that_cannot_carry_cuts_are_errors() {
     let mut bad = icosphere(Vec3::ZERO, 1.0, 0);
     bad.triangles[0][1] = 99;
     assert!(self_visibility_cuts("index", &bad, &tree, &svc, &no_progress).is_err());
+    // All vertices at one point: no bounding radius to place spheres at.
+    let point = icosphere(Vec3::ONE, 0.0, 0);
+    let err = VisibilityCutField::compute("point", &point, &tree, &VcfSampling::default(), &no_progress).expect_err("radius 0");
+    assert!(err.to_string().contains("bounding radius 0"), "{err}");
     let sphere = icosphere(Vec3::ZERO, 1.0, 0);
     assert!(self_visibility_cuts("t", &sphere, &tree, &SvcSettings { threshold: -0.1, ..svc }, &no_progress).is_err());
     let base = VcfSampling::default();
