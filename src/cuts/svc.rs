@@ -39,8 +39,11 @@ pub struct SvcSettings {
 }
 
 impl Default for SvcSettings {
+    /// Threshold 0.1: at `S = 2^15` the sweep's torus has mean cuts of 379 nodes (the paper
+    /// reports 428, §VI) and its irradiance stays within 0.3 % RMS of the traced reference
+    /// (0.18 % at 0.05 with 2.4× the nodes; [`super::sweep`]).
     fn default() -> Self {
-        Self { threshold: 0.05, encoding: ValueEncoding::Unorm16 }
+        Self { threshold: 0.1, encoding: ValueEncoding::Unorm16 }
     }
 }
 
