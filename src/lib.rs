@@ -56,6 +56,7 @@
 //! Proxy surfaces are two-sided: a surface seen from either side has its normal facing the viewer.
 
 pub mod camera;
+pub mod cuts;
 pub mod envmap;
 pub mod estimate;
 pub mod geometry;

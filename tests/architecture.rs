@@ -25,6 +25,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("irradiance", &["envmap", "geometry", "lighting", "scene"]),
     ("vem", &["camera", "geometry", "io", "report", "scene"]),
     ("lamps", &["geometry", "io", "report"]),
+    ("cuts", &["geometry", "io", "report"]),
     ("opencv_calib", &["camera", "geometry", "io"]),
     ("gpu", &["camera", "geometry", "io"]),
     ("render", &["camera", "geometry", "gpu", "io", "irradiance", "lighting", "scene", "vem"]),

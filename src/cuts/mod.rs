@@ -1,0 +1,181 @@
+//! Visibility cuts: all-frequency environment lighting and shadows of rigid objects that move,
+//! after the rendering subsystem of the captured-lighting paper
+//! (`../shared/papers/cyberworlds-captured-lighting-cuts.txt` §V, "cyberworlds" below). This is
+//! the CPU core of the method; the frame loop and the GPU compositor call it later.
+//!
+//! # How it works
+//! - **Directions and tree** ([`tree`]). `S = 2^levels` directions spread evenly over the sphere
+//!   (a spherical Fibonacci set; the paper uses point repulsion, §V-A.1, with `S = 2^15`) are the
+//!   leaves of a perfect binary tree built by balanced splits along the widest axis, so that
+//!   siblings are neighbours on the sphere. Nodes live in one flat heap-ordered array.
+//! - **Cuts** ([`cut`]). A function of direction sampled at the leaves is clustered bottom-up
+//!   (each inner node holds the mean of its children and a clustering error, §V, Fig. 3) and
+//!   cut top-down where the error is within a threshold. The cut's nodes, ordered left to right,
+//!   are stored by their *height* instead of a 2-byte index (§V-A.2, Fig. 5): 4 bits per node
+//!   for `S ≤ 2^15` ([`packed`]).
+//! - **Operations** ([`walk`]). Products and interpolations of several cuts run the paper's
+//!   pointer/counter walk (§V-A.3, Steps 1–4, Fig. 6) over their common refinement, never
+//!   expanding to leaves.
+//! - **Self-visibility cuts** ([`svc`]): at each vertex, `V_s(x, ω)·max(n·ω, 0)`, the object's
+//!   own occlusion with the cosine folded in (§V, text after Eq. 4).
+//! - **Visibility cut fields** ([`vcf`]): an object's occlusion `V_i(x_s, ω) ∈ {0, 1}` at sample
+//!   points on concentric spheres around it (§V-A.1, Fig. 4), looked up by trilinear
+//!   interpolation of the eight neighbouring cuts (§V-A.4). [`proxy_field`] records the static
+//!   real proxy's occlusion on a regular grid in the same form.
+//! - **Shading** ([`lighting`], [`eval`]): the environment clustered on the same tree gives each
+//!   node `l_k` (mean radiance × solid angle); a vertex's outgoing radiance is
+//!   `B(x, ω_o) ≈ Σ_k l_k v_k f_r(ω_k, ω_o)` over the nodes of the product cut
+//!   `V = V_s · Π_i V_i` (Eqs. 3 and 4).
+//! - **Files and sweeps**: [`mod@file`] stores a scene's cuts with a hash of their inputs;
+//!   [`sweep`] measures error against cost.
+//!
+//! # Frames and limits
+//! Every cut is over world directions, so a field or a self-visibility cut holds for its object
+//! *translated*, not turned (the paper moves objects by translation only, §VI, Fig. 7(c)): an
+//! object turned about the vertical needs its cuts recomputed or a lighting rotated into its
+//! frame, which this module does not do.
+
+pub mod cut;
+pub mod eval;
+pub mod file;
+pub mod lighting;
+pub mod packed;
+pub mod proxy_field;
+pub mod shapes;
+pub mod svc;
+pub mod sweep;
+pub mod tree;
+pub mod vcf;
+pub mod walk;
+
+#[cfg(test)]
+mod tests;
+
+pub use cut::{ClusterTree, Cut, CutNode};
+pub use packed::{CutView, PackedCuts, ValueEncoding};
+pub use tree::DirectionTree;
+
+use std::path::PathBuf;
+
+/// The paper's number of directions, `2^15` (§V-A.1).
+pub const PAPER_LEVELS: u32 = 15;
+
+/// Progress reports from worker threads: `(done, total)`.
+pub type Progress<'a> = &'a (dyn Fn(u64, u64) + Sync);
+
+/// A progress report that goes nowhere.
+pub fn no_progress(_done: u64, _total: u64) {}
+
+/// What went wrong in the cuts module.
+#[derive(Debug, thiserror::Error)]
+pub enum CutsError {
+    /// The tree depth is outside `1..=15` (4-bit heights).
+    #[error("cuts: tree levels {levels} is outside 1..={max} (S = 2^levels directions, heights in 4 bits)")]
+    Levels {
+        /// The requested depth.
+        levels: u32,
+        /// The largest supported depth.
+        max: u32,
+    },
+    /// A clustering threshold is negative or NaN.
+    #[error("cuts: {field} = {value} must be a number ≥ 0 (∞ keeps the root only)")]
+    Threshold {
+        /// The setting.
+        field: &'static str,
+        /// Its value.
+        value: f32,
+    },
+    /// A per-leaf array has the wrong length.
+    #[error("cuts: {what} has {got} leaf values, the tree has {expected}")]
+    LeafCount {
+        /// What was given.
+        what: &'static str,
+        /// Leaves in the tree.
+        expected: usize,
+        /// Values given.
+        got: usize,
+    },
+    /// A value is NaN or infinite.
+    #[error("cuts: {what} {index} is not finite ({value})")]
+    NonFinite {
+        /// What the value is.
+        what: &'static str,
+        /// Its index.
+        index: usize,
+        /// The value.
+        value: f32,
+    },
+    /// A list of nodes is not a cut of the tree.
+    #[error("cuts: not a cut of a {levels}-level tree: {reason}")]
+    InvalidCut {
+        /// Depth of the tree.
+        levels: u32,
+        /// What is wrong.
+        reason: String,
+    },
+    /// Cuts of different trees were combined.
+    #[error("cuts: operand {index} has {got} levels, the first has {expected}")]
+    LevelMismatch {
+        /// Operand index.
+        index: usize,
+        /// Depth of the first operand.
+        expected: u32,
+        /// Depth of this one.
+        got: u32,
+    },
+    /// An operation was given no cuts, or weights of the wrong count.
+    #[error("cuts: {0}")]
+    Operands(String),
+    /// A value cannot be stored in the chosen encoding.
+    #[error("cuts: value {value} of node {node} cannot be stored as {encoding:?} (needs {needs})")]
+    Encoding {
+        /// The encoding.
+        encoding: ValueEncoding,
+        /// Node index within the cut.
+        node: usize,
+        /// The value.
+        value: f32,
+        /// The allowed values.
+        needs: &'static str,
+    },
+    /// A mesh cannot be used.
+    #[error("cuts: mesh '{what}': {reason}")]
+    Mesh {
+        /// Which mesh.
+        what: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A sampling setting is out of range.
+    #[error("cuts: {field} = {value}: {reason}")]
+    Sampling {
+        /// The setting.
+        field: &'static str,
+        /// Its value, printed.
+        value: String,
+        /// The allowed range.
+        reason: &'static str,
+    },
+    /// A lookup point is NaN or infinite.
+    #[error("cuts: lookup point {0:?} is not finite")]
+    NonFinitePoint([f32; 3]),
+    /// The environment map cannot be clustered.
+    #[error("cuts: environment map: {0}")]
+    EnvMap(String),
+    /// A precompute file could not be read or written.
+    #[error("{path}: {source}")]
+    File {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// A precompute file is corrupt, truncated or of another format.
+    #[error("{path}: corrupt cuts file: {reason}")]
+    Corrupt {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, naming the field.
+        reason: String,
+    },
+}
