@@ -68,5 +68,6 @@ pub mod pipeline;
 pub mod render;
 pub mod report;
 pub mod scene;
+pub mod sky;
 pub mod sun;
 pub mod vem;
