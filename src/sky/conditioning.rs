@@ -72,15 +72,17 @@ pub fn symmetric_eigenvalues(mut a: Vec<Vec<f64>>) -> Vec<f64> {
                 let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
                 let t = if theta == 0.0 { 1.0 } else { t };
                 let (c, s) = (1.0 / (t * t + 1.0).sqrt(), t / (t * t + 1.0).sqrt());
-                for r in 0..k {
-                    let (arp, arq) = (a[r][p], a[r][q]);
-                    a[r][p] = c * arp - s * arq;
-                    a[r][q] = s * arp + c * arq;
+                // A ← A·J (columns p, q), then A ← Jᵀ·A (rows p, q).
+                for row in a.iter_mut() {
+                    let (arp, arq) = (row[p], row[q]);
+                    row[p] = c * arp - s * arq;
+                    row[q] = s * arp + c * arq;
                 }
-                for r in 0..k {
-                    let (apr, aqr) = (a[p][r], a[q][r]);
-                    a[p][r] = c * apr - s * aqr;
-                    a[q][r] = s * apr + c * aqr;
+                let (head, tail) = a.split_at_mut(q);
+                for (apr, aqr) in head[p].iter_mut().zip(tail[0].iter_mut()) {
+                    let (x, y) = (*apr, *aqr);
+                    *apr = c * x - s * y;
+                    *aqr = s * x + c * y;
                 }
             }
         }
@@ -105,7 +107,7 @@ pub fn conditioning(rows: &[Vec<f64>]) -> Conditioning {
     };
     let norms: Vec<f64> = (0..k).map(|a| rows.iter().map(|r| r[a] * r[a]).sum::<f64>().sqrt()).collect();
     let gram_raw = ratio(&symmetric_eigenvalues(gram_of(&vec![1.0; k])));
-    if norms.iter().any(|n| !(*n > 0.0)) {
+    if norms.iter().any(|n| n.is_nan() || *n <= 0.0) {
         return Conditioning { gram: f64::INFINITY, design: f64::INFINITY, gram_raw };
     }
     let inv: Vec<f64> = norms.iter().map(|n| 1.0 / n).collect();

@@ -42,7 +42,7 @@
 #![allow(clippy::excessive_precision, clippy::unreadable_literal)]
 
 /// `dataset_rgb` of the reference implementation, one array per channel (R, G, B).
-pub(super) const DATASET_RGB: [[f64; 1080]; 3] = [
+pub(super) static DATASET_RGB: [[f64; 1080]; 3] = [
     [
         // albedo 0, turbidity 1
         -1.099459e+000, -1.335146e-001, -4.083223e+000, 5.919603e+000, -1.104166e-001, 1.600158e+000, -1.326538e-006, 4.917807e+000, 5.127716e-001,
@@ -472,7 +472,7 @@ pub(super) const DATASET_RGB: [[f64; 1080]; 3] = [
 ];
 
 /// `dataset_rgb_rad` of the reference implementation, one array per channel (R, G, B).
-pub(super) const DATASET_RGB_RAD: [[f64; 120]; 3] = [
+pub(super) static DATASET_RGB_RAD: [[f64; 120]; 3] = [
     [
         // albedo 0, turbidity 1
         1.962684e+000, 1.159831e+000, 4.450588e+000, 5.079633e+000, 4.437388e+000, 4.324573e+000,

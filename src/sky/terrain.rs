@@ -166,7 +166,7 @@ pub fn estimate_albedo(env: EquirectView, open_below: &[bool], capture: CaptureL
     let lit = Terrain::new([1.0; 3])?.radiance(capture.sun_dir_world)?;
     let e_capture: [f32; 3] = std::array::from_fn(|c| PI * (lit.per_pa[c] * capture.pa[c] + lit.per_pd[c] * capture.pd[c]));
     let fallback = |fallback, used, invalid| AlbedoEstimate { albedo_rgb: settings.fallback_rgb, texels_used: used, texels_invalid: invalid, fallback: Some(fallback) };
-    if let Some(c) = (0..3).find(|&c| !(e_capture[c] > MIN_CAPTURE_IRRADIANCE)) {
+    if let Some(c) = (0..3).find(|&c| e_capture[c].is_nan() || e_capture[c] <= MIN_CAPTURE_IRRADIANCE) {
         return Ok(fallback(AlbedoFallback::NoCaptureLight(c), 0, 0));
     }
     let max_y = -settings.min_depression_deg.to_radians().sin();

@@ -239,6 +239,7 @@ pub fn render_region(
 }
 
 /// `(sky, sun)` basis of an equirect environment map seen from `centre`.
+#[allow(clippy::too_many_arguments)]
 pub fn render_env(scene: &RayScene, albedo: &dyn TrueAlbedo, centre: Vec3, width: u32, height: u32, light: &Lighting, spp: u32, seed: u64) -> (Vec<Vec3>, Vec<Vec3>) {
     let rows: Vec<Vec<(Vec3, Vec3)>> = (0..height)
         .into_par_iter()
