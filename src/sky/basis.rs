@@ -7,7 +7,7 @@
 //! - **uniform**: `S = 1/π`, the sky heliar assumed so far;
 //! - **circumsolar**: a von Mises–Fisher lobe `e^{κ(cos γ − 1)}` around the sun (`γ` the angle to
 //!   the sun), `κ = 1/(1 − cos w)` for an e-folding width `w` — the smooth counterpart of the
-//!   Perez circumsolar term `C·e^{Dγ}` (Preetham eq. 3), clipped by the horizon;
+//!   Perez circumsolar term `C·e^{Dγ}` (Preetham §3.2), clipped by the horizon;
 //! - **horizon band**: `e^{−μ/sin w}` with `μ = cos θ`, brightening toward the horizon (the
 //!   Perez gradation term's effect for a clear sky), e-folding at elevation `w`;
 //! - **Preetham** at a chosen turbidity ([`super::preetham`], luminance only).

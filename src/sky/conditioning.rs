@@ -54,7 +54,7 @@ const JACOBI_SWEEPS: usize = 30;
 const JACOBI_TOLERANCE: f64 = 1e-15;
 
 /// Eigenvalues of the symmetric matrix `a` (row-major `k × k`), ascending, by cyclic Jacobi
-/// rotations (Golub & Van Loan §8.5).
+/// rotations (Golub & Van Loan, *Matrix Computations*, "Jacobi Methods" in ch. 8).
 pub fn symmetric_eigenvalues(mut a: Vec<Vec<f64>>) -> Vec<f64> {
     let k = a.len();
     for _ in 0..JACOBI_SWEEPS {

@@ -3,7 +3,7 @@
 //! with its coefficient tables (`hosek_data.rs`, BSD licence kept there).
 //!
 //! # How it works
-//! Radiance along a view at zenith angle `θ` and angle `γ` to the sun is (paper eq. 9)
+//! Radiance along a view at zenith angle `θ` and angle `γ` to the sun is the paper's extended Perez formula, as the reference evaluates it
 //!
 //! `L = L_M · (1 + A·e^{B/(cos θ + 0.01)}) · (C + D·e^{E·γ} + F·cos²γ + G·χ(H, γ) + I·√cos θ)`,
 //! `χ(g, γ) = (1 + cos²γ) / (1 + g² − 2g·cos γ)^{3/2}`
@@ -11,9 +11,8 @@
 //! (the reference code stores the nine parameters in the order A … G, I, H). The nine parameters
 //! and the scale `L_M` of each channel depend on the turbidity `T ∈ [1, 10]`, the ground albedo
 //! `a ∈ [0, 1]` and the solar elevation `η`: the tables hold, for `a ∈ {0, 1}` and integer `T`, six
-//! control points of a quintic Bézier curve in `(η/(π/2))^{1/3}` (paper §5, "the fitted
-//! parameters … are stored as Bézier splines"); between them the model interpolates linearly in
-//! `a` and in `T` (reference `ArHosekSkyModel_CookConfiguration`).
+//! control points of a quintic Bézier curve in `(η/(π/2))^{1/3}`; between them the model
+//! interpolates linearly in `a` and in `T` (reference `ArHosekSkyModel_CookConfiguration`).
 //!
 //! The output is linear RGB with sRGB primaries (reference header, "RGB Version of the Model") in
 //! the reference's radiometric units. Only the sky dome is modelled (the solar disc is `Pd`'s).

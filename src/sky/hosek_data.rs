@@ -5,7 +5,7 @@
 //! Layout (as in the reference `ArHosekSkyModel_CookConfiguration`): per channel (R, G, B),
 //! albedo 0 then albedo 1, each with turbidities 1 … 10, each with the 6 control points of a
 //! quintic Bézier in `(solar elevation / (π/2))^(1/3)`, each with the 9 parameters `A … I` of
-//! the radiance function (Hosek & Wilkie 2012, eq. 9). The `_RAD` tables hold the same layout
+//! the radiance function (see `hosek.rs`). The `_RAD` tables hold the same layout
 //! for the overall radiance scale `L_M`, one value per control point.
 //!
 //! The data carries its authors' licence, reproduced here as it requires:

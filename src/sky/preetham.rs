@@ -1,14 +1,14 @@
 //! The Preetham–Shirley–Smits daylight model: "A practical analytic model for daylight"
-//! (SIGGRAPH 1999), the sky part (§3 and Appendix A.2).
+//! (SIGGRAPH 1999), the sky part (§3.2 "Skylight Model" and Appendix A.2).
 //!
 //! # How it works
 //! The sky's luminance `Y` and chromaticity `x`, `y` each follow the Perez et al. (1993)
-//! all-weather distribution (Preetham eq. 3)
+//! all-weather distribution
 //!
 //! `F(θ, γ) = (1 + A·e^{B/cos θ}) · (1 + C·e^{D·γ} + E·cos²γ)`
 //!
 //! of the view's zenith angle `θ` and its angle `γ` to the sun, scaled so that the zenith takes
-//! its measured value (eq. 4): `Y(θ, γ) = Y_z · F(θ, γ) / F(0, θ_s)`, the same for `x` and `y`. The
+//! its measured value: `Y(θ, γ) = Y_z · F(θ, γ) / F(0, θ_s)`, the same for `x` and `y`. The
 //! five coefficients of each channel are linear in the turbidity `T` (Appendix A.2, the table of
 //! "distribution coefficients"). The zenith luminance (kcd/m²) is
 //! `Y_z = (4.0453 T − 4.9710) tan χ − 0.2155 T + 2.4192` with `χ = (4/9 − T/120)(π − 2θ_s)`, and the
@@ -52,7 +52,7 @@ pub struct Perez {
 }
 
 impl Perez {
-    /// `F(θ, γ)` of Preetham eq. 3, from `cos θ` (clamped to the horizon) and `γ` in radians.
+    /// The Perez `F(θ, γ)` (Preetham §3.2), from `cos θ` (clamped to the horizon) and `γ` in radians.
     pub fn eval(&self, cos_theta: f64, gamma: f64) -> f64 {
         let ct = cos_theta.max(MIN_COS_THETA);
         let cg = gamma.cos();
@@ -227,8 +227,7 @@ mod tests {
             // Lattice spacing ≈ √(4π/20000) rad ≈ 1.4°: the maximum lies within a few of them.
             let gamma_deg = best.dot(sun).clamp(-1.0, 1.0).acos().to_degrees();
             assert!(gamma_deg < 5.0, "elevation {elev}: maximum {gamma_deg}° from the sun");
-            // And a clear sky's brightest part is several times its darkest (Preetham fig. 6:
-            // a factor of 5 to 10 at T = 2–3).
+            // And a clear sky's brightest part is several times its darkest.
             let darkest = dirs.iter().map(|d| sky.luminance_kcd(*d)).fold(f64::MAX, f64::min);
             assert!(sky.luminance_kcd(best) > 3.0 * darkest, "{} vs {darkest}", sky.luminance_kcd(best));
         }

@@ -5,7 +5,7 @@
 //! # How it works
 //! [`CosineSet`] holds `M` directions distributed with density `cos θ/π` around `+Z`: the
 //! Fibonacci (Vogel) spiral on the unit disc, `r_i = √((i + ½)/M)`, `φ_i = i·π(3 − √5)`, lifted to
-//! the hemisphere by Malley's method (pbrt-v4 §A.5.3). The set is deterministic, and rotated
+//! the hemisphere by Malley's method (pbrt-v4 §A.5). The set is deterministic, and rotated
 //! onto a normal `n` with [`basis_from_normal`]. With that pdf the irradiance from radiance `L`
 //! through the directions a callback marks visible is `E = π/M · Σ L(ω_i)·V(ω_i)`. The region below
 //! the horizon enters the same sum with `L = 1`, so terrain of radiance `L_t` adds `L_t·E_below`.

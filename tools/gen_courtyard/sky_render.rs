@@ -9,7 +9,7 @@
 //!   table of the sky's luminance (cells of equal azimuth and zenith steps, mixed with
 //!   [`UNIFORM_MIX`] of the uniform hemisphere so every direction can be drawn) and combined with
 //!   the cosine-sampled continuation by multiple importance sampling (power heuristic; Veach
-//!   1997, §9.2), so the bright circumsolar sky of a low sun costs little noise.
+//!   1997, ch. 9), so the bright circumsolar sky of a low sun costs little noise.
 //! - **Light from below the horizon**: a ray that leaves the world below the horizon sees flat
 //!   terrain of albedo `ρ_t` beyond the world's terrain mesh, of radiance `ρ_t/π·(Pa + l_y·Pd)`.
 //!

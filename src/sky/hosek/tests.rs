@@ -49,7 +49,7 @@ fn matches_the_reference_implementation_in_double_precision() {
         }
     }
     // The reference prints 10 significant digits (relative rounding ≤ 5e-10); the port performs
-    // the same double-precision operations up to summation order (≈ 1e-15).
+    // the same double-precision operations up to summation order (≈ 1e-15). Measured: 3.1e-10.
     assert!(worst < 2e-9, "worst relative error {worst:e}");
 }
 
@@ -64,7 +64,7 @@ fn matches_the_reference_through_world_directions() {
         }
     }
     // f32 directions move θ, γ and η by up to ~1e-7 rad; the steepest term, e^{E·γ} with |E| < 10
-    // near the sun, turns that into < 1e-6 relative; the f32 result adds 6e-8.
+    // near the sun, turns that into < 1e-6 relative; the f32 result adds 6e-8. Measured: 7.1e-8.
     assert!(worst < 2e-6, "worst relative error {worst:e}");
 }
 
