@@ -3,7 +3,8 @@
 //! with its coefficient tables (`hosek_data.rs`, BSD licence kept there).
 //!
 //! # How it works
-//! Radiance along a view at zenith angle `θ` and angle `γ` to the sun is the paper's extended Perez formula, as the reference evaluates it
+//! Radiance along a view at zenith angle `θ` and angle `γ` to the sun is the paper's extended
+//! Perez formula, as the reference evaluates it:
 //!
 //! `L = L_M · (1 + A·e^{B/(cos θ + 0.01)}) · (C + D·e^{E·γ} + F·cos²γ + G·χ(H, γ) + I·√cos θ)`,
 //! `χ(g, γ) = (1 + cos²γ) / (1 + g² − 2g·cos γ)^{3/2}`
