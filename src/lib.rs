@@ -73,5 +73,6 @@ pub mod render;
 pub mod report;
 pub mod run;
 pub mod scene;
+pub mod sky;
 pub mod sun;
 pub mod vem;

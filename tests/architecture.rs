@@ -26,6 +26,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("vem", &["camera", "geometry", "io", "report", "scene"]),
     ("lamps", &["geometry", "io", "report"]),
     ("cuts", &["geometry", "io", "report"]),
+    ("sky", &["geometry"]),
     ("opencv_calib", &["camera", "geometry", "io"]),
     ("gpu", &["camera", "geometry", "io"]),
     ("render", &["camera", "geometry", "gpu", "io", "irradiance", "lighting", "scene", "vem"]),

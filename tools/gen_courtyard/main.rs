@@ -17,6 +17,8 @@
 //! `cargo run --release --bin gen-courtyard -- --out scenes/courtyard`
 
 mod render;
+mod sky_render;
+mod winter;
 
 use anyhow::{Context, Result};
 use clap::Parser;
@@ -70,6 +72,11 @@ struct Args {
     /// 4096 leaves ≈ 1.5% per-pixel noise on the statue (measured against 1024).
     #[arg(long, default_value_t = 4096)]
     reference_spp: u32,
+    /// Write the winter scenes instead of the courtyard, into DIR/snow and DIR/asphalt: a
+    /// Hosek–Wilkie sky, a low December sun and distant terrain beyond a proxy ground that ends
+    /// 15 m away (`winter.rs`). Of the other options only --width and --height apply.
+    #[arg(long, value_name = "DIR")]
+    winter: Option<PathBuf>,
 }
 
 const START: &str = "2024-06-21T15:30:00+02:00";
@@ -99,6 +106,11 @@ const REFERENCE_MARGIN_PX: f64 = 6.0;
 
 /// The real proxy and, separately, what is really there but not modelled.
 fn build_geometry() -> (Mesh, Mesh) {
+    build_geometry_with_ground(40.0)
+}
+
+/// [`build_geometry`] with a square proxy ground of half-size `ground_half_m` around the origin.
+fn build_geometry_with_ground(ground_half_m: f32) -> (Mesh, Mesh) {
     let mut proxy = Mesh::default();
     let paving = proxy.add_material(Material::diffuse("paving", [0.32, 0.30, 0.27]));
     let brick = proxy.add_material(Material::diffuse("brick", [0.34, 0.17, 0.12]));
@@ -108,7 +120,8 @@ fn build_geometry() -> (Mesh, Mesh) {
     let north = proxy.add_node("north_building", true);
     let west = proxy.add_node("west_building", true);
     let wall = proxy.add_node("wall", false);
-    proxy.push_quad(Vec3::new(-40.0, 0.0, -40.0), Vec3::Z * 80.0, Vec3::X * 80.0, ground, paving);
+    let g = ground_half_m;
+    proxy.push_quad(Vec3::new(-g, 0.0, -g), Vec3::Z * (2.0 * g), Vec3::X * (2.0 * g), ground, paving);
     proxy.push_box(Vec3::new(-12.0, 0.0, -14.0), Vec3::new(12.0, 9.0, -8.0), north, brick, true);
     proxy.push_box(Vec3::new(-14.0, 0.0, -8.0), Vec3::new(-8.0, 6.0, 8.0), west, plaster, true);
     proxy.push_box(Vec3::new(-3.2, 0.0, -1.5), Vec3::new(-2.8, 2.4, 1.5), wall, concrete, true);
@@ -235,6 +248,14 @@ fn camera() -> Camera {
     Camera { intrinsics, pose }
 }
 
+/// [`camera`] with intrinsics for `w × h` frames.
+fn camera_sized(w: u32, h: u32) -> Camera {
+    let mut cam = camera();
+    let f = 0.8125 * w as f64; // ≈ 63° horizontal field of view
+    cam.intrinsics = Intrinsics::brown_conrady(w, h, f, f * 1.002, w as f64 / 2.0 + 1.2, h as f64 / 2.0 - 1.1, *cam.intrinsics.distortion().unwrap_or(&[0.0; 5]));
+    cam
+}
+
 /// Cloud transmission of the sun for frame `i` of `n`: clear, then a cloud passes (minimum 1%).
 fn cloud(i: usize, n: usize) -> f32 {
     let mid = (n / 2) as f32;
@@ -248,6 +269,9 @@ fn write(path: &Path, text: &str) -> Result<()> {
 
 fn main() -> Result<()> {
     let args = Args::parse();
+    if let Some(dir) = &args.winter {
+        return winter::run(&args, dir);
+    }
     let out = &args.out;
     for d in ["calib", "frames/hdr", "frames/ldr"] {
         std::fs::create_dir_all(out.join(d))?;
@@ -260,10 +284,8 @@ fn main() -> Result<()> {
     let scene = RayScene::new(world);
     let truth_albedo = Courtyard { ground_tris };
 
-    let mut cam = camera();
+    let cam = camera_sized(args.width, args.height);
     let (w, h) = (args.width, args.height);
-    let f = 0.8125 * w as f64; // ≈ 63° horizontal field of view
-    cam.intrinsics = Intrinsics::brown_conrady(w, h, f, f * 1.002, w as f64 / 2.0 + 1.2, h as f64 / 2.0 - 1.1, *cam.intrinsics.distortion().unwrap_or(&[0.0; 5]));
 
     let observer = Observer::new(LAT, LON, ELEV);
     let geo = GeoFrame::default();
@@ -461,28 +483,8 @@ fn render_references(
     let scene = RayScene::new(world);
     let surfaces = WithStatue { real: real_albedo, real_tris, statue };
     let frames: Vec<usize> = REFERENCE_FRAMES.iter().copied().filter(|&i| i < times.len()).collect();
-    // Crop: the statue's box and its shadow on the ground for every reference sun, plus a margin.
-    let (lo, hi) = statue.bounds().context("the statue has no triangles")?;
-    let (mut a, mut b) = (glam::DVec2::splat(f64::MAX), glam::DVec2::splat(f64::MIN));
-    for &i in &frames {
-        let l = geo.sun_dir_in_world(&sun_position(observer, &times[i])?);
-        for k in 0..8 {
-            let c = Vec3::new([lo.x, hi.x][k & 1], [lo.y, hi.y][(k >> 1) & 1], [lo.z, hi.z][(k >> 2) & 1]);
-            let ground = c - l * (c.y / l.y.max(1e-3));
-            for p in [c, ground] {
-                if let Some(uv) = cam.project_world(p.as_dvec3()) {
-                    a = a.min(uv);
-                    b = b.max(uv);
-                }
-            }
-        }
-    }
-    let (w, h) = (cam.intrinsics.width as f64, cam.intrinsics.height as f64);
-    let x0 = (a.x - REFERENCE_MARGIN_PX).floor().clamp(0.0, w - 1.0) as u32;
-    let y0 = (a.y - REFERENCE_MARGIN_PX).floor().clamp(0.0, h - 1.0) as u32;
-    let x1 = (b.x + REFERENCE_MARGIN_PX).ceil().clamp(x0 as f64 + 1.0, w) as u32;
-    let y1 = (b.y + REFERENCE_MARGIN_PX).ceil().clamp(y0 as f64 + 1.0, h) as u32;
-    let region = (x0, y0, x1 - x0, y1 - y0);
+    let suns = frames.iter().map(|&i| Ok(geo.sun_dir_in_world(&sun_position(observer, &times[i])?))).collect::<Result<Vec<_>>>()?;
+    let region = reference_crop(cam, statue, &suns)?;
     let sky_spp = args.reference_spp;
     eprintln!("rendering references: crop {region:?}, {sky_spp} + {} spp", sky_spp / 2);
     let (sky, _) = render::render_basis_region(&scene, &surfaces, cam, Vec3::Y, sky_spp, 7001, region);
@@ -518,4 +520,29 @@ fn render_references(
             (sky_spp / 2).max(1)
         ),
     )
+}
+
+/// Crop `(x, y, width, height)` of the references: the statue's box and its shadow on the ground
+/// for every sun of `suns`, plus a margin, clamped to the frame.
+fn reference_crop(cam: &Camera, statue: &Mesh, suns: &[Vec3]) -> Result<(u32, u32, u32, u32)> {
+    let (lo, hi) = statue.bounds().context("the statue has no triangles")?;
+    let (mut a, mut b) = (glam::DVec2::splat(f64::MAX), glam::DVec2::splat(f64::MIN));
+    for &l in suns {
+        for k in 0..8 {
+            let c = Vec3::new([lo.x, hi.x][k & 1], [lo.y, hi.y][(k >> 1) & 1], [lo.z, hi.z][(k >> 2) & 1]);
+            let ground = c - l * (c.y / l.y.max(1e-3));
+            for p in [c, ground] {
+                if let Some(uv) = cam.project_world(p.as_dvec3()) {
+                    a = a.min(uv);
+                    b = b.max(uv);
+                }
+            }
+        }
+    }
+    let (w, h) = (cam.intrinsics.width as f64, cam.intrinsics.height as f64);
+    let x0 = (a.x - REFERENCE_MARGIN_PX).floor().clamp(0.0, w - 1.0) as u32;
+    let y0 = (a.y - REFERENCE_MARGIN_PX).floor().clamp(0.0, h - 1.0) as u32;
+    let x1 = (b.x + REFERENCE_MARGIN_PX).ceil().clamp(x0 as f64 + 1.0, w) as u32;
+    let y1 = (b.y + REFERENCE_MARGIN_PX).ceil().clamp(y0 as f64 + 1.0, h) as u32;
+    Ok((x0, y0, x1 - x0, y1 - y0))
 }
