@@ -3,8 +3,11 @@
 //! - [`image`]: linear RGB images and their EXR/PNG files.
 //! - [`frames`]: decoded camera frames (LDR codes or HDR radiance) and per-pixel linearisation.
 //! - `video` (feature `opencv`): video files and cameras through OpenCV's FFMPEG backend.
+//! - [`guard`]: outputs checked against the inputs and the scene before anything is written;
+//!   [`write_atomic`] writes through a temporary file and a rename.
 
 pub mod frames;
+pub mod guard;
 pub mod image;
 #[cfg(feature = "opencv")]
 pub mod video;
