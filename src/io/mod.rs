@@ -72,10 +72,30 @@ pub enum IoError {
 }
 
 /// A temporary path beside `path` for writing it atomically: same folder (so a rename replaces
-/// it in one step), hidden, and unique to the process.
+/// it in one step), hidden, unique to the process, and with the same extension (writers that
+/// pick the format by extension still pick the right one).
 pub fn temp_path_for(path: &std::path::Path) -> PathBuf {
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
-    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+    let stem = path.file_stem().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
+    let ext = path.extension().map(|e| format!(".{}", e.to_string_lossy())).unwrap_or_default();
+    path.with_file_name(format!(".{stem}.{}.tmp{ext}", std::process::id()))
+}
+
+/// Runs `write` on a temporary path beside `path` and renames the result over `path`, so an
+/// interrupted write leaves the old file whole (or no file); the temporary file is removed when
+/// `write` fails.
+pub fn write_via_temp<E>(path: &std::path::Path, write: impl FnOnce(&std::path::Path) -> Result<(), E>) -> Result<(), E>
+where
+    E: From<IoError>,
+{
+    let tmp = temp_path_for(path);
+    if let Err(e) = write(&tmp) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(e);
+    }
+    std::fs::rename(&tmp, path).map_err(|source| {
+        let _ = std::fs::remove_file(&tmp);
+        E::from(IoError::File { path: path.to_owned(), source })
+    })
 }
 
 /// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so that an

@@ -15,11 +15,13 @@
 //! interrupted, and compositing starts at the first missing frame.
 
 use super::session::OutdoorSession;
-use super::sink::{Format, FrameWriter, Outputs, StageTime, Thumbs, output_kind, thumb_of};
-use super::source::{FrameSource, Input, SourceFrame};
+use super::clock::ClockCheck;
+use super::sink::{Format, FrameWriter, OutputLock, Outputs, StageTime, Thumbs, output_kind, thumb_of};
+use super::source::{FrameSource, Input, InputKind, SourceFrame};
 use super::{Observer, RunCounts};
 use crate::estimate::{Fallback, Status};
 use crate::io::frames::{Frame, Linearizer};
+use crate::io::guard::OutputGuard;
 use crate::io::image::Rgb8;
 use crate::report::{JsonLines, Table};
 use crate::run::outdoor::RelightReport;
@@ -48,6 +50,24 @@ pub struct AugmentOptions {
     pub max_frames: Option<usize>,
     /// Columns of the contact sheet.
     pub sheet_columns: u32,
+    /// Write even where an output would overwrite an input or a file of the scene.
+    pub force: bool,
+    /// Frame times that do not increase are an error (else a warning naming the frames).
+    pub strict_clock: bool,
+}
+
+/// Refuses outputs that would overwrite the input or a file of the scene (unless forced).
+fn check_outputs(scene: &Scene, input: &Input, out: &Outputs, force: bool) -> Result<()> {
+    let mut guard = OutputGuard::new(Some(&scene.root), &[], force);
+    match &input.kind {
+        InputKind::Folder(p) | InputKind::Video(p) => guard = guard.with_input(p),
+        InputKind::Camera(_) => {}
+    }
+    if out.video { guard.check_file(&out.target)? } else { guard.check_dir(&out.target)? }
+    for f in [&out.report, &out.summary, &out.sheet] {
+        guard.check_file(f)?;
+    }
+    Ok(())
 }
 
 /// A per-frame report line.
@@ -233,7 +253,18 @@ fn open_writer(out: &Outputs, opts: &AugmentOptions, input: &Input, scene: &Scen
 
 /// Keeps what an earlier run wrote and replays the estimator over it.
 #[allow(clippy::too_many_arguments)]
-fn resume(out: &Outputs, opts: &AugmentOptions, input: &Input, scene: &Scene, source: &mut dyn FrameSource, session: &mut OutdoorSession, lin: &Linearizer, thumbs: &mut Thumbs, obs: &mut dyn Observer) -> Result<Resumed> {
+fn resume(
+    out: &Outputs,
+    opts: &AugmentOptions,
+    input: &Input,
+    scene: &Scene,
+    source: &mut dyn FrameSource,
+    session: &mut OutdoorSession,
+    lin: &Linearizer,
+    thumbs: &mut Thumbs,
+    clock: &mut ClockCheck,
+    obs: &mut dyn Observer,
+) -> Result<Resumed> {
     let mut old: Option<Box<dyn FrameSource>> = None;
     let in_video = if !out.video {
         None
@@ -256,6 +287,7 @@ fn resume(out: &Outputs, opts: &AugmentOptions, input: &Input, scene: &Scene, so
         for i in 0..done {
             let Some(f) = source.read()? else { bail!("{}: the input has fewer frames ({i}) than the run being resumed ({done})", input.label) };
             let t = input.clock.time(i, f.ts_ms, None)?;
+            clock.check(i, t);
             session.stage.estimate_only(i, &t, &f.frame, lin).with_context(|| f.label.clone())?;
             if !out.video {
                 let p = opts.output.join(format!("{}.{}", source.stem(i), output_kind(opts.format, &f.frame).extension()));
@@ -282,12 +314,15 @@ fn resume(out: &Outputs, opts: &AugmentOptions, input: &Input, scene: &Scene, so
 /// returned as errors.
 pub fn augment(scene: &Scene, input: &Input, session: &mut OutdoorSession, opts: &AugmentOptions, obs: &mut dyn Observer, stop: &AtomicUsize) -> Result<AugmentOutcome> {
     let out = Outputs::of(&opts.output)?;
+    check_outputs(scene, input, &out, opts.force)?;
     std::fs::create_dir_all(out.parent()).with_context(|| format!("{}: cannot create the output folder", out.parent().display()))?;
+    let _lock = OutputLock::acquire(&out)?;
     let lin = input.photometry.linearizer();
     let mut source = input.open()?;
     let mut thumbs = Thumbs::new(SHEET_KEEP, SHEET_TILE_WIDTH);
+    let mut clock_check = ClockCheck::default();
     let Resumed { done, mut writer } = if opts.resume {
-        resume(&out, opts, input, scene, source.as_mut(), session, &lin, &mut thumbs, obs)?
+        resume(&out, opts, input, scene, source.as_mut(), session, &lin, &mut thumbs, &mut clock_check, obs)?
     } else {
         if out.report.exists() {
             obs.note(&format!("note: overwriting the earlier run in {} (--resume continues one instead)", out.target.display()));
@@ -300,9 +335,27 @@ pub fn augment(scene: &Scene, input: &Input, session: &mut OutdoorSession, opts:
     obs.start(&format!("augment {}", input.sequence.as_deref().unwrap_or(&input.label)), total, done);
     let started = std::time::Instant::now();
     let (mut counts, mut stages) = (RunCounts::default(), Stages::default());
-    let mut frames = FrameLoop { scene, input, source: source.as_mut(), session, lin: &lin, writer: &mut writer, report: &mut report, thumbs: &mut thumbs, counts: &mut counts, stages: &mut stages, out: &out };
+    let mut frames = FrameLoop {
+        scene,
+        input,
+        source: source.as_mut(),
+        session,
+        lin: &lin,
+        writer: &mut writer,
+        report: &mut report,
+        thumbs: &mut thumbs,
+        counts: &mut counts,
+        stages: &mut stages,
+        out: &out,
+        clock: clock_check,
+        strict_clock: opts.strict_clock,
+    };
     let (i, interrupted, result) = frames.run(done, opts.max_frames, stop, obs);
+    let clock_check = frames.clock;
     obs.finish();
+    if let Some(w) = clock_check.warning(&input.label) {
+        obs.note(&w);
+    }
 
     // Close everything, whatever happened: the output and its reports cover frames 0..i.
     drop(report);
@@ -332,7 +385,7 @@ pub fn augment(scene: &Scene, input: &Input, session: &mut OutdoorSession, opts:
         counts,
         stages,
     };
-    if let Err(e) = std::fs::write(&out.summary, serde_json::to_string_pretty(&summary)?) {
+    if let Err(e) = crate::io::write_atomic(&out.summary, serde_json::to_string_pretty(&summary)?.as_bytes()) {
         obs.note(&format!("warning: {}: summary not written: {e}", out.summary.display()));
     }
     if let Some(n) = input.count
@@ -364,6 +417,8 @@ struct FrameLoop<'a> {
     counts: &'a mut RunCounts,
     stages: &'a mut Stages,
     out: &'a Outputs,
+    clock: ClockCheck,
+    strict_clock: bool,
 }
 
 impl FrameLoop<'_> {
@@ -401,6 +456,9 @@ impl FrameLoop<'_> {
             .map_err(anyhow::Error::new)
             .with_context(|| format!("the camera calibration {} is {}×{}", self.scene.camera_path.display(), k.width, k.height))?;
         let time = self.input.clock.time(i, f.ts_ms, None)?;
+        if !self.clock.check(i, time) && self.strict_clock {
+            bail!("{}: frame {i} is stamped {}, not after the frame before (--strict)", f.label, time.to_rfc3339());
+        }
         let done = self.session.process(i, &time, &f.frame, self.lin).with_context(|| f.label.clone())?;
         let t = std::time::Instant::now();
         let photometry = &self.input.photometry;

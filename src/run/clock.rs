@@ -90,6 +90,61 @@ impl FrameClock {
     }
 }
 
+/// Watches that frame times increase. A clock that stands still (every frame stamped with the
+/// same time) or runs backwards silently breaks the estimator's smoother, so the frames whose
+/// time does not increase are collected and reported by number.
+#[derive(Clone, Debug, Default)]
+pub struct ClockCheck {
+    last: Option<(usize, DateTime<FixedOffset>)>,
+    stuck: Vec<usize>,
+}
+
+impl ClockCheck {
+    /// Records frame `index` at `time`; false when the time does not increase over the previous
+    /// frame's.
+    pub fn check(&mut self, index: usize, time: DateTime<FixedOffset>) -> bool {
+        let ok = self.last.is_none_or(|(_, t)| time > t);
+        if !ok {
+            self.stuck.push(index);
+        }
+        self.last = Some((index, time));
+        ok
+    }
+
+    /// Frames whose time did not increase.
+    pub fn stuck(&self) -> &[usize] {
+        &self.stuck
+    }
+
+    /// The warning for `label`'s frames, when some time did not increase: the frames as ranges
+    /// ("frames 3–11, 14").
+    pub fn warning(&self, label: &str) -> Option<String> {
+        if self.stuck.is_empty() {
+            return None;
+        }
+        Some(format!(
+            "warning: {label}: the time of {} does not increase over the frame before (the estimator's smoother uses the nominal frame interval there); check the frame times (--strict makes this an error)",
+            frame_ranges(&self.stuck)
+        ))
+    }
+}
+
+/// "frame 3", "frames 3–11, 14".
+pub fn frame_ranges(frames: &[usize]) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < frames.len() {
+        let mut j = i;
+        while j + 1 < frames.len() && frames[j + 1] == frames[j] + 1 {
+            j += 1;
+        }
+        parts.push(if j > i { format!("{}–{}", frames[i], frames[j]) } else { frames[i].to_string() });
+        i = j + 1;
+    }
+    let word = if frames.len() == 1 { "frame" } else { "frames" };
+    format!("{word} {}", parts.join(", "))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -112,6 +167,20 @@ mod tests {
         assert_eq!(start.time(7, Some(1500.0), None).unwrap(), t("2024-06-21T12:00:01.5+02:00"));
         assert_eq!(start.time(50, None, None).unwrap(), t("2024-06-21T12:00:02+02:00"));
         assert_eq!(start.time(50, Some(f64::NAN), None).unwrap(), t("2024-06-21T12:00:02+02:00"));
+    }
+
+    #[test]
+    fn times_that_do_not_increase_are_named_by_frame() {
+        let t0 = t("2024-06-21T12:00:00+02:00");
+        let mut c = ClockCheck::default();
+        let times = [0, 1, 1, 1, 2, 3, 2, 4];
+        let ok: Vec<bool> = times.iter().enumerate().map(|(i, s)| c.check(i, t0 + chrono::Duration::seconds(*s))).collect();
+        assert_eq!(ok, [true, true, false, false, true, true, false, true]);
+        assert_eq!(c.stuck(), [2, 3, 6]);
+        let w = c.warning("clip.mp4").unwrap();
+        assert!(w.contains("clip.mp4") && w.contains("frames 2–3, 6"), "{w}");
+        assert_eq!(frame_ranges(&[5]), "frame 5");
+        assert!(ClockCheck::default().warning("x").is_none());
     }
 
     #[test]

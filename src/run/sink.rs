@@ -16,9 +16,7 @@ use crate::render::VideoFrame;
 use crate::render::output::encode_rgb8;
 use crate::render::output::{OutputKind, write_frame};
 use crate::report::median;
-#[cfg(feature = "opencv")]
-use anyhow::Context;
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -83,6 +81,71 @@ impl Outputs {
     }
 }
 
+/// An output claimed by one run: a lock file beside the outputs holds the run's process id, and
+/// a second run into the same output is refused while that process lives. The lock goes when
+/// the run ends (a run killed with SIGKILL leaves it; the next run sees the process is gone and
+/// takes it over).
+pub struct OutputLock {
+    path: PathBuf,
+}
+
+impl OutputLock {
+    /// The lock file of `out`: `DIR/.heliar.lock` for a folder, `OUT.mp4.lock` beside a video.
+    pub fn path_of(out: &Outputs) -> PathBuf {
+        if out.video {
+            let name = out.target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+            out.target.with_file_name(format!(".{name}.lock"))
+        } else {
+            out.target.join(".heliar.lock")
+        }
+    }
+
+    /// Claims `out`, or says which run holds it.
+    pub fn acquire(out: &Outputs) -> Result<Self> {
+        let path = Self::path_of(out);
+        for _ in 0..2 {
+            match std::fs::OpenOptions::new().write(true).create_new(true).open(&path) {
+                Ok(mut f) => {
+                    use std::io::Write;
+                    writeln!(f, "{}", std::process::id()).with_context(|| format!("writing the lock {}", path.display()))?;
+                    return Ok(Self { path });
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                    let holder = std::fs::read_to_string(&path).ok().and_then(|t| t.trim().parse::<u32>().ok());
+                    match holder {
+                        Some(pid) if process_alive(pid) => bail!(
+                            "{}: another heliar run (process {pid}) is writing this output; wait for it to end, or give another output (lock: {})",
+                            out.target.display(),
+                            path.display()
+                        ),
+                        _ => {
+                            // The run that held it is gone (killed): take the lock over.
+                            std::fs::remove_file(&path).with_context(|| format!("removing the stale lock {}", path.display()))?;
+                        }
+                    }
+                }
+                Err(e) => return Err(e).with_context(|| format!("creating the lock {}", path.display())),
+            }
+        }
+        bail!("{}: could not take the lock {}", out.target.display(), path.display())
+    }
+}
+
+impl Drop for OutputLock {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.path);
+    }
+}
+
+/// True when process `pid` exists (Linux: its `/proc` entry; elsewhere every holder counts as
+/// alive, so a stale lock must be removed by hand).
+fn process_alive(pid: u32) -> bool {
+    if pid == std::process::id() {
+        return true;
+    }
+    if cfg!(target_os = "linux") { Path::new(&format!("/proc/{pid}")).exists() } else { true }
+}
+
 /// Writes output frames: files in a folder, or a video.
 pub enum FrameWriter {
     /// A folder of frames named after the input's frames.
@@ -115,7 +178,7 @@ impl FrameWriter {
             FrameWriter::Dir { dir, format } => {
                 let kind = output_kind(*format, frame);
                 let p = dir.join(format!("{stem}.{}", kind.extension()));
-                write_frame(&p, kind, image, precision, video, frame, photometry)?;
+                crate::io::write_via_temp(&p, |tmp| write_frame(tmp, kind, image, precision, video, frame, photometry))?;
                 Ok(p.display().to_string())
             }
             #[cfg(feature = "opencv")]
@@ -172,7 +235,7 @@ impl Thumbs {
     /// Writes the contact sheet, `columns` wide.
     pub fn write(&self, path: &Path, columns: u32) -> Result<()> {
         let tiles: Vec<Rgb8> = self.items.iter().map(|(_, t)| t.clone()).collect();
-        Ok(write_contact_sheet(path, &tiles, columns, 4)?)
+        Ok(crate::io::write_via_temp(path, |tmp| write_contact_sheet(tmp, &tiles, columns, 4))?)
     }
 }
 

@@ -112,6 +112,48 @@ impl FrameSource for FolderSource {
     }
 }
 
+/// Frames handed over in memory, in order (the Python package's arrays, tests), timestamped by
+/// index at `fps`.
+pub struct MemorySource {
+    frames: std::collections::VecDeque<Frame>,
+    next: usize,
+    fps: f64,
+}
+
+impl MemorySource {
+    /// The frames `frames`, at `fps` frames per second.
+    pub fn new(frames: Vec<Frame>, fps: f64) -> Result<Self> {
+        positive_fps(fps, "frame rate")?;
+        Ok(Self { frames: frames.into(), next: 0, fps })
+    }
+
+    /// Adds a frame after the others.
+    pub fn push(&mut self, frame: Frame) {
+        self.frames.push_back(frame);
+    }
+}
+
+impl FrameSource for MemorySource {
+    fn label(&self) -> String {
+        "frames in memory".into()
+    }
+    fn read(&mut self) -> Result<Option<SourceFrame>> {
+        let Some(frame) = self.frames.pop_front() else { return Ok(None) };
+        let i = self.next;
+        self.next += 1;
+        Ok(Some(SourceFrame { frame, ts_ms: Some(i as f64 * 1e3 / self.fps), label: format!("memory frame {i}") }))
+    }
+    fn pace_fps(&self) -> Option<f64> {
+        Some(self.fps)
+    }
+    fn is_file(&self) -> bool {
+        true
+    }
+    fn len(&self) -> Option<usize> {
+        Some(self.next + self.frames.len())
+    }
+}
+
 /// A video file (container timestamps), paced at its frame rate or a given one.
 #[cfg(feature = "opencv")]
 pub struct VideoFileSource {
@@ -387,5 +429,27 @@ impl Input {
     pub fn opener(&self) -> Opener {
         let me = self.clone();
         Box::new(move || me.open())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::frames::FrameData;
+
+    #[test]
+    fn a_memory_source_gives_its_frames_in_order_with_times_by_index() {
+        let f = |v: u16| Frame { width: 1, height: 1, data: FrameData::Ldr { bits: 8, codes: vec![v; 3] } };
+        let mut m = MemorySource::new(vec![f(1), f(2)], 4.0).unwrap();
+        m.push(f(3));
+        assert_eq!(m.len(), Some(3));
+        let got: Vec<(u16, Option<f64>)> = std::iter::from_fn(|| m.read().unwrap())
+            .map(|s| match s.frame.data {
+                FrameData::Ldr { codes, .. } => (codes[0], s.ts_ms),
+                FrameData::Hdr(_) => unreachable!(),
+            })
+            .collect();
+        assert_eq!(got, [(1, Some(0.0)), (2, Some(250.0)), (3, Some(500.0))]);
+        assert!(MemorySource::new(vec![], 0.0).is_err());
     }
 }

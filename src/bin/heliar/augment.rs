@@ -172,6 +172,12 @@ pub struct AugmentArgs {
     /// Stop after this many frames (counting frames already written by a resumed run).
     #[arg(long)]
     max_frames: Option<usize>,
+    /// Write even where an output would overwrite the input or a file of the scene.
+    #[arg(long)]
+    force: bool,
+    /// Frame times that do not increase are an error (default: a warning naming the frames).
+    #[arg(long)]
+    strict: bool,
 }
 
 pub fn run(a: AugmentArgs) -> Result<()> {
@@ -195,7 +201,15 @@ pub fn run(a: AugmentArgs) -> Result<()> {
         FormatArg::Png => Format::Png,
         FormatArg::Exr => Format::Exr,
     });
-    let opts = AugmentOptions { output: a.output.clone(), format, resume: a.resume, max_frames: a.max_frames, sheet_columns: a.sheet_columns };
+    let opts = AugmentOptions {
+        output: a.output.clone(),
+        format,
+        resume: a.resume,
+        max_frames: a.max_frames,
+        sheet_columns: a.sheet_columns,
+        force: a.force,
+        strict_clock: a.strict,
+    };
     let outcome = augment(&scene, &input, &mut session, &opts, &mut BarObserver::default(), &stop)?;
     eprint!("{}", outcome.summary.table());
     if let Some(e) = outcome.error {

@@ -69,6 +69,10 @@ pub struct LiveArgs {
     /// Run without a window for this many frames and print the timings.
     #[arg(long)]
     headless_frames: Option<usize>,
+    /// Without a window: give up (exit status 1) when the source stays lost, or gives no frame,
+    /// this many seconds. The window keeps retrying and shows the count.
+    #[arg(long, default_value_t = 30.0)]
+    retry_for: f64,
 }
 
 #[cfg(not(feature = "opencv"))]
@@ -85,7 +89,7 @@ pub fn run(a: LiveArgs) -> anyhow::Result<()> {
 mod imp {
     use super::LiveArgs;
     use crate::common::load_scene;
-    use anyhow::{Result, anyhow};
+    use anyhow::{Result, anyhow, bail};
     use heliar::irradiance::sources::{ProbeSource, UniformSky};
     use heliar::live::{Capture, CaptureOptions, LatestSlot, LiveApp};
     use heliar::render::CompositorConfig;
@@ -98,6 +102,9 @@ mod imp {
     use std::time::Duration;
 
     pub fn run(a: LiveArgs) -> Result<()> {
+        if !(a.retry_for.is_finite() && a.retry_for > 0.0) {
+            bail!("--retry-for {}: must be a positive number of seconds", a.retry_for);
+        }
         let (scene, ray) = load_scene(&a.scene)?;
         let options = InputOptions {
             input: a.input.clone(),
@@ -141,7 +148,7 @@ mod imp {
         }
 
         if let Some(n) = a.headless_frames {
-            return headless(&mut app, n, &stop);
+            return headless(&mut app, n, &stop, a.retry_for);
         }
         let opts = eframe::NativeOptions {
             viewport: egui::ViewportBuilder::default().with_inner_size([1280.0, 860.0]).with_title(&title),
@@ -152,16 +159,25 @@ mod imp {
             .map_err(|e| anyhow!("cannot open the live window: {e} (it needs a display; `--headless-frames N` runs the same loop without one)"))
     }
 
-    fn headless(app: &mut LiveApp, n: usize, stop: &AtomicBool) -> Result<()> {
-        let mut frame_ms = Vec::new();
-        let mut composite_ms = Vec::new();
+    fn headless(app: &mut LiveApp, n: usize, stop: &AtomicBool, retry_for: f64) -> Result<()> {
+        let (mut frame_ms, mut composite_ms) = (Vec::new(), Vec::new());
+        let mut errors: Vec<String> = Vec::new();
         let t = std::time::Instant::now();
+        let mut last_progress = std::time::Instant::now();
+        let mut seen = 0u64;
         while app.processed() < n as u64 && !stop.load(Ordering::SeqCst) {
             if let Some(v) = app.vem.as_mut() {
                 v.tick();
             }
-            if !app.process_next(Duration::from_millis(200)) {
-                let s = app.capture_status();
+            let got = app.process_next(Duration::from_millis(200));
+            let s = app.capture_status();
+            if got || s.captured > seen {
+                seen = s.captured;
+                last_progress = std::time::Instant::now();
+            } else if last_progress.elapsed().as_secs_f64() > retry_for {
+                bail!("{}: no frame for {retry_for:.0} s ({}); giving up (--retry-for)", s.label, app.source_line());
+            }
+            if !got {
                 if s.state == heliar::live::SourceState::Ended && app.slot().counts().put == app.slot().counts().taken + app.dropped() {
                     break;
                 }
@@ -172,6 +188,11 @@ mod imp {
             }
             if let Some(e) = app.error() {
                 eprintln!("error: {e}");
+                errors.push(e.to_owned());
+                if errors.len() >= n.max(1) {
+                    break;
+                }
+                continue;
             }
             if let Some(s) = app.last() {
                 frame_ms.push(s.frame_ms);
@@ -180,14 +201,24 @@ mod imp {
             }
         }
         let wall = t.elapsed().as_secs_f64();
-        eprintln!(
-            "processed {} frames in {wall:.1} s ({:.1} fps), dropped {}; frame time median {:.1} ms (composite {:.1} ms)",
-            app.processed(),
-            app.processed() as f64 / wall.max(1e-9),
-            app.dropped(),
-            median(&frame_ms),
-            median(&composite_ms)
-        );
+        if let Some(w) = app.clock_warning() {
+            eprintln!("{w}");
+        }
+        if frame_ms.is_empty() {
+            eprintln!("processed no frame in {wall:.1} s");
+        } else {
+            eprintln!(
+                "processed {} frames in {wall:.1} s ({:.1} fps), dropped {}; frame time median {:.1} ms (composite {:.1} ms)",
+                frame_ms.len(),
+                frame_ms.len() as f64 / wall.max(1e-9),
+                app.dropped(),
+                median(&frame_ms),
+                median(&composite_ms)
+            );
+        }
+        if let Some(first) = errors.first() {
+            bail!("{} of the frames failed; the first: {first}", errors.len());
+        }
         Ok(())
     }
 }
