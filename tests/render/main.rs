@@ -3,6 +3,7 @@
 //! against the compositor itself.
 
 mod courtyard;
+mod report_order;
 mod robust;
 mod shading;
 mod shadows;
