@@ -81,4 +81,29 @@ impl Composite {
         };
         Ok(Self { composite: make("fs_composite", format), masks: masks_format.map(|f| make("fs_masks", f)) })
     }
+
+    /// Records the composite into `target` (cleared first) and, with `masks` (a target of the
+    /// mask format) and the mask pipeline, the warped debug masks; `bind_group` is the
+    /// composite's group 0.
+    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, bind_group: &wgpu::BindGroup, target: &wgpu::TextureView, masks: Option<&wgpu::TextureView>) {
+        let fullscreen = |encoder: &mut wgpu::CommandEncoder, label: &str, view: &wgpu::TextureView, clear: wgpu::Color, pipeline: &wgpu::RenderPipeline| {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some(label),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load: wgpu::LoadOp::Clear(clear), store: wgpu::StoreOp::Store },
+                })],
+                ..Default::default()
+            });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, bind_group, &[]);
+            pass.draw(0..3, 0..1);
+        };
+        fullscreen(encoder, "composite", target, wgpu::Color::BLACK, &self.composite);
+        if let (Some(view), Some(pipeline)) = (masks, &self.masks) {
+            fullscreen(encoder, "warped masks", view, wgpu::Color::TRANSPARENT, pipeline);
+        }
+    }
 }

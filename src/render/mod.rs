@@ -34,6 +34,7 @@ pub mod object_transfer;
 pub mod occluder;
 pub mod occlusion;
 pub mod output;
+pub mod plan;
 pub mod probes;
 pub mod reach;
 pub mod receivers;

@@ -333,17 +333,24 @@ impl ObjectTransfer {
         self.traced_sun
     }
 
-    /// Traces the values on first use and again when `sun` has moved more than `rebuild_deg` from
-    /// the direction they were traced for (a frame without sun keeps the stored values; its
-    /// shading ignores `R_d`).
-    pub fn ensure(&mut self, scene: &TransferScene, sun: Option<Vec3>, rebuild_deg: f64) -> TransferUpdate {
+    /// True when [`ObjectTransfer::ensure`] for `sun` would trace: there are pixels to trace, and
+    /// nothing was traced yet, or `sun` has moved more than `rebuild_deg` from the traced one
+    /// (or is the first sun).
+    pub fn needs_trace(&self, sun: Option<Vec3>, rebuild_deg: f64) -> bool {
         let stale = match (self.traced, self.traced_sun, sun) {
             (false, _, _) => true,
             (true, None, Some(_)) => true,
             (true, Some(a), Some(b)) => (a.dot(b).clamp(-1.0, 1.0).acos().to_degrees() as f64) > rebuild_deg,
             (true, _, None) => false,
         };
-        if !stale || self.surfaces.is_empty() {
+        stale && !self.surfaces.is_empty()
+    }
+
+    /// Traces the values on first use and again when `sun` has moved more than `rebuild_deg` from
+    /// the direction they were traced for (a frame without sun keeps the stored values; its
+    /// shading ignores `R_d`).
+    pub fn ensure(&mut self, scene: &TransferScene, sun: Option<Vec3>, rebuild_deg: f64) -> TransferUpdate {
+        if !self.needs_trace(sun, rebuild_deg) {
             self.traced = true;
             return TransferUpdate::default();
         }
@@ -568,16 +575,23 @@ mod tests {
         let mut t = ObjectTransfer::new(&canvas, &scene, TransportQuality { paths: 16, max_bounces: 2 }, 1, 1);
         let n = t.surfaces().len();
         assert!(n > 0);
-        assert_eq!(t.ensure(&scene, None, 0.25).traced, n);
-        assert_eq!(t.ensure(&scene, None, 0.25).traced, 0);
+        // The plan's question (`needs_trace`) agrees with what `ensure` then does.
+        let ensure = |t: &mut ObjectTransfer, sun: Option<Vec3>| {
+            let predicted = t.needs_trace(sun, 0.25);
+            let u = t.ensure(&scene, sun, 0.25);
+            assert_eq!(predicted, u.traced > 0, "needs_trace for {sun:?}");
+            u
+        };
+        assert_eq!(ensure(&mut t, None).traced, n);
+        assert_eq!(ensure(&mut t, None).traced, 0);
         let l = Vec3::new(0.3, 0.8, 0.2).normalize();
-        assert_eq!(t.ensure(&scene, Some(l), 0.25).traced, n, "first sun");
+        assert_eq!(ensure(&mut t, Some(l)).traced, n, "first sun");
         let sky = t.sky.clone();
         let nudged = (l + Vec3::X * 0.001).normalize();
-        assert_eq!(t.ensure(&scene, Some(nudged), 0.25).traced, 0, "0.06° is below the threshold");
-        assert_eq!(t.ensure(&scene, None, 0.25).traced, 0, "no sun keeps the values");
+        assert_eq!(ensure(&mut t, Some(nudged)).traced, 0, "0.06° is below the threshold");
+        assert_eq!(ensure(&mut t, None).traced, 0, "no sun keeps the values");
         let moved = (l + Vec3::X * 0.05).normalize();
-        assert_eq!(t.ensure(&scene, Some(moved), 0.25).traced, n);
+        assert_eq!(ensure(&mut t, Some(moved)).traced, n);
         // Same paths: R_a does not depend on the sun.
         assert_eq!(t.sky, sky);
     }

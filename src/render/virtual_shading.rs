@@ -12,7 +12,7 @@
 use super::RenderError;
 use crate::gpu::canvas::uniform_entry;
 use crate::gpu::LAYER_FORMAT;
-use crate::gpu::mesh::VirtualVertex;
+use crate::gpu::mesh::{VirtualBuffers, VirtualVertex};
 use crate::gpu::shaders;
 use super::stencil::{VIRTUAL_SURFACE, test};
 
@@ -114,4 +114,17 @@ impl VirtualShading {
 
     /// Stencil reference of both pipelines (samples showing a virtual surface).
     pub const REFERENCE: u32 = VIRTUAL_SURFACE;
+
+    /// Draws the objects with the frame bind group `frame` (group 0) and each draw's material.
+    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, frame: &wgpu::BindGroup, objects: &VirtualBuffers) {
+        pass.set_bind_group(0, frame, &[]);
+        pass.set_vertex_buffer(0, objects.vertices.slice(..));
+        pass.set_index_buffer(objects.indices.slice(..), wgpu::IndexFormat::Uint32);
+        pass.set_stencil_reference(Self::REFERENCE);
+        for d in &objects.draws {
+            pass.set_pipeline(if d.closed { &self.closed } else { &self.open });
+            pass.set_bind_group(1, &d.bind_group, &[]);
+            pass.draw_indexed(d.indices.clone(), 0, 0..1);
+        }
+    }
 }
