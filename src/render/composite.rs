@@ -6,7 +6,7 @@
 //! window surface; only the target format differs.
 
 use super::RenderError;
-use crate::gpu::canvas::uniform_entry;
+use crate::gpu::canvas::{texture_entry, uniform_entry};
 use crate::gpu::shaders;
 
 /// Texture bindings of the composite pass, in `shaders/composite.wgsl` order.
@@ -24,23 +24,9 @@ pub struct Composite {
 
 /// Layout of the composite bind group.
 pub fn layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    let mut entries: Vec<wgpu::BindGroupLayoutEntry> = (0..TEXTURE_BINDINGS)
-        .map(|binding| {
-            // The footage-sized inputs are read with textureLoad (float formats that need not be
-            // filterable); the canvas layers are sampled bilinearly.
-            let filterable = binding >= FIRST_FILTERED;
-            wgpu::BindGroupLayoutEntry {
-                binding,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Float { filterable },
-                    view_dimension: wgpu::TextureViewDimension::D2,
-                    multisampled: false,
-                },
-                count: None,
-            }
-        })
-        .collect();
+    // The footage-sized inputs are read with textureLoad (float formats that need not be
+    // filterable); the canvas layers are sampled bilinearly.
+    let mut entries: Vec<wgpu::BindGroupLayoutEntry> = (0..TEXTURE_BINDINGS).map(|binding| texture_entry(binding, binding >= FIRST_FILTERED)).collect();
     entries.push(wgpu::BindGroupLayoutEntry {
         binding: TEXTURE_BINDINGS,
         visibility: wgpu::ShaderStages::FRAGMENT,

@@ -10,24 +10,11 @@
 //! premultiplied linear radiance, alpha 1 where covered.
 
 use super::RenderError;
-use crate::gpu::canvas::uniform_entry;
+use crate::gpu::canvas::{storage_entry, texture_entry, uniform_entry};
 use crate::gpu::LAYER_FORMAT;
 use crate::gpu::mesh::{VirtualBuffers, VirtualVertex};
 use crate::gpu::shaders;
 use super::stencil::{VIRTUAL_SURFACE, test};
-
-fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable: false },
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: false,
-        },
-        count: None,
-    }
-}
 
 /// The shading pipelines (closed meshes culled, open ones two-sided) and their frame layout.
 pub struct VirtualShading {
@@ -38,15 +25,6 @@ pub struct VirtualShading {
     /// Group 0: camera, lighting, probe header, coefficients, validity, ambient occlusion, masks,
     /// and the transfer's `R_a`, `R_d`, points and normals.
     pub frame_layout: wgpu::BindGroupLayout,
-}
-
-fn storage_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { read_only: true }, has_dynamic_offset: false, min_binding_size: None },
-        count: None,
-    }
 }
 
 impl VirtualShading {
@@ -61,12 +39,12 @@ impl VirtualShading {
                 uniform_entry(2, wgpu::ShaderStages::FRAGMENT),
                 storage_entry(3),
                 storage_entry(4),
-                texture_entry(5),
-                texture_entry(6),
-                texture_entry(7),
-                texture_entry(8),
-                texture_entry(9),
-                texture_entry(10),
+                texture_entry(5, false),
+                texture_entry(6, false),
+                texture_entry(7, false),
+                texture_entry(8, false),
+                texture_entry(9, false),
+                texture_entry(10, false),
             ],
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

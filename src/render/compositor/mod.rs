@@ -31,23 +31,25 @@
 //!
 //! # Passes as units
 //! Every pass is a unit ([`crate::render::plan`]): it plans from the frame's facts
-//! ([`FrameContext`]) and records its own commands, and what it keeps between frames lives
-//! with it: the stored stencil and its reuse ([`stencil_cache`]), the traced transfer
-//! ([`transfer`]), the volumes ([`volumes`]). [`Compositor::encode`](encode) is the list:
+//! ([`FrameContext`], with the frame-level [`Gate`]) and records its own commands, and what it
+//! keeps between frames lives with it: the stored stencil and whether it serves a frame
+//! ([`StencilCache`]), the traced transfer and whether it must be traced again
+//! (`transfer.rs`), the volumes ([`Volumes`]). `encode` is the list, read top to bottom:
 //!
 //! | step | unit | kind |
 //! |---|---|---|
-//! | canvas region | [`StencilCache`] (with the stencil) | CPU |
+//! | canvas region | [`StencilCache`] (kept with the stencil) | CPU |
 //! | `volume_build` | [`Volumes`] | CPU (or compute) and upload |
-//! | receivers' `c`, `b` | [`receiver_update`] | CPU and upload |
-//! | `object_transfer` | [`transfer::TransferPass`] | CPU and upload |
+//! | receivers' `c`, `b` | `receiver_update.rs` (not in the report) | CPU and upload |
+//! | `object_transfer` | `transfer.rs` | CPU and upload |
 //! | footage, lighting uniform | | upload |
 //! | `depth_prepass`, `real_volumes`, `virtual_volumes` | [`DepthPrepass`](crate::render::depth_prepass::DepthPrepass), [`RealVolumes`], [`VirtualVolumes`] | one render pass |
 //! | `shadow_mask` | [`ShadowMask`](crate::render::shadow_mask::ShadowMask) | render pass |
-//! | `virtual_shading`, `sun_term` | [`VirtualShading`](crate::render::virtual_shading::VirtualShading), [`units::SunTerm`] | render pass |
+//! | `virtual_shading`, `sun_term` | [`VirtualShading`](crate::render::virtual_shading::VirtualShading), `SunTerm` (a term of its shader and the composite's) | render pass |
 //! | `composite` | [`Composite`](crate::render::composite::Composite) | render pass(es) |
 //!
-//! Setting up ([`setup`]) builds them all; [`config`] holds the settings and plain values.
+//! The plans of the GPU passes and the render passes they share are in `units.rs`; `setup.rs`
+//! builds everything, `config.rs` holds the settings and plain values.
 mod config;
 mod context;
 mod encode;

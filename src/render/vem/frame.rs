@@ -8,7 +8,7 @@
 //! ([`shadow_atlas::assign_slots`]), fits each map to the objects, fills the shading uniform and
 //! the region-list buffers (Havran §4.1–4.2), and groups the lists by shadow slot so the shader
 //! reads each map once per run ([`group_by_slot`]). Nothing here touches the GPU; the passes'
-//! plans read it, and [`VemRenderer::upload`] turns it into the frame's buffers.
+//! plans read it, and the renderer's `upload` turns it into the frame's buffers ([`FrameBindings`]).
 
 use super::lists::{group_by_slot, light_bytes, list_words};
 use super::shading::{FLAG_CULLING, FLAG_GLOSSY, FLAG_SHADOWS, VemFrameUniform};

@@ -5,6 +5,7 @@
 use super::frame::VemFrame;
 use super::pass;
 use super::targets::Targets;
+use crate::gpu::canvas::texture_entry;
 use crate::gpu::shaders;
 use crate::render::RenderError;
 use crate::render::plan::{Pass, Plan};
@@ -15,15 +16,6 @@ pub struct CompositePass {
     pub pipeline: wgpu::RenderPipeline,
     /// Group 0: background, warp, virtual layer, ratio layer, sampler.
     pub layout: wgpu::BindGroupLayout,
-}
-
-fn texture_entry(binding: u32, filterable: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Texture { sample_type: wgpu::TextureSampleType::Float { filterable }, view_dimension: wgpu::TextureViewDimension::D2, multisampled: false },
-        count: None,
-    }
 }
 
 impl CompositePass {

@@ -25,7 +25,7 @@
 use super::frame::VemFrame;
 use super::pass;
 use crate::gpu::LAYER_FORMAT;
-use crate::gpu::canvas::uniform_entry;
+use crate::gpu::canvas::{storage_entry, uniform_entry};
 use crate::gpu::mesh::{ProxyBuffers, VirtualBuffers};
 use crate::gpu::shaders;
 use crate::render::RenderError;
@@ -129,15 +129,6 @@ pub struct ShadingPass {
     pub receivers: ReceiverRatio,
     /// Group 0 of both.
     pub frame_layout: wgpu::BindGroupLayout,
-}
-
-fn storage_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { read_only: true }, has_dynamic_offset: false, min_binding_size: None },
-        count: None,
-    }
 }
 
 /// Group 0: camera, frame uniform, lights and lists of `H` and `L`, shadow views, atlas, shadow

@@ -5,7 +5,7 @@
 use super::frame::VemFrame;
 use super::overlay::{fullscreen_pipeline, record_fullscreen};
 use super::pass;
-use crate::gpu::canvas::uniform_entry;
+use crate::gpu::canvas::{texture_entry, uniform_entry};
 use crate::gpu::shaders;
 use crate::io::image::LinearImage;
 use crate::render::RenderError;
@@ -50,12 +50,7 @@ impl TonemapPass {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("vem tonemap"),
             entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture { sample_type: wgpu::TextureSampleType::Float { filterable: false }, view_dimension: wgpu::TextureViewDimension::D2, multisampled: false },
-                    count: None,
-                },
+                texture_entry(0, false),
                 uniform_entry(1, wgpu::ShaderStages::FRAGMENT),
             ],
         });
