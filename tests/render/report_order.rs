@@ -55,7 +55,7 @@ fn frames() -> Vec<String> {
     let v = video();
     let sun = courtyard_sun();
     let mut out = Vec::new();
-    let mut run = |comp: &mut heliar::render::Compositor, l: &Lighting, out: &mut Vec<String>| {
+    let run = |comp: &mut heliar::render::Compositor, l: &Lighting, out: &mut Vec<String>| {
         let (_, r) = comp.render(&v, l).expect("frame");
         out.push(line(&r));
     };

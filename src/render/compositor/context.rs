@@ -133,7 +133,7 @@ pub fn sun_of(lighting: &Lighting, no_sun_ratio: f64) -> (Vec3, Option<String>) 
     let (pd, pa) = (luma(lighting.pd), luma(lighting.pa));
     let why = if !lighting.above_horizon {
         Some("the sun is below the horizon".into())
-    } else if !(pd > 0.0) || (pd as f64) < no_sun_ratio * pa as f64 {
+    } else if pd.is_nan() || pd <= 0.0 || (pd as f64) < no_sun_ratio * pa as f64 {
         Some(format!("Pd ≈ 0 (Pd/Pa = {:.3} < {})", if pa > 0.0 { pd / pa } else { 0.0 }, no_sun_ratio))
     } else if l == Vec3::ZERO {
         Some("no sun direction".into())

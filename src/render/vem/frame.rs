@@ -194,3 +194,46 @@ impl VemRenderer {
         FrameBindings { shading, views, composite }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn light(dir: Vec3, rgb: f32, index: u32) -> GpuLight {
+        GpuLight { dir: dir.normalize().to_array(), shadow: u32::MAX, rgb: [rgb; 3], index }
+    }
+
+    #[test]
+    fn shadows_are_left_out_for_the_first_reason_that_holds() {
+        let cfg = VemRenderConfig::default();
+        let lit = [light(Vec3::Y, 1.0, 0)];
+        let dark = [light(Vec3::Y, 0.0, 0)];
+        let nan = [light(Vec3::Y, f32::NAN, 0)];
+        let off = VemRenderConfig { shadows: false, ..cfg.clone() };
+        assert_eq!(no_shadows(&off, false, &dark, Status::Dark).as_deref(), Some("shadows are off"));
+        assert_eq!(no_shadows(&cfg, false, &dark, Status::Dark).as_deref(), Some("the scene has no virtual objects"));
+        assert_eq!(no_shadows(&cfg, true, &dark, Status::Dark).as_deref(), Some("the lights carry no power (status dark)"));
+        assert_eq!(no_shadows(&cfg, true, &nan, Status::Ok).as_deref(), Some("the lights carry no power (status ok)"));
+        assert_eq!(no_shadows(&cfg, true, &lit, Status::Ok), None);
+    }
+
+    #[test]
+    fn each_map_carries_the_power_of_the_lights_that_read_it() {
+        let cfg = VemRenderConfig::default();
+        let mut h: Vec<GpuLight> = (0..12).map(|k| light(Vec3::new((k as f32 * 0.7).cos(), 1.0, (k as f32 * 0.7).sin()), 0.5 + k as f32, k)).collect();
+        let mut l = h.clone();
+        let clusters = [Vec3::new(1.0, 1.0, 0.0).normalize(), Vec3::new(-1.0, 1.0, 0.0).normalize(), Vec3::new(0.0, 1.0, 1.0).normalize()];
+        let (views, maps) = shadow_maps(&mut h, &mut l, &clusters, (Vec3::splat(-0.5), Vec3::splat(0.5)), &cfg);
+        assert_eq!((views.len(), maps.len()), (3, 3));
+        // Every light reads a map, and the maps' power is the lights' (sums of at most 12
+        // values of ~10: exact to f32 rounding, 1e-4 relative).
+        assert!(h.iter().chain(&l).all(|x| (x.shadow as usize) < maps.len()));
+        let total: f32 = h.iter().map(|x| x.rgb[0]).sum();
+        let mapped: f32 = maps.iter().map(|m| m.rgb[0]).sum();
+        assert!((total - mapped).abs() <= 1e-4 * total, "{total} vs {mapped}");
+        for (k, m) in maps.iter().enumerate() {
+            let own: f32 = h.iter().filter(|x| x.shadow == k as u32).map(|x| x.rgb[0]).sum();
+            assert!((own - m.rgb[0]).abs() <= 1e-4 * total && Vec3::from_array(m.dir) == clusters[k]);
+        }
+    }
+}
