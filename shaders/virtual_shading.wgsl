@@ -1,25 +1,17 @@
 // Pass 5: the virtual objects, shaded (Jensen §3.2 step 4 and §3.3): the glTF metallic-roughness
 // response to the sun, times its visibility (the fraction of the pixel's virtual-surface samples
 // that no shadow volume covers, from the shadow-mask pass), plus ambient light: the per-pixel
-// transfer R_a·Pa + R_d·Pd traced on the CPU (src/render/transfer.rs), reconstructed from the
+// transfer R_a·Pa + R_d·Pd traced on the CPU (src/render/object_transfer.rs), reconstructed from the
 // lattice entries around the pixel that lie on the fragment's surface, otherwise the probe grid
 // evaluated per pixel times the objects' own ambient occlusion. Depth-tested for equality against
 // the prepass, so the real proxy hides them. Output is premultiplied linear radiance with alpha 1.
 // Paired with src/render/virtual_shading.rs.
 
-#include "common/camera.wgsl"
+#include "common/object.wgsl"
 #include "common/lighting.wgsl"
 #include "common/sh.wgsl"
-#include "common/brdf.wgsl"
 
-struct Material {
-    // Linear base colour factor.
-    base_color: vec4<f32>,
-    // x: metallic, y: roughness, z: 1 when the base-colour texture is used, w: unused.
-    params: vec4<f32>,
-}
-
-@group(0) @binding(0) var<uniform> camera: Camera;
+// Group 0, binding 0 is the camera (common/object.wgsl).
 @group(0) @binding(1) var<uniform> lighting: Lighting;
 @group(0) @binding(2) var<uniform> probe_grid: ProbeGridHeader;
 // 9 coefficients per probe, rgb in xyz.
@@ -33,7 +25,7 @@ struct Material {
 // shadow, a = coverage of virtual-surface samples.
 @group(0) @binding(6) var shadow_masks: texture_2d<f32>;
 
-// The objects' ambient transfer per canvas pixel (src/render/transfer.rs): R_a (rgb, a = 1 where
+// The objects' ambient transfer per canvas pixel (src/render/object_transfer.rs): R_a (rgb, a = 1 where
 // there is an entry), R_d, the entry's surface point (w: footprint radius, metres) and normal.
 @group(0) @binding(7) var transfer_sky: texture_2d<f32>;
 @group(0) @binding(8) var transfer_sun: texture_2d<f32>;
@@ -97,33 +89,6 @@ fn transfer_lookup(px: vec2<i32>, stride: i32, p: vec3<f32>, n: vec3<f32>) -> Tr
     return out;
 }
 
-@group(1) @binding(0) var<uniform> material: Material;
-@group(1) @binding(1) var base_color_texture: texture_2d<f32>;
-@group(1) @binding(2) var base_color_sampler: sampler;
-
-struct VertexIn {
-    @location(0) position: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) uv: vec2<f32>,
-}
-
-struct VertexOut {
-    @invariant @builtin(position) position: vec4<f32>,
-    @location(0) world: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) uv: vec2<f32>,
-}
-
-@vertex
-fn vs_main(v: VertexIn) -> VertexOut {
-    var out: VertexOut;
-    out.position = clip_from_world_point(camera, vec4<f32>(v.position, 1.0));
-    out.world = v.position;
-    out.normal = v.normal;
-    out.uv = v.uv;
-    return out;
-}
-
 fn probe_sh_eval(probe: u32, d: vec3<f32>) -> vec3<f32> {
     let y = sh_basis(d);
     var e = vec3<f32>(0.0);
@@ -178,17 +143,9 @@ fn multi_bounce_ao(visibility: f32, albedo: vec3<f32>) -> vec3<f32> {
 
 @fragment
 fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
-    var n = normalize(in.normal);
-    if (!front) {
-        // An open mesh seen from behind: shade the side that faces the camera.
-        n = -n;
-    }
+    let n = facing_normal(in.normal, front);
     let v = normalize(camera.eye_world.xyz - in.world);
-    var base = material.base_color.rgb;
-    if (material.params.z > 0.5) {
-        base *= textureSample(base_color_texture, base_color_sampler, in.uv).rgb;
-    }
-    let s = Surface(base, material.params.x, material.params.y);
+    let s = object_surface(in.uv);
     let nv = dot(n, v);
     let r = reflect(-v, n);
     let px = vec2<i32>(floor(in.position.xy));
@@ -205,7 +162,7 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
             radiance += transfer.sun * lighting.pd.rgb;
         }
     } else {
-        let ao = multi_bounce_ao(textureLoad(ambient_occlusion, px, 0).r, base);
+        let ao = multi_bounce_ao(textureLoad(ambient_occlusion, px, 0).r, s.base_color);
         radiance = ao * ambient_radiance(s, nv, probe_irradiance(in.world, n), probe_irradiance(in.world, r));
     }
     if (sun_on) {

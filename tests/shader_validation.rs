@@ -24,7 +24,7 @@ fn every_shader_file_is_embedded_and_validates() {
     assert!(files.len() >= 10, "found {} shader files", files.len());
     for path in &files {
         let name = path.strip_prefix(&root).unwrap().to_string_lossy().replace('\\', "/");
-        let embedded = shaders::raw(&name).unwrap_or_else(|| panic!("shaders/{name} is not listed in src/render/shaders.rs"));
+        let embedded = shaders::raw(&name).unwrap_or_else(|| panic!("shaders/{name} is not listed in src/gpu/shaders.rs"));
         assert_eq!(embedded, std::fs::read_to_string(path).unwrap(), "shaders/{name}: embedded copy differs");
         let source = shaders::resolve(&name).unwrap();
         let module = naga::front::wgsl::parse_str(&source).unwrap_or_else(|e| panic!("shaders/{name}: {}", e.emit_to_string(&source)));
@@ -32,5 +32,5 @@ fn every_shader_file_is_embedded_and_validates() {
             .validate(&module)
             .unwrap_or_else(|e| panic!("shaders/{name}: {}", e.emit_to_string(&source)));
     }
-    assert_eq!(files.len(), shaders::SOURCES.len(), "src/render/shaders.rs lists a file that is not on disk");
+    assert_eq!(files.len(), shaders::SOURCES.len(), "src/gpu/shaders.rs lists a file that is not on disk");
 }

@@ -1,7 +1,8 @@
 //! The GPU half of the VEM mode (`heliar::render::vem`) against independent CPU references:
 //! shading against `vem::glossy`'s reference shading at ray-traced surface points, the
 //! shadow-map atlas against ray casting, culling against no culling, tone mapping against
-//! `ToneParams::apply`, and the `dark` skip. Headless on whatever adapter wgpu opens.
+//! `ToneParams::apply`, the `dark` skip, and the report of each kind of frame (recorded).
+//! Headless on whatever adapter wgpu opens.
 
 #[allow(dead_code)]
 #[path = "render/support.rs"]
@@ -328,4 +329,52 @@ fn tone_parameters_are_smoothed_over_frames() {
     // The frames' own log averages differ by 1.3/0.7 = 1.86×; the smoothed ones by < 6% (the
     // bound of vem::tonemap's own test for the same flicker).
     assert!(hi / lo - 1.0 < 0.06, "smoothed swing {}", hi / lo - 1.0);
+}
+
+/// The report of each kind of frame, entry by entry and in order (part of `vem --scene`'s JSON
+/// lines), as recorded from the renderer before its passes became units (commit e556da0, one
+/// `render` function holding every decision).
+#[test]
+fn every_kind_of_frame_gives_the_recorded_report() {
+    let camera = support::camera([0.0, 1.4, 4.0], [0.0, 0.8, 0.0], 64, 48, [0.0; 5]);
+    let obj = support::icosphere(Vec3::new(0.0, 0.8, 0.0), 0.6, 1, material([0.5; 3], 0.0, 0.5, "ball"), "ball");
+    let l_lights = lights_of_map(&sky(), SamplerKind::Havran, Pattern::RelaxedHalton, 200);
+    let li = lists(&l_lights, 60);
+    let dark: Vec<Light> = l_lights.iter().map(|l| Light { rgb: [0.0; 3], ..*l }).collect();
+    let mut dark_lists = RegionLists::default();
+    li.h_set.build_lists(&dark, &mut dark_lists);
+    let bg = LinearImage::new(64, 48);
+    let proxy = ground();
+    let line = |r: &heliar::render::vem::VemReport| {
+        let skipped: Vec<String> = r.skipped.iter().map(|s| format!("{}: {}", s.pass, s.reason)).collect();
+        format!("maps={} lights={} glossy={} ran=[{}] skipped=[{}]", r.shadow_maps, r.lights, r.glossy_lights, r.ran.join(", "), skipped.join("; "))
+    };
+    let ok = VemLights { status: Status::Ok, h: (&li.h_set, &li.h), glossy: None, clusters: vec![] };
+    let glossy = VemLights { glossy: Some((&li.glossy, &li.l)), ..ok.clone() };
+    let dim = VemLights { status: Status::Dark, h: (&li.h_set, &dark_lists), glossy: None, clusters: vec![] };
+    let mut got = Vec::new();
+    for (proxy, objects, shadows) in [(Some(&proxy), vec![&obj], true), (None, vec![&obj], true), (None, vec![&obj], false), (Some(&proxy), vec![], true)] {
+        let mut r = renderer(&camera, proxy, &objects, VemRenderConfig { shadows, ..Default::default() });
+        for lights in [&ok, &glossy, &dim] {
+            got.push(line(&r.render(lights, &bg, 0.05).unwrap().report));
+        }
+    }
+    let want: Vec<&str> = vec![
+        "maps=14 lights=60 glossy=0 ran=[shadow_atlas, depth_prepass, receivers, shading, composite, tonemap] skipped=[]",
+        "maps=14 lights=60 glossy=200 ran=[shadow_atlas, depth_prepass, receivers, shading, composite, tonemap] skipped=[]",
+        "maps=0 lights=200 glossy=0 ran=[depth_prepass, shading, composite, tonemap] skipped=[shadow_atlas: the lights carry no power (status dark); receivers: no shadow maps this frame: the ratio is 1 everywhere]",
+        "maps=14 lights=60 glossy=0 ran=[shadow_atlas, depth_prepass, receivers, shading, composite, tonemap] skipped=[]",
+        "maps=14 lights=60 glossy=200 ran=[shadow_atlas, depth_prepass, receivers, shading, composite, tonemap] skipped=[]",
+        "maps=0 lights=200 glossy=0 ran=[depth_prepass, shading, composite, tonemap] skipped=[shadow_atlas: the lights carry no power (status dark); receivers: no shadow maps this frame: the ratio is 1 everywhere]",
+        "maps=0 lights=60 glossy=0 ran=[depth_prepass, shading, composite, tonemap] skipped=[shadow_atlas: shadows are off; receivers: no shadow maps this frame: the ratio is 1 everywhere]",
+        "maps=0 lights=60 glossy=200 ran=[depth_prepass, shading, composite, tonemap] skipped=[shadow_atlas: shadows are off; receivers: no shadow maps this frame: the ratio is 1 everywhere]",
+        "maps=0 lights=200 glossy=0 ran=[depth_prepass, shading, composite, tonemap] skipped=[shadow_atlas: shadows are off; receivers: no shadow maps this frame: the ratio is 1 everywhere]",
+        "maps=0 lights=60 glossy=0 ran=[depth_prepass, composite, tonemap] skipped=[shadow_atlas: the scene has no virtual objects; receivers: no shadow maps this frame: the ratio is 1 everywhere; shading: the scene has no virtual objects]",
+        "maps=0 lights=60 glossy=200 ran=[depth_prepass, composite, tonemap] skipped=[shadow_atlas: the scene has no virtual objects; receivers: no shadow maps this frame: the ratio is 1 everywhere; shading: the scene has no virtual objects]",
+        "maps=0 lights=200 glossy=0 ran=[depth_prepass, composite, tonemap] skipped=[shadow_atlas: the scene has no virtual objects; receivers: no shadow maps this frame: the ratio is 1 everywhere; shading: the scene has no virtual objects]",
+    ];
+    assert_eq!(got.len(), want.len(), "{}", got.join("\n"));
+    for (g, w) in got.iter().zip(want) {
+        assert_eq!(g, &w);
+    }
 }

@@ -1,5 +1,5 @@
 // Camera constants of the pinhole canvas the 3D passes draw into.
-// Mirrors `CameraUniform` in src/render/camera.rs.
+// Mirrors `CameraUniform` in src/gpu/canvas.rs.
 //
 // Projection: OpenCV camera (x right, y down, z forward) to wgpu clip space with reversed depth
 // and an infinite far plane: z_ndc = near / z_cam, so points at infinity (w = 0, the ends of

@@ -1,6 +1,6 @@
 // Lights of the captured-VEM mode (Havran 2005 §4.1–4.3) as the shaders read them.
-// Mirrors `GpuLight` (src/vem/regions.rs), `VemFrameUniform` (src/vem/gpu/shading.rs) and
-// `ShadowView` (src/vem/gpu/shadow_atlas.rs).
+// Mirrors `GpuLight` (src/vem/regions.rs), `VemFrameUniform` (src/render/vem/shading.rs) and
+// `ShadowView` (src/render/vem/shadow_atlas.rs).
 //
 // A list buffer (one for the set H, one for the glossy set L) holds u32 values: the cube-map LUT
 // (6·S·S region numbers, faces +X −X +Y −Y +Z −Z, row-major, row 0 at t = 0), then per region

@@ -2,7 +2,7 @@
 // shading pass are sampled through the lens warp (as in shaders/composite.wgsl) and
 //   out = objects + (1 − alpha) · background · ratio,
 // with the background the footage frame or the VEM seen through the camera (linear radiance),
-// and ratio the receivers' differential darkening. Paired with src/vem/gpu/composite.rs.
+// and ratio the receivers' differential darkening. Paired with src/render/vem/overlay.rs.
 
 #include "common/fullscreen.wgsl"
 

@@ -9,20 +9,12 @@
 // Receivers: the differential ratio Σ E_c·max(n·l_c,0)·V_c / Σ E_c·max(n·l_c,0) over the clustered
 // lights c (one per shadow map) that darkens the background where the objects shadow it.
 // Both passes write two targets: the objects' premultiplied radiance (alpha 1 where covered) and
-// the ratio (1 where there is no receiver). Paired with src/vem/gpu/shading.rs.
+// the ratio (1 where there is no receiver). Paired with src/render/vem/shading.rs.
 
-#include "common/camera.wgsl"
-#include "common/brdf.wgsl"
+#include "common/object.wgsl"
 #include "common/vem_lights.wgsl"
 
-struct Material {
-    // Linear base colour factor.
-    base_color: vec4<f32>,
-    // x: metallic, y: roughness, z: 1 when the base-colour texture is used, w: unused.
-    params: vec4<f32>,
-}
-
-@group(0) @binding(0) var<uniform> camera: Camera;
+// Group 0, binding 0 is the camera (common/object.wgsl).
 @group(0) @binding(1) var<uniform> frame: VemFrame;
 @group(0) @binding(2) var<storage, read> h_lights: array<VemLight>;
 @group(0) @binding(3) var<storage, read> h_lists: array<u32>;
@@ -36,23 +28,6 @@ struct Material {
 // Nearest-texel comparison (LessEqual): a depth texture cannot be read with textureLoad on GL.
 @group(0) @binding(9) var shadow_sampler: sampler_comparison;
 
-@group(1) @binding(0) var<uniform> material: Material;
-@group(1) @binding(1) var base_color_texture: texture_2d<f32>;
-@group(1) @binding(2) var base_color_sampler: sampler;
-
-struct VertexIn {
-    @location(0) position: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) uv: vec2<f32>,
-}
-
-struct VertexOut {
-    @invariant @builtin(position) position: vec4<f32>,
-    @location(0) world: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) uv: vec2<f32>,
-}
-
 struct ReceiverOut {
     @invariant @builtin(position) position: vec4<f32>,
     @location(0) world: vec3<f32>,
@@ -61,16 +36,6 @@ struct ReceiverOut {
 struct FragOut {
     @location(0) virtual_layer: vec4<f32>,
     @location(1) ratio: vec4<f32>,
-}
-
-@vertex
-fn vs_object(v: VertexIn) -> VertexOut {
-    var out: VertexOut;
-    out.position = clip_from_world_point(camera, vec4<f32>(v.position, 1.0));
-    out.world = v.position;
-    out.normal = v.normal;
-    out.uv = v.uv;
-    return out;
 }
 
 @vertex
@@ -142,21 +107,14 @@ fn shadow_visibility(slot: u32, p: vec3<f32>, n: vec3<f32>) -> f32 {
 
 @fragment
 fn fs_object(in: VertexOut, @builtin(front_facing) front: bool) -> FragOut {
-    var base = material.base_color.rgb;
-    if (material.params.z > 0.5) {
-        base *= textureSample(base_color_texture, base_color_sampler, in.uv).rgb;
-    }
-    var n = normalize(in.normal);
-    if (!front) {
-        n = -n;
-    }
+    let s = object_surface(in.uv);
+    let n = facing_normal(in.normal, front);
     let v = normalize(camera.eye_world.xyz - in.world);
-    let s = Surface(base, material.params.x, material.params.y);
     let r = reflect(-v, n);
     let glossy = (frame.h.w & VEM_GLOSSY) != 0u;
     let cos_cone = frame.params.x;
     var radiance = vec3<f32>(0.0);
-    // Lists are grouped by shadow slot (src/vem/gpu/mod.rs), so each map is read once per run.
+    // Lists are grouped by shadow slot (src/render/vem/frame.rs), so each map is read once per run.
     var slot = NO_SLOT;
     var vis = 1.0;
     let hl = h_list(n);

@@ -1,7 +1,7 @@
 // The VEM shadow-map atlas (Havran §4.3: shadows for the clustered lights): the virtual objects
 // into one 256² (configurable) tile per shadow map, depth only, orthographic along each light.
 // The tile is the draw's viewport; the instance index is the map's slot.
-// Paired with src/vem/gpu/shadow_atlas.rs.
+// Paired with src/render/vem/shadow_atlas.rs.
 
 #include "common/vem_lights.wgsl"
 

@@ -1,7 +1,7 @@
-// Global Reinhard tone mapping with the temporally smoothed parameters of src/vem/tonemap.rs
+// Global Reinhard tone mapping with the temporally smoothed parameters of src/vem/reinhard.rs
 // (Havran §5.1; Reinhard et al. 2002): L = a·L_w/L̄, L_d = L·(1 + L/L_white²)/(1 + L), colour
 // ratios kept. The target is an sRGB format, so the hardware applies the sRGB transfer.
-// `ToneParams::apply` is the CPU reference. Paired with src/vem/gpu/tonemap.rs.
+// `ToneParams::apply` is the CPU reference. Paired with src/render/vem/tonemap.rs.
 
 #include "common/fullscreen.wgsl"
 

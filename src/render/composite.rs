@@ -6,7 +6,7 @@
 //! window surface; only the target format differs.
 
 use super::RenderError;
-use crate::gpu::canvas::uniform_entry;
+use crate::gpu::canvas::{texture_entry, uniform_entry};
 use crate::gpu::shaders;
 
 /// Texture bindings of the composite pass, in `shaders/composite.wgsl` order.
@@ -24,23 +24,9 @@ pub struct Composite {
 
 /// Layout of the composite bind group.
 pub fn layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    let mut entries: Vec<wgpu::BindGroupLayoutEntry> = (0..TEXTURE_BINDINGS)
-        .map(|binding| {
-            // The footage-sized inputs are read with textureLoad (float formats that need not be
-            // filterable); the canvas layers are sampled bilinearly.
-            let filterable = binding >= FIRST_FILTERED;
-            wgpu::BindGroupLayoutEntry {
-                binding,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Float { filterable },
-                    view_dimension: wgpu::TextureViewDimension::D2,
-                    multisampled: false,
-                },
-                count: None,
-            }
-        })
-        .collect();
+    // The footage-sized inputs are read with textureLoad (float formats that need not be
+    // filterable); the canvas layers are sampled bilinearly.
+    let mut entries: Vec<wgpu::BindGroupLayoutEntry> = (0..TEXTURE_BINDINGS).map(|binding| texture_entry(binding, binding >= FIRST_FILTERED)).collect();
     entries.push(wgpu::BindGroupLayoutEntry {
         binding: TEXTURE_BINDINGS,
         visibility: wgpu::ShaderStages::FRAGMENT,
@@ -80,5 +66,30 @@ impl Composite {
             })
         };
         Ok(Self { composite: make("fs_composite", format), masks: masks_format.map(|f| make("fs_masks", f)) })
+    }
+
+    /// Records the composite into `target` (cleared first) and, with `masks` (a target of the
+    /// mask format) and the mask pipeline, the warped debug masks; `bind_group` is the
+    /// composite's group 0.
+    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, bind_group: &wgpu::BindGroup, target: &wgpu::TextureView, masks: Option<&wgpu::TextureView>) {
+        let fullscreen = |encoder: &mut wgpu::CommandEncoder, label: &str, view: &wgpu::TextureView, clear: wgpu::Color, pipeline: &wgpu::RenderPipeline| {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some(label),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load: wgpu::LoadOp::Clear(clear), store: wgpu::StoreOp::Store },
+                })],
+                ..Default::default()
+            });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, bind_group, &[]);
+            pass.draw(0..3, 0..1);
+        };
+        fullscreen(encoder, "composite", target, wgpu::Color::BLACK, &self.composite);
+        if let (Some(view), Some(pipeline)) = (masks, &self.masks) {
+            fullscreen(encoder, "warped masks", view, wgpu::Color::TRANSPARENT, pipeline);
+        }
     }
 }

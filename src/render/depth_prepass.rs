@@ -1,12 +1,16 @@
 //! Pass 1 (`shaders/depth_prepass.wgsl`): the real proxy and the virtual objects into depth only
-//! (Jensen §3.2: "scene occlusions would here be handled by the depth buffer").
+//! (Jensen §3.2: "scene occlusions would here be handled by the depth buffer"). Shared by the
+//! outdoor compositor and the VEM renderer (whose receivers are the proxy or a ground plane).
 //!
 //! The proxy is drawn first; the virtual objects then set the virtual-surface stencil bit where
-//! they are in front. Reversed depth: cleared to 0 (infinitely far), nearer is greater.
+//! they are in front (on a depth format with stencil; the VEM canvas has none). Reversed depth:
+//! cleared to 0 (infinitely far), nearer is greater. Each renderer opens the render pass (its
+//! clears, its scissor) and decides whether the pass runs; [`DepthPrepass::record`] draws.
 
 use super::RenderError;
-use crate::gpu::shaders;
 use super::stencil::VIRTUAL_SURFACE;
+use crate::gpu::mesh::{ProxyBuffers, VirtualBuffers};
+use crate::gpu::shaders;
 
 /// The two depth pipelines.
 pub struct DepthPrepass {
@@ -20,6 +24,7 @@ pub struct DepthPrepass {
 
 impl DepthPrepass {
     /// Builds the pipelines; `virtual_stride` is the byte stride of the virtual vertex buffer.
+    /// The virtual-surface bit is written when `depth_format` has a stencil aspect.
     pub fn new(
         device: &wgpu::Device,
         camera_layout: &wgpu::BindGroupLayout,
@@ -65,11 +70,32 @@ impl DepthPrepass {
             depth_fail_op: wgpu::StencilOperation::Keep,
             pass_op: wgpu::StencilOperation::Replace,
         };
-        let bit = wgpu::StencilState { front: set_bit, back: set_bit, read_mask: 0, write_mask: VIRTUAL_SURFACE };
+        let bit = if depth_format.has_stencil_aspect() {
+            wgpu::StencilState { front: set_bit, back: set_bit, read_mask: 0, write_mask: VIRTUAL_SURFACE }
+        } else {
+            wgpu::StencilState::default()
+        };
         Ok(Self {
             proxy: make("depth prepass proxy", 12, wgpu::StencilState::default(), None),
             virtual_: make("depth prepass virtual", virtual_stride, bit.clone(), None),
             virtual_closed: make("depth prepass virtual closed", virtual_stride, bit, Some(wgpu::Face::Back)),
         })
+    }
+
+    /// Draws the proxy (or any receiver mesh of positions) and then the virtual objects, which set
+    /// the virtual-surface stencil bit, with the camera bind group `camera`.
+    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, camera: &wgpu::BindGroup, proxy: &ProxyBuffers, objects: &VirtualBuffers) {
+        pass.set_bind_group(0, camera, &[]);
+        pass.set_pipeline(&self.proxy);
+        pass.set_vertex_buffer(0, proxy.vertices.slice(..));
+        pass.set_index_buffer(proxy.indices.slice(..), wgpu::IndexFormat::Uint32);
+        pass.draw_indexed(0..proxy.index_count, 0, 0..1);
+        pass.set_stencil_reference(VIRTUAL_SURFACE);
+        pass.set_vertex_buffer(0, objects.vertices.slice(..));
+        pass.set_index_buffer(objects.indices.slice(..), wgpu::IndexFormat::Uint32);
+        for d in &objects.draws {
+            pass.set_pipeline(if d.closed { &self.virtual_closed } else { &self.virtual_ });
+            pass.draw_indexed(d.indices.clone(), 0, 0..1);
+        }
     }
 }

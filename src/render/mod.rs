@@ -11,17 +11,22 @@
 //! | [`depth_prepass`] | real proxy and virtual objects into depth (never in colour) |
 //! | [`shadow_volume`] + [`stencil`] | z-fail shadow volumes of the directional sun, real parts down, virtual up, each resolved to a flag |
 //! | [`shadow_mask`] | samples in virtual but not real shadow, real surfaces in real shadow, and virtual-surface samples in any shadow, as MSAA coverage |
-//! | [`virtual_shading`] | glTF metallic–roughness sun term times the unshadowed fraction; ambient from the per-pixel [`transfer`] (`R_a·Pa + R_d·Pd`), or SH ambient per pixel times self-occlusion where it has no entry |
+//! | [`virtual_shading`] | glTF metallic–roughness sun term times the unshadowed fraction; ambient from the per-pixel [`object_transfer`] (`R_a·Pa + R_d·Pd`), or SH ambient per pixel times self-occlusion where it has no entry |
 //! | [`composite`] | in the footage's own pixel grid: lens warp of the canvas layers, footage darkened with the proxy's normal and `c` (and `c_v`, `b_v` with the objects present: contact shadows) |
 //!
 //! Volumes come from [`occluder`] (welded adjacency, closed or not) and [`volume`] (rayon) or
 //! [`volume_compute`] (a compute pass); [`reach`] decides which real parts need one;
-//! [`receivers`] holds the proxy's per-pixel normal, `c` and `b`; [`transfer`] the objects'
+//! [`receivers`] holds the proxy's per-pixel normal, `c` and `b`; [`object_transfer`] the objects'
 //! per-pixel ambient light, path-traced on the CPU; [`occlusion`] the objects' own ambient
-//! occlusion (the fallback's); [`camera`] the undistorted canvas and the lens warp; [`output`]
+//! occlusion (the fallback's); [`crate::gpu::canvas`] the undistorted canvas and the lens warp; [`output`]
 //! writes frames with the camera's response; [`target`] the window surface that shares all of
 //! the above; [`reference`] measures composites against reference frames rendered with the
-//! objects present.
+//! objects present; [`vem`] is the VEM mode's renderer, on the same GPU layer.
+//!
+//! Every pass is a unit ([`plan`]): it says whether it runs for a frame, and why not, before it
+//! records its own commands, and what it keeps between frames lives with it. Each renderer's
+//! frame is a list of its units read top to bottom ([`compositor`]'s `encode`, [`vem`]'s
+//! `render`), and the report's `ran` and `skipped` follow the list.
 //!
 //! Conventions are the crate's: world +Y up, metres; OpenCV camera; linear scene radiance with
 //! `L = ρ/π·(c·Pa + s·Pd·max(n·l,0) [+ b·Pd])`.
@@ -34,6 +39,7 @@ pub mod object_transfer;
 pub mod occluder;
 pub mod occlusion;
 pub mod output;
+pub mod plan;
 pub mod probes;
 pub mod reach;
 pub mod receivers;

@@ -94,133 +94,146 @@ fn find(parent: &mut [u32], mut x: u32) -> u32 {
 /// Most node names listed per component.
 const MAX_NODE_NAMES: usize = 3;
 
-impl Occluder {
-    /// Prepares `mesh` (world coordinates); `name` goes into warnings.
-    pub fn new(mesh: &Mesh, name: &str) -> Self {
-        // Weld.
-        let mut index: HashMap<[u32; 3], u32> = HashMap::with_capacity(mesh.positions.len());
-        let mut positions = Vec::new();
-        let remap: Vec<u32> = mesh
-            .positions
-            .iter()
-            .map(|&p| {
-                *index.entry(key(p)).or_insert_with(|| {
-                    positions.push(p);
-                    positions.len() as u32 - 1
-                })
+/// A triangle after welding: its corners (welded indices) and its source triangle.
+type Welded = ([u32; 3], u32);
+
+/// Welds `mesh`'s vertices by exact position: the welded positions, the triangles that keep
+/// three distinct corners, and how many were dropped.
+fn weld(mesh: &Mesh) -> (Vec<Vec3>, Vec<Welded>, usize) {
+    let mut index: HashMap<[u32; 3], u32> = HashMap::with_capacity(mesh.positions.len());
+    let mut positions = Vec::new();
+    let remap: Vec<u32> = mesh
+        .positions
+        .iter()
+        .map(|&p| {
+            *index.entry(key(p)).or_insert_with(|| {
+                positions.push(p);
+                positions.len() as u32 - 1
             })
-            .collect();
-        let mut tris: Vec<([u32; 3], u32)> = Vec::with_capacity(mesh.triangles.len());
-        let mut dropped = 0;
-        for (t, tri) in mesh.triangles.iter().enumerate() {
-            let w = tri.map(|i| remap[i as usize]);
-            if w[0] == w[1] || w[1] == w[2] || w[2] == w[0] {
-                dropped += 1;
-            } else {
-                tris.push((w, t as u32));
+        })
+        .collect();
+    let mut tris: Vec<Welded> = Vec::with_capacity(mesh.triangles.len());
+    let mut dropped = 0;
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        let w = tri.map(|i| remap[i as usize]);
+        if w[0] == w[1] || w[1] == w[2] || w[2] == w[0] {
+            dropped += 1;
+        } else {
+            tris.push((w, t as u32));
+        }
+    }
+    (positions, tris, dropped)
+}
+
+/// The faces around every edge: which faces they join, and what kind of edge it is.
+struct EdgeClasses {
+    /// Union-find parent of each face (faces sharing an edge are joined).
+    parent: Vec<u32>,
+    /// Edges with two faces that run them in opposite directions: (lo, hi, face lo→hi, face hi→lo).
+    good: Vec<(u32, u32, u32, u32)>,
+    /// A face per boundary edge.
+    boundary: Vec<u32>,
+    /// A face per non-manifold edge.
+    non_manifold: Vec<u32>,
+}
+
+/// Groups the edge records of `tris` by a sort and classifies each edge.
+fn classify_edges(tris: &[Welded]) -> EdgeClasses {
+    // Edge records (lo, hi, face, forward).
+    let mut recs: Vec<(u32, u32, u32, bool)> = Vec::with_capacity(tris.len() * 3);
+    for (f, (w, _)) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (w[k], w[(k + 1) % 3]);
+            recs.push((a.min(b), a.max(b), f as u32, a < b));
+        }
+    }
+    recs.par_sort_unstable();
+    let mut out = EdgeClasses { parent: (0..tris.len() as u32).collect(), good: Vec::new(), boundary: Vec::new(), non_manifold: Vec::new() };
+    let mut i = 0;
+    while i < recs.len() {
+        let mut j = i + 1;
+        while j < recs.len() && (recs[j].0, recs[j].1) == (recs[i].0, recs[i].1) {
+            j += 1;
+        }
+        let group = &recs[i..j];
+        for r in &group[1..] {
+            let (x, y) = (find(&mut out.parent, group[0].2), find(&mut out.parent, r.2));
+            if x != y {
+                out.parent[x as usize] = y;
             }
         }
-        // Edge records (lo, hi, face, forward) grouped by a sort.
-        let mut recs: Vec<(u32, u32, u32, bool)> = Vec::with_capacity(tris.len() * 3);
-        for (f, (w, _)) in tris.iter().enumerate() {
-            for k in 0..3 {
-                let (a, b) = (w[k], w[(k + 1) % 3]);
-                recs.push((a.min(b), a.max(b), f as u32, a < b));
+        match group {
+            [_] => out.boundary.push(group[0].2),
+            [p, q] if p.3 != q.3 => {
+                let (fwd, back) = if p.3 { (p.2, q.2) } else { (q.2, p.2) };
+                out.good.push((p.0, p.1, fwd, back));
             }
+            _ => out.non_manifold.push(group[0].2),
         }
-        recs.par_sort_unstable();
-        // Components by union-find over shared edges; edge classification.
-        let mut parent: Vec<u32> = (0..tris.len() as u32).collect();
-        let mut good_edge: Vec<(u32, u32, u32, u32)> = Vec::new(); // (lo, hi, face lo→hi, face hi→lo)
-        let mut bad_boundary: Vec<u32> = Vec::new(); // a face per boundary edge
-        let mut bad_manifold: Vec<u32> = Vec::new(); // a face per non-manifold edge
-        let mut i = 0;
-        while i < recs.len() {
-            let mut j = i + 1;
-            while j < recs.len() && (recs[j].0, recs[j].1) == (recs[i].0, recs[i].1) {
-                j += 1;
-            }
-            let group = &recs[i..j];
-            for r in &group[1..] {
-                let (x, y) = (find(&mut parent, group[0].2), find(&mut parent, r.2));
-                if x != y {
-                    parent[x as usize] = y;
-                }
-            }
-            match group {
-                [_] => bad_boundary.push(group[0].2),
-                [p, q] if p.3 != q.3 => {
-                    let (fwd, back) = if p.3 { (p.2, q.2) } else { (q.2, p.2) };
-                    good_edge.push((p.0, p.1, fwd, back));
-                }
-                _ => bad_manifold.push(group[0].2),
-            }
-            i = j;
-        }
-        // Per component: faces, bad edge counts.
-        let roots: Vec<u32> = (0..tris.len() as u32).map(|f| find(&mut parent, f)).collect();
+        i = j;
+    }
+    out
+}
+
+/// The connected components of the faces, in order of first face.
+struct Parts {
+    /// Component of each face.
+    of_face: Vec<usize>,
+    /// Faces of each component.
+    faces: Vec<Vec<u32>>,
+    /// Boundary edges per component.
+    boundary: Vec<usize>,
+    /// Non-manifold edges per component.
+    non_manifold: Vec<usize>,
+}
+
+impl Parts {
+    fn new(classes: &mut EdgeClasses, faces: usize) -> Self {
+        let roots: Vec<u32> = (0..faces as u32).map(|f| find(&mut classes.parent, f)).collect();
         let mut comp_of_root: HashMap<u32, usize> = HashMap::new();
         let mut comp_faces: Vec<Vec<u32>> = Vec::new();
+        let mut of_face = Vec::with_capacity(faces);
         for (f, r) in roots.iter().enumerate() {
             let c = *comp_of_root.entry(*r).or_insert_with(|| {
                 comp_faces.push(Vec::new());
                 comp_faces.len() - 1
             });
             comp_faces[c].push(f as u32);
+            of_face.push(c);
         }
-        let comp = |f: u32| comp_of_root[&roots[f as usize]];
         let mut boundary = vec![0usize; comp_faces.len()];
-        let mut manifold = vec![0usize; comp_faces.len()];
-        for f in bad_boundary {
-            boundary[comp(f)] += 1;
+        let mut non_manifold = vec![0usize; comp_faces.len()];
+        for &f in &classes.boundary {
+            boundary[of_face[f as usize]] += 1;
         }
-        for f in bad_manifold {
-            manifold[comp(f)] += 1;
+        for &f in &classes.non_manifold {
+            non_manifold[of_face[f as usize]] += 1;
         }
-        let mut order: Vec<usize> = (0..comp_faces.len()).collect();
+        Self { of_face, faces: comp_faces, boundary, non_manifold }
+    }
+
+    fn closed(&self, c: usize) -> bool {
+        self.boundary[c] + self.non_manifold[c] == 0
+    }
+}
+
+impl Occluder {
+    /// Prepares `mesh` (world coordinates); `name` goes into warnings.
+    pub fn new(mesh: &Mesh, name: &str) -> Self {
+        let (positions, tris, dropped) = weld(mesh);
+        let mut classes = classify_edges(&tris);
+        let parts = Parts::new(&mut classes, tris.len());
+        let mut order: Vec<usize> = (0..parts.faces.len()).collect();
         // Closed components first (stable: keeps the input order otherwise).
-        order.sort_by_key(|&c| boundary[c] + manifold[c] > 0);
+        order.sort_by_key(|&c| !parts.closed(c));
+        let mut out = Occluder { name: name.to_owned(), positions, dropped_degenerate: dropped, ..Default::default() };
         // Lay faces out component by component; new face index of every old face.
         let mut new_index = vec![0u32; tris.len()];
-        let mut out = Occluder { name: name.to_owned(), positions, dropped_degenerate: dropped, ..Default::default() };
-        let mut comp_edges: Vec<Vec<Edge>> = vec![Vec::new(); comp_faces.len()];
-        let mut components = Vec::with_capacity(order.len());
-        for &c in &order {
-            let start = out.faces.len();
-            let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
-            let mut nodes: Vec<String> = Vec::new();
-            for &f in &comp_faces[c] {
-                let (w, src) = tris[f as usize];
-                new_index[f as usize] = out.faces.len() as u32;
-                let [a, b, cc] = w.map(|i| out.positions[i as usize]);
-                for p in [a, b, cc] {
-                    lo = lo.min(p);
-                    hi = hi.max(p);
-                }
-                out.faces.push(w);
-                out.normals.push((b - a).cross(cc - a).normalize_or_zero());
-                out.source.push(src);
-                if nodes.len() < MAX_NODE_NAMES
-                    && let Some(node) = mesh.tri_node.get(src as usize).and_then(|&n| mesh.nodes.get(n as usize))
-                    && !nodes.contains(&node.name)
-                {
-                    nodes.push(node.name.clone());
-                }
-            }
-            let closed = boundary[c] + manifold[c] == 0;
-            components.push(Component {
-                nodes,
-                closed,
-                faces: start..out.faces.len(),
-                edges: 0..0,
-                boundary_edges: boundary[c],
-                non_manifold_edges: manifold[c],
-                bounds: (lo, hi),
-            });
-        }
-        for (lo_v, hi_v, fwd, back) in good_edge {
-            let c = comp(fwd);
-            if boundary[c] + manifold[c] == 0 {
+        let mut components: Vec<Component> = order.iter().map(|&c| out.push_component(mesh, &tris, &parts, c, &mut new_index)).collect();
+        let mut comp_edges: Vec<Vec<Edge>> = vec![Vec::new(); parts.faces.len()];
+        for &(lo_v, hi_v, fwd, back) in &classes.good {
+            let c = parts.of_face[fwd as usize];
+            if parts.closed(c) {
                 comp_edges[c].push(Edge { a: lo_v, b: hi_v, f0: new_index[fwd as usize], f1: new_index[back as usize] });
             }
         }
@@ -232,6 +245,41 @@ impl Occluder {
         out.closed_faces = components.iter().filter(|c| c.closed).map(|c| c.faces.len()).sum();
         out.components = components;
         out
+    }
+
+    /// Appends the faces of component `c` (their normals, sources and new indices) and gives
+    /// its description (edges filled in later).
+    fn push_component(&mut self, mesh: &Mesh, tris: &[Welded], parts: &Parts, c: usize, new_index: &mut [u32]) -> Component {
+        let start = self.faces.len();
+        let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+        let mut nodes: Vec<String> = Vec::new();
+        for &f in &parts.faces[c] {
+            let (w, src) = tris[f as usize];
+            new_index[f as usize] = self.faces.len() as u32;
+            let [a, b, cc] = w.map(|i| self.positions[i as usize]);
+            for p in [a, b, cc] {
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+            self.faces.push(w);
+            self.normals.push((b - a).cross(cc - a).normalize_or_zero());
+            self.source.push(src);
+            if nodes.len() < MAX_NODE_NAMES
+                && let Some(node) = mesh.tri_node.get(src as usize).and_then(|&n| mesh.nodes.get(n as usize))
+                && !nodes.contains(&node.name)
+            {
+                nodes.push(node.name.clone());
+            }
+        }
+        Component {
+            nodes,
+            closed: parts.closed(c),
+            faces: start..self.faces.len(),
+            edges: 0..0,
+            boundary_edges: parts.boundary[c],
+            non_manifold_edges: parts.non_manifold[c],
+            bounds: (lo, hi),
+        }
     }
 
     /// For each triangle of the input mesh (`n` of them): part of a closed component.

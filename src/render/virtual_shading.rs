@@ -10,24 +10,11 @@
 //! premultiplied linear radiance, alpha 1 where covered.
 
 use super::RenderError;
-use crate::gpu::canvas::uniform_entry;
+use crate::gpu::canvas::{storage_entry, texture_entry, uniform_entry};
 use crate::gpu::LAYER_FORMAT;
-use crate::gpu::mesh::VirtualVertex;
+use crate::gpu::mesh::{VirtualBuffers, VirtualVertex};
 use crate::gpu::shaders;
 use super::stencil::{VIRTUAL_SURFACE, test};
-
-fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable: false },
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: false,
-        },
-        count: None,
-    }
-}
 
 /// The shading pipelines (closed meshes culled, open ones two-sided) and their frame layout.
 pub struct VirtualShading {
@@ -38,15 +25,6 @@ pub struct VirtualShading {
     /// Group 0: camera, lighting, probe header, coefficients, validity, ambient occlusion, masks,
     /// and the transfer's `R_a`, `R_d`, points and normals.
     pub frame_layout: wgpu::BindGroupLayout,
-}
-
-fn storage_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { read_only: true }, has_dynamic_offset: false, min_binding_size: None },
-        count: None,
-    }
 }
 
 impl VirtualShading {
@@ -61,12 +39,12 @@ impl VirtualShading {
                 uniform_entry(2, wgpu::ShaderStages::FRAGMENT),
                 storage_entry(3),
                 storage_entry(4),
-                texture_entry(5),
-                texture_entry(6),
-                texture_entry(7),
-                texture_entry(8),
-                texture_entry(9),
-                texture_entry(10),
+                texture_entry(5, false),
+                texture_entry(6, false),
+                texture_entry(7, false),
+                texture_entry(8, false),
+                texture_entry(9, false),
+                texture_entry(10, false),
             ],
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -82,7 +60,7 @@ impl VirtualShading {
                 layout: Some(&layout),
                 vertex: wgpu::VertexState {
                     module: &module,
-                    entry_point: Some("vs_main"),
+                    entry_point: Some("vs_object"),
                     compilation_options: Default::default(),
                     buffers: &[Some(wgpu::VertexBufferLayout {
                         array_stride: std::mem::size_of::<VirtualVertex>() as u64,
@@ -114,4 +92,17 @@ impl VirtualShading {
 
     /// Stencil reference of both pipelines (samples showing a virtual surface).
     pub const REFERENCE: u32 = VIRTUAL_SURFACE;
+
+    /// Draws the objects with the frame bind group `frame` (group 0) and each draw's material.
+    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, frame: &wgpu::BindGroup, objects: &VirtualBuffers) {
+        pass.set_bind_group(0, frame, &[]);
+        pass.set_vertex_buffer(0, objects.vertices.slice(..));
+        pass.set_index_buffer(objects.indices.slice(..), wgpu::IndexFormat::Uint32);
+        pass.set_stencil_reference(Self::REFERENCE);
+        for d in &objects.draws {
+            pass.set_pipeline(if d.closed { &self.closed } else { &self.open });
+            pass.set_bind_group(1, &d.bind_group, &[]);
+            pass.draw_indexed(d.indices.clone(), 0, 0..1);
+        }
+    }
 }

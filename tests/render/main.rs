@@ -1,8 +1,10 @@
 //! GPU compositor tests, headless on whatever adapter wgpu finds (Mesa's lavapipe through Vulkan,
-//! or llvmpipe through GL). Every comparison is against an independent CPU reference, never
-//! against the compositor itself.
+//! or llvmpipe through GL). Every picture is compared with an independent CPU reference, never
+//! with the compositor itself; the pass reports of `report_order` are compared with those the
+//! compositor gave before its passes became units (the report is behaviour, see that module).
 
 mod courtyard;
+mod report_order;
 mod robust;
 mod shading;
 mod shadows;

@@ -2,7 +2,9 @@
 //! resolves), the footage-sized inputs of the composite (video, proxy data, lens warp) and the
 //! offscreen output.
 
+use crate::gpu::canvas::Canvas;
 use crate::gpu::texture::{Layer, Tex};
+use crate::render::receivers::Receivers;
 use crate::gpu::{Gpu, LAYER_FORMAT, MASK_FORMAT};
 
 /// Every texture of the compositor.
@@ -102,5 +104,16 @@ impl Resources {
         entries.push(wgpu::BindGroupEntry { binding: n, resource: wgpu::BindingResource::Sampler(&self.sampler) });
         entries.push(wgpu::BindGroupEntry { binding: n + 1, resource: lighting.as_entire_binding() });
         device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("composite"), layout, entries: &entries })
+    }
+
+    /// Uploads the canvas's lens warp and footprint and the proxy's per-pixel data.
+    pub fn write_receivers(&self, queue: &wgpu::Queue, canvas: &Canvas, receivers: &Receivers) {
+        self.warp.write(queue, &canvas.warp_footprint());
+        self.normal.write(queue, &receivers.normal);
+        self.albedo.write(queue, &receivers.albedo);
+        self.ambient.write(queue, &receivers.ambient);
+        self.bounce.write(queue, &receivers.bounce);
+        self.ambient_with.write(queue, &receivers.ambient_with);
+        self.bounce_with.write(queue, &receivers.bounce_with);
     }
 }

@@ -1,9 +1,23 @@
-//! The compositor's shadow volumes: the prepared occluders, the buffers the volume pass draws,
-//! and when they were built.
+//! The compositor's shadow volumes as units: the volume build (the prepared occluders and the
+//! buffers the volume passes draw) and the two volume passes, real and virtual.
+//!
+//! # How it works
+//! [`Volumes`] builds both kinds of volume for the frame's sun, real parts limited to those that
+//! can matter ([`crate::render::reach`]); [`RealVolumes`] and [`VirtualVolumes`] draw them into
+//! the depth prepass's render pass, z-fail counted and resolved to their stencil flags
+//! ([`crate::render::shadow_volume`], [`crate::render::stencil`]). All three are left out when the
+//! stored stencil serves the frame (it holds their result) and when they are switched off; the
+//! real pass also when no real part can shadow the objects or the surfaces their shadows fall
+//! on.
 
-use crate::render::RenderError;
+use super::context::FrameContext;
 use crate::gpu::Gpu;
+use crate::render::RenderError;
+use crate::render::frame::{PassReport, VolumeStats, pass};
 use crate::render::occluder::Occluder;
+use crate::render::plan::{Pass, Plan};
+use crate::render::shadow_volume::ShadowVolumePass;
+use crate::render::stencil::StencilResolve;
 use crate::render::reach::relevant_components;
 use crate::render::volume::{HVertex, Parts, build};
 use crate::render::volume_compute::{ComputeVolumes, GpuOccluder};
@@ -182,5 +196,105 @@ impl Volumes {
     /// The compute output buffers (tests read them back).
     pub fn compute_buffers(&self) -> Option<&[GpuOccluder]> {
         self.compute.as_ref().map(|(_, b)| b.as_slice())
+    }
+
+    /// The report's volume numbers before a build: the builder, and whether the stored
+    /// volumes' results are reused.
+    pub fn stats(&self, reused: bool) -> VolumeStats {
+        VolumeStats { compute: self.builder == Builder::Compute, reused, ..Default::default() }
+    }
+
+    /// Builds the volumes for the frame's sun (the plan said so) and reports the numbers.
+    pub fn record(&mut self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, ctx: &FrameContext, virtual_bounds: &[(Vec3, Vec3)], cap_offset_m: f32, report: &mut PassReport) {
+        let b = self.build(gpu, encoder, ctx.sun_dir, virtual_bounds, cap_offset_m);
+        report.timings.volume_build_ms = b.build_ms;
+        report.timings.upload_ms += b.upload_ms;
+        report.volumes.virtual_triangles = b.virtual_triangles;
+        report.volumes.real_triangles = b.real_triangles;
+        report.volumes.real_parts = b.real_parts;
+    }
+}
+
+impl Pass<FrameContext> for Volumes {
+    const NAME: &'static str = pass::VOLUME_BUILD;
+
+    fn plan(&self, ctx: &FrameContext) -> Plan {
+        match &ctx.reuse {
+            Some(why) => Plan::skip(why.clone()),
+            None if !ctx.switches.virtual_volumes && !ctx.switches.real_volumes => Plan::skip(ctx.off.clone()),
+            None => Plan::Run,
+        }
+    }
+}
+
+/// The plan of a volume pass switched `on` or off: the stored stencil's reason when it is
+/// reused (the switch's when the pass is off), the switch's when it is off.
+fn volume_plan(ctx: &FrameContext, on: bool) -> Option<Plan> {
+    match (&ctx.reuse, on) {
+        (Some(why), true) => Some(Plan::skip(why.clone())),
+        (_, false) => Some(Plan::skip(ctx.off.clone())),
+        (None, true) => None,
+    }
+}
+
+/// Pass 2a as a unit: the real occluders' volumes, counted down on z-fail and resolved to the
+/// real-shadow flag.
+pub struct RealVolumes<'a> {
+    /// The built volumes.
+    pub volumes: &'a Volumes,
+    /// The volume pipelines.
+    pub pipelines: &'a ShadowVolumePass,
+    /// The resolve pipelines.
+    pub resolve: &'a StencilResolve,
+}
+
+impl RealVolumes<'_> {
+    /// Records the volumes and their resolve into the depth prepass's render pass.
+    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>) {
+        pass.set_pipeline(&self.pipelines.real);
+        self.volumes.draw_real(pass);
+        self.resolve.record_real(pass);
+    }
+}
+
+impl Pass<FrameContext> for RealVolumes<'_> {
+    const NAME: &'static str = pass::REAL_VOLUMES;
+
+    fn plan(&self, ctx: &FrameContext) -> Plan {
+        volume_plan(ctx, ctx.switches.real_volumes).unwrap_or_else(|| {
+            if self.volumes.has_real() {
+                Plan::Run
+            } else {
+                Plan::skip("no part of the real proxy can shadow the virtual objects or the surfaces their shadows fall on")
+            }
+        })
+    }
+}
+
+/// Pass 2b as a unit: the virtual occluders' volumes, counted up on z-fail and resolved to the
+/// virtual-shadow flag.
+pub struct VirtualVolumes<'a> {
+    /// The built volumes.
+    pub volumes: &'a Volumes,
+    /// The volume pipelines.
+    pub pipelines: &'a ShadowVolumePass,
+    /// The resolve pipelines.
+    pub resolve: &'a StencilResolve,
+}
+
+impl VirtualVolumes<'_> {
+    /// Records the volumes and their resolve into the depth prepass's render pass.
+    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>) {
+        pass.set_pipeline(&self.pipelines.virtual_);
+        self.volumes.draw_virtual(pass);
+        self.resolve.record_virtual(pass);
+    }
+}
+
+impl Pass<FrameContext> for VirtualVolumes<'_> {
+    const NAME: &'static str = pass::VIRTUAL_VOLUMES;
+
+    fn plan(&self, ctx: &FrameContext) -> Plan {
+        volume_plan(ctx, ctx.switches.virtual_volumes).unwrap_or(Plan::Run)
     }
 }

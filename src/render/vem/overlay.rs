@@ -1,8 +1,14 @@
-//! The VEM composite (`shaders/vem/composite.wgsl`): in the footage's pixel grid, the canvas
-//! layers through the lens warp over the background, darkened by the receivers' ratio.
+//! The VEM composite (`shaders/vem/overlay.wgsl`): in the footage's pixel grid, the canvas
+//! layers through the lens warp over the background, darkened by the receivers' ratio. A unit
+//! that runs every frame (without objects the background passes through).
 
-use crate::render::RenderError;
+use super::frame::VemFrame;
+use super::pass;
+use super::targets::Targets;
+use crate::gpu::canvas::texture_entry;
 use crate::gpu::shaders;
+use crate::render::RenderError;
+use crate::render::plan::{Pass, Plan};
 
 /// The composite pipeline and its layout.
 pub struct CompositePass {
@@ -10,15 +16,6 @@ pub struct CompositePass {
     pub pipeline: wgpu::RenderPipeline,
     /// Group 0: background, warp, virtual layer, ratio layer, sampler.
     pub layout: wgpu::BindGroupLayout,
-}
-
-fn texture_entry(binding: u32, filterable: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Texture { sample_type: wgpu::TextureSampleType::Float { filterable }, view_dimension: wgpu::TextureViewDimension::D2, multisampled: false },
-        count: None,
-    }
 }
 
 impl CompositePass {
@@ -38,6 +35,55 @@ impl CompositePass {
         let pipeline = fullscreen_pipeline(device, &module, &layout, format, "vem composite");
         Ok(Self { pipeline, layout })
     }
+
+    /// Group 0 over the renderer's textures.
+    pub fn bind_group(&self, device: &wgpu::Device, t: &Targets) -> wgpu::BindGroup {
+        fn view(binding: u32, v: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
+            wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(v) }
+        }
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("vem composite"),
+            layout: &self.layout,
+            entries: &[
+                view(0, &t.background.view),
+                view(1, &t.warp.view),
+                view(2, &t.virtual_layer.view),
+                view(3, &t.ratio_layer.view),
+                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&t.sampler) },
+            ],
+        })
+    }
+
+    /// Records the composite into `target` (cleared first).
+    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, bind_group: &wgpu::BindGroup, target: &wgpu::TextureView) {
+        record_fullscreen(encoder, "vem composite", &self.pipeline, bind_group, target);
+    }
+}
+
+impl Pass<VemFrame> for CompositePass {
+    const NAME: &'static str = pass::COMPOSITE;
+
+    fn plan(&self, _: &VemFrame) -> Plan {
+        Plan::Run
+    }
+}
+
+/// Records one full-screen triangle of `pipeline` with group 0 `bind_group` into `target`,
+/// cleared to black first.
+pub fn record_fullscreen(encoder: &mut wgpu::CommandEncoder, label: &str, pipeline: &wgpu::RenderPipeline, bind_group: &wgpu::BindGroup, target: &wgpu::TextureView) {
+    let mut pa = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: target,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+        })],
+        ..Default::default()
+    });
+    pa.set_pipeline(pipeline);
+    pa.set_bind_group(0, bind_group, &[]);
+    pa.draw(0..3, 0..1);
 }
 
 /// A full-screen-triangle pipeline (`vs_main`, `fs_main`) writing `format`.

@@ -17,11 +17,17 @@
 //!   comparison sampler (GL cannot `textureLoad` a depth texture), with a normal offset of
 //!   [`NORMAL_OFFSET_TEXELS`] texels and a depth bias of [`DEPTH_BIAS_TEXELS`] texels against
 //!   self-shadowing acne.
+//! - **As a unit.** [`ShadowAtlasPass`] runs when the frame has shadow maps to draw (shadows on,
+//!   objects, lights with power: [`VemFrame::no_shadows`]) and records one viewport per map.
 
+use super::frame::VemFrame;
+use super::pass;
+use crate::gpu::mesh::VirtualBuffers;
+use crate::gpu::shaders;
+use crate::render::RenderError;
+use crate::render::plan::{Pass, Plan};
 use crate::vem::cluster::{DEFAULT_CF, cluster_lights, cluster_radius};
 use crate::vem::regions::GpuLight;
-use crate::render::RenderError;
-use crate::gpu::shaders;
 use glam::{Mat4, Vec3, Vec4};
 
 /// Default number of shadow maps (the 72).
@@ -155,6 +161,52 @@ impl ShadowAtlasPass {
             cache: None,
         });
         Ok(Self { pipeline, layout })
+    }
+}
+
+impl ShadowAtlasPass {
+    /// Records the atlas (cleared to the far depth 1): the objects once per map, `maps` maps of
+    /// `tile`² in rows of `tiles`, each map's view read from `views` by its slot (the instance).
+    #[allow(clippy::too_many_arguments)] // the pass's inputs, each named; a struct would only rename them
+    pub fn record(&self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder, atlas: &wgpu::TextureView, views: &wgpu::Buffer, objects: &VirtualBuffers, maps: u32, tiles: u32, tile: u32) {
+        let views_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("vem shadow views"),
+            layout: &self.layout,
+            entries: &[wgpu::BindGroupEntry { binding: 0, resource: views.as_entire_binding() }],
+        });
+        let mut pa = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("vem shadow atlas"),
+            color_attachments: &[],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: atlas,
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            ..Default::default()
+        });
+        pa.set_pipeline(&self.pipeline);
+        pa.set_bind_group(0, &views_bg, &[]);
+        pa.set_vertex_buffer(0, objects.vertices.slice(..));
+        pa.set_index_buffer(objects.indices.slice(..), wgpu::IndexFormat::Uint32);
+        for slot in 0..maps {
+            let (x, y) = ((slot % tiles) * tile, (slot / tiles) * tile);
+            pa.set_viewport(x as f32, y as f32, tile as f32, tile as f32, 0.0, 1.0);
+            pa.set_scissor_rect(x, y, tile, tile);
+            for d in &objects.draws {
+                pa.draw_indexed(d.indices.clone(), 0, slot..slot + 1);
+            }
+        }
+    }
+}
+
+impl Pass<VemFrame> for ShadowAtlasPass {
+    const NAME: &'static str = pass::SHADOW_ATLAS;
+
+    fn plan(&self, frame: &VemFrame) -> Plan {
+        match &frame.no_shadows {
+            Some(why) => Plan::skip(why.clone()),
+            None => Plan::Run,
+        }
     }
 }
 

@@ -1,0 +1,230 @@
+//! Setting the compositor up for one scene and camera: the occluders and their volumes, the
+//! per-pixel proxy data, the objects' own occlusion and transfer, the GPU buffers, textures and
+//! pipelines of every pass.
+
+use super::receiver_update::ReceiverPixels;
+use super::resources::Resources;
+use super::stencil_cache::StencilCache;
+use super::transfer::TransferPass;
+use super::{Compositor, CompositorConfig, PassSwitches, SceneParts, Volumes};
+use crate::geometry::Mesh;
+use crate::geometry::ambient::TransportQuality;
+use crate::geometry::raycast::RayScene;
+use crate::gpu::canvas::{Canvas, camera_layout};
+use crate::gpu::mesh::{ProxyBuffers, VirtualBuffers, VirtualVertex, material_layout};
+use crate::gpu::{Gpu, MASK_FORMAT};
+use crate::irradiance::ProbeGrid;
+use crate::render::RenderError;
+use crate::render::composite::{self, Composite};
+use crate::render::depth_prepass::DepthPrepass;
+use crate::render::frame::LightingUniform;
+use crate::render::object_transfer::{ObjectTransfer, TransferScene};
+use crate::render::occluder::Occluder;
+use crate::render::occlusion::virtual_occlusion;
+use crate::render::probes::GpuProbes;
+use crate::render::receivers::Receivers;
+use crate::render::shadow_mask::ShadowMask;
+use crate::render::shadow_volume::ShadowVolumePass;
+use crate::render::stencil::StencilResolve;
+use crate::render::virtual_shading::VirtualShading;
+use crate::scene::Scene;
+use glam::Vec3;
+use std::collections::HashMap;
+use std::sync::Arc;
+use wgpu::util::DeviceExt;
+
+/// The differential model computes `c_v`, `b_v` on real surfaces within this many bounding-box
+/// half-diagonals of a virtual object (an object of that size then takes less than about 2% of
+/// the sky's cosine-weighted solid angle), and at least [`MIN_NEAR_RADIUS_M`].
+const NEAR_RADIUS_HALF_DIAGONALS: f32 = 2.5;
+/// Smallest radius of the differential model's region, metres.
+const MIN_NEAR_RADIUS_M: f32 = 1.0;
+
+/// The occluders of the virtual objects and of the proxy, with their set-up warnings.
+fn occluders(parts: &SceneParts) -> (Vec<Occluder>, Occluder, Vec<String>) {
+    let virtual_occ: Vec<Occluder> = parts.objects.iter().map(|(name, mesh)| Occluder::new(mesh, name)).collect();
+    let proxy_occ = Occluder::new(parts.proxy, &format!("real proxy {}", parts.proxy_name));
+    let mut warnings: Vec<String> = virtual_occ.iter().flat_map(|o| o.warnings()).collect();
+    warnings.extend(proxy_occ.warnings());
+    (virtual_occ, proxy_occ, warnings)
+}
+
+/// The objects' own ambient occlusion per canvas pixel (1 everywhere without objects or rays).
+fn object_occlusion(canvas: &Canvas, scene: Option<&TransferScene>, config: &CompositorConfig) -> Vec<f32> {
+    match (config.occlusion_rays, scene) {
+        (rays @ 1.., Some(scene)) => {
+            // The objects alone: the transfer scene holds them in one mesh already.
+            virtual_occlusion(canvas, &RayScene::new(scene.objects.clone()), rays, config.seed)
+        }
+        _ => vec![1.0f32; (canvas.width * canvas.height) as usize],
+    }
+}
+
+/// The objects' transfer over `scene` (none with `transfer_paths = 0`), its points and normals
+/// uploaded.
+fn object_transfer(canvas: &Canvas, scene: Option<TransferScene>, config: &CompositorConfig, res: &Resources, queue: &wgpu::Queue) -> Option<(TransferScene, ObjectTransfer)> {
+    let scene = scene.filter(|_| config.transfer_paths > 0)?;
+    let q = TransportQuality { paths: config.transfer_paths, max_bounces: config.transfer_bounces };
+    let t = ObjectTransfer::new(canvas, &scene, q, config.transfer_stride, config.seed);
+    res.transfer_point.write(queue, &t.point);
+    res.transfer_normal.write(queue, &t.normal);
+    Some((scene, t))
+}
+
+/// The uniform buffers and the camera bind group.
+struct Uniforms {
+    camera_buf: wgpu::Buffer,
+    lighting_buf: wgpu::Buffer,
+    camera_bg: wgpu::BindGroup,
+}
+
+impl Uniforms {
+    fn new(d: &wgpu::Device, canvas: &Canvas, cam_layout: &wgpu::BindGroupLayout) -> Self {
+        let camera_buf = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("camera"),
+            contents: bytemuck::bytes_of(&canvas.uniform()),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let lighting_buf = d.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("lighting"),
+            size: std::mem::size_of::<LightingUniform>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let camera_bg = d.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("camera"),
+            layout: cam_layout,
+            entries: &[wgpu::BindGroupEntry { binding: 0, resource: camera_buf.as_entire_binding() }],
+        });
+        Self { camera_buf, lighting_buf, camera_bg }
+    }
+}
+
+/// The pipelines of the GPU passes.
+struct Pipelines {
+    prepass: DepthPrepass,
+    shadow: ShadowVolumePass,
+    resolve: StencilResolve,
+    shading: VirtualShading,
+    mask: ShadowMask,
+    composite_layout: wgpu::BindGroupLayout,
+    composites: HashMap<wgpu::TextureFormat, Composite>,
+}
+
+impl Pipelines {
+    fn new(gpu: &Gpu, cam_layout: &wgpu::BindGroupLayout, mat_layout: &wgpu::BindGroupLayout) -> Result<Self, RenderError> {
+        let (d, df, s) = (&gpu.device, gpu.depth_format, gpu.samples);
+        let composite_layout = composite::layout(d);
+        let mut composites = HashMap::new();
+        composites.insert(gpu.output_format, Composite::new(d, &composite_layout, gpu.output_format, Some(MASK_FORMAT))?);
+        Ok(Self {
+            prepass: DepthPrepass::new(d, cam_layout, df, s, std::mem::size_of::<VirtualVertex>() as u64)?,
+            shadow: ShadowVolumePass::new(d, cam_layout, df, s)?,
+            resolve: StencilResolve::new(d, df, s)?,
+            shading: VirtualShading::new(d, mat_layout, df, s)?,
+            mask: ShadowMask::new(d, df, s)?,
+            composite_layout,
+            composites,
+        })
+    }
+}
+
+impl Compositor {
+    /// Sets up the compositor for a loaded scene. `proxy_ray` is the proxy's BVH (the
+    /// estimator's).
+    pub fn for_scene(gpu: Arc<Gpu>, scene: &Scene, proxy_ray: Arc<RayScene>, config: CompositorConfig) -> Result<Self, RenderError> {
+        let objects = SceneParts::object_list(scene);
+        Self::new(gpu, &SceneParts::of(scene, &objects), proxy_ray, config)
+    }
+
+    /// Sets up the compositor for a camera, a proxy and virtual objects. `proxy_ray` is the
+    /// proxy's BVH.
+    pub fn new(gpu: Arc<Gpu>, parts: &SceneParts, proxy_ray: Arc<RayScene>, config: CompositorConfig) -> Result<Self, RenderError> {
+        let canvas = Canvas::new(parts.camera, config.supersample);
+        let receivers = Receivers::new(parts.camera, &proxy_ray, config.seed);
+        let (virtual_occ, proxy_occ, warnings) = occluders(parts);
+        let virtual_bounds: Vec<(Vec3, Vec3)> = parts.objects.iter().filter_map(|(_, m)| m.bounds()).collect();
+        let near_radius_m = virtual_bounds.iter().map(|(lo, hi)| (*hi - *lo).length() / 2.0 * NEAR_RADIUS_HALF_DIAGONALS).fold(MIN_NEAR_RADIUS_M, f32::max);
+        let meshes: Vec<&Mesh> = parts.objects.iter().map(|(_, m)| *m).collect();
+        let transfer_scene = (!parts.objects.is_empty()).then(|| TransferScene::new(parts.proxy, &meshes));
+        let with_ray = transfer_scene.as_ref().map(|t| t.world.clone());
+        let closed: Vec<Vec<bool>> = virtual_occ.iter().zip(parts.objects).map(|(o, (_, m))| o.closed_triangles(m.triangles.len())).collect();
+        let volumes = Volumes::new(&gpu, virtual_occ, proxy_occ, config.builder)?;
+        let d = &gpu.device;
+        let res = Resources::new(&gpu, (canvas.width, canvas.height), (canvas.out_width, canvas.out_height));
+        let cam_layout = camera_layout(d);
+        let uniforms = Uniforms::new(d, &canvas, &cam_layout);
+        let mat_layout = material_layout(d);
+        let virt = VirtualBuffers::new(d, &gpu.queue, &mat_layout, &meshes, &closed)?;
+        let proxy = ProxyBuffers::new(d, parts.proxy);
+        let p = Pipelines::new(&gpu, &cam_layout, &mat_layout)?;
+        let composite_bg = res.composite_bind_group(d, &p.composite_layout, &uniforms.lighting_buf);
+        let probes = GpuProbes::new(d, &gpu.queue, &ProbeGrid::filled(Vec3::ZERO, Vec3::ZERO, 1.0, [[0.0; 3]; 9]));
+        res.occlusion.write(&gpu.queue, &object_occlusion(&canvas, transfer_scene.as_ref(), &config));
+        let transfer = TransferPass::new(object_transfer(&canvas, transfer_scene, &config, &res, &gpu.queue), config.bounce_rebuild_deg);
+        let shading_bg = Self::shading_bind_group(d, &p.shading, &uniforms.camera_buf, &uniforms.lighting_buf, &probes, &res);
+        res.write_receivers(&gpu.queue, &canvas, &receivers);
+        Ok(Self {
+            config,
+            canvas,
+            proxy_ray,
+            receivers,
+            volumes,
+            virtual_bounds,
+            res,
+            camera_bg: uniforms.camera_bg,
+            lighting_buf: uniforms.lighting_buf,
+            camera_buf: uniforms.camera_buf,
+            probes,
+            shading_bg,
+            proxy,
+            virt,
+            prepass: p.prepass,
+            shadow: p.shadow,
+            resolve: p.resolve,
+            shading: p.shading,
+            mask: p.mask,
+            composite_layout: p.composite_layout,
+            composite_bg,
+            composites: p.composites,
+            stencil: StencilCache::default(),
+            switches: PassSwitches::default(),
+            switched_off_reason: String::new(),
+            warnings,
+            frames: 0,
+            with_ray,
+            transfer,
+            receiver_pixels: ReceiverPixels::new(near_radius_m),
+            gpu,
+        })
+    }
+
+    /// Group 0 of the shading pass: camera, lighting, probes, the objects' occlusion, the
+    /// resolved masks and the transfer textures.
+    pub(super) fn shading_bind_group(
+        d: &wgpu::Device,
+        shading: &VirtualShading,
+        camera: &wgpu::Buffer,
+        lighting: &wgpu::Buffer,
+        probes: &GpuProbes,
+        res: &Resources,
+    ) -> wgpu::BindGroup {
+        d.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("shading frame"),
+            layout: &shading.frame_layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: camera.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: lighting.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: probes.header.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: probes.coeffs.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: probes.valid.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::TextureView(&res.occlusion.view) },
+                wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&res.masks.resolved.view) },
+                wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::TextureView(&res.transfer_sky.view) },
+                wgpu::BindGroupEntry { binding: 8, resource: wgpu::BindingResource::TextureView(&res.transfer_sun.view) },
+                wgpu::BindGroupEntry { binding: 9, resource: wgpu::BindingResource::TextureView(&res.transfer_point.view) },
+                wgpu::BindGroupEntry { binding: 10, resource: wgpu::BindingResource::TextureView(&res.transfer_normal.view) },
+            ],
+        })
+    }
+}

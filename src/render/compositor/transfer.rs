@@ -1,0 +1,81 @@
+//! The object-transfer pass as a unit: the virtual objects' per-pixel ambient transfer
+//! ([`crate::render::object_transfer`]), traced on the CPU and uploaded for the shading pass.
+//!
+//! # How it works
+//! The transfer is traced on the first frame and again when the sun has moved more than
+//! `bounce_rebuild_deg` from the direction it was traced for (as far as the bounce `b` is
+//! allowed to lag); a frame without sun keeps it (its shading ignores `R_d`). The unit's plan
+//! says which, with the report's reason, before anything is traced.
+
+use super::context::{FrameContext, angle_deg};
+use super::resources::Resources;
+use crate::render::frame::{PassReport, pass};
+use crate::render::object_transfer::{ObjectTransfer, TransferScene};
+use crate::render::plan::{Pass, Plan};
+
+/// The transfer and its scene, when it is on.
+pub struct TransferPass {
+    traced: Option<(TransferScene, ObjectTransfer)>,
+    rebuild_deg: f64,
+}
+
+impl TransferPass {
+    /// The unit for `traced` (`None`: `transfer_paths = 0` or no objects), retraced past a sun
+    /// motion of `rebuild_deg`.
+    pub fn new(traced: Option<(TransferScene, ObjectTransfer)>, rebuild_deg: f64) -> Self {
+        Self { traced, rebuild_deg }
+    }
+
+    /// The transfer, when it is on.
+    pub fn transfer(&self) -> Option<&ObjectTransfer> {
+        self.traced.as_ref().map(|(_, t)| t)
+    }
+
+    /// The lattice stride the shading pass reads the transfer with (0: off this frame).
+    pub fn shader_stride(&self, ctx: &FrameContext) -> f32 {
+        match &self.traced {
+            Some((_, t)) if ctx.switches.transfer => t.stride() as f32,
+            _ => 0.0,
+        }
+    }
+
+    /// Traces the transfer for this frame's sun and uploads it (the plan said it must).
+    pub fn record(&mut self, ctx: &FrameContext, queue: &wgpu::Queue, res: &Resources, report: &mut PassReport) {
+        let Some((scene, transfer)) = &mut self.traced else { return };
+        let u = transfer.ensure(scene, ctx.sun(), self.rebuild_deg);
+        debug_assert!(u.traced > 0, "the plan said the transfer must be traced");
+        report.timings.transfer_ms = u.ms;
+        report.transfer_traced = u.traced;
+        let t = std::time::Instant::now();
+        res.transfer_sky.write(queue, &transfer.sky);
+        res.transfer_sun.write(queue, &transfer.sun);
+        report.timings.upload_ms += t.elapsed().as_secs_f64() * 1e3;
+    }
+}
+
+impl Pass<FrameContext> for TransferPass {
+    const NAME: &'static str = pass::OBJECT_TRANSFER;
+
+    fn plan(&self, ctx: &FrameContext) -> Plan {
+        let Some((_, transfer)) = &self.traced else {
+            return Plan::skip("transfer_paths = 0: ambient from the probe grid times ambient occlusion");
+        };
+        if !ctx.switches.transfer {
+            return Plan::skip(ctx.off.clone());
+        }
+        if transfer.needs_trace(ctx.sun(), self.rebuild_deg) {
+            return Plan::Run;
+        }
+        if transfer.surfaces().is_empty() {
+            return Plan::skip("no canvas pixel shows a virtual object");
+        }
+        Plan::skip(match (transfer.traced_sun(), ctx.sun()) {
+            (Some(a), Some(l)) => format!(
+                "the sun moved {:.3}° ≤ {}° since it was traced and the camera and objects are static: the transfer is reused",
+                angle_deg(a, l),
+                self.rebuild_deg
+            ),
+            _ => "no sun: the traced sky transfer is reused (camera and objects are static)".to_owned(),
+        })
+    }
+}
