@@ -127,7 +127,7 @@ fn frame_times_that_do_not_increase_are_named_or_refused() {
     input.clock = FrameClock::List { times: vec![t0; 12], looped: false };
     let gpu = Arc::new(Gpu::new(GpuOptions { samples: 1 }).expect("a GPU adapter (lavapipe or llvmpipe)"));
     let config = CompositorConfig { transfer_paths: 0, ..CompositorConfig::for_scene(&scene) };
-    let mut session = || {
+    let session = || {
         let est = heliar::estimate::Estimator::new(&scene, ray.clone()).unwrap();
         let comp = Compositor::for_scene(gpu.clone(), &scene, ray.clone(), config.clone()).unwrap();
         OutdoorSession::new(OutdoorStage::new(est, Box::new(heliar::irradiance::sources::UniformSky::for_scene(&scene))), comp)
