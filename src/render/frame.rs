@@ -143,6 +143,11 @@ pub struct PassReport {
     pub receivers_computed: usize,
     /// Canvas pixels whose ambient transfer was traced this frame.
     pub transfer_traced: usize,
+    /// Work earlier frames decided on that this frame did instead: a run resumed after an
+    /// interruption replays its written frames without their work, and the first new frame
+    /// pays what they owe (absent in uninterrupted runs).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub restored: Vec<&'static str>,
     /// The canvas rectangle the 3D passes drew (`None`: the whole canvas).
     pub canvas_region: Option<crate::render::region::Rect>,
     /// Timings.

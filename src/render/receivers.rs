@@ -44,6 +44,10 @@ pub struct Receivers {
     pub bounce_with: Vec<[f32; 4]>,
     /// Pixels whose `c` has been computed.
     have_ambient: Vec<bool>,
+    /// `c_v`, `b_v` are known.
+    have_with: Vec<bool>,
+    /// The steps replayed frames decided on but did not do, in order (see [`Receivers::replay`]).
+    owed: Vec<Owed>,
     /// Pixels whose `b` has been computed for `bounce_sun`.
     have_bounce: Vec<bool>,
     /// Sun direction the bounce values belong to.
@@ -57,6 +61,15 @@ pub struct Receivers {
 /// Sub-pixel rays per axis for the sunlit fraction of a pixel (a pixel on a real shadow's edge is
 /// partly lit in the footage; the differential model darkens exactly that part).
 const LIT_SUBPIXELS: u32 = 4;
+
+/// One step of a replayed frame, redone by [`Receivers::restore`] in the order it was decided:
+/// the sun moved and the bounce values were dropped, or pixels computed for a bounce sun
+/// (with or without the objects).
+#[derive(Clone, Debug, PartialEq)]
+enum Owed {
+    Reset,
+    Compute { todo: Vec<u32>, bounce_sun: Option<Vec3>, with: bool },
+}
 
 /// The fraction of pixel `p` (footage grid) whose first proxy surface sees the sun `l`.
 fn lit_fraction(camera: &Camera, proxy: &RayScene, p: u32, l: Vec3) -> f32 {
@@ -112,6 +125,8 @@ impl Receivers {
             ambient_with: vec![[1.0, 1.0, 1.0, 0.0]; n],
             bounce_with: vec![[0.0; 4]; n],
             have_ambient: vec![false; n],
+            have_with: vec![false; n],
+            owed: Vec::new(),
             have_bounce: vec![false; n],
             bounce_sun: None,
             seed,
@@ -135,7 +150,59 @@ impl Receivers {
         rebuild_deg: f64,
     ) -> EnsureStats {
         let t = std::time::Instant::now();
-        let mut stats = EnsureStats::default();
+        let (todo, bounce_sun, bounce_reset) = self.advance(pixels, sun, rebuild_deg, with.is_some());
+        let q = if bounce_sun.is_some() { bounce_quality } else { ambient_quality };
+        self.compute(proxy, with, &todo, bounce_sun, q);
+        EnsureStats { computed: todo.len(), bounce_reset, ms: t.elapsed().as_secs_f64() * 1e3 }
+    }
+
+    /// What [`Self::ensure`] decides, without computing: the cached state moves on as if it had
+    /// computed, and each pixel's computation is owed with the sun it would have used (a run
+    /// resumed after an interruption replays its earlier frames this way). [`Self::restore`]
+    /// pays what is owed, so the values end up as the uninterrupted run's.
+    pub fn replay(&mut self, pixels: &[u32], sun: Option<Vec3>, rebuild_deg: f64, with: bool) -> EnsureStats {
+        let (todo, bounce_sun, bounce_reset) = self.advance(pixels, sun, rebuild_deg, with);
+        if bounce_reset {
+            self.owed.push(Owed::Reset);
+        }
+        let computed = todo.len();
+        if computed > 0 {
+            self.owed.push(Owed::Compute { todo, bounce_sun, with });
+        }
+        EnsureStats { computed, bounce_reset, ms: 0.0 }
+    }
+
+    /// True when replayed frames owe computations.
+    pub fn owes(&self) -> bool {
+        !self.owed.is_empty()
+    }
+
+    /// Redoes what [`Self::replay`] left owed, step by step as the frames that decided on it
+    /// would have (a pixel computed twice is computed twice, a reset drops the bounce values
+    /// computed before it); returns the pixels computed.
+    pub fn restore(&mut self, proxy: &RayScene, with: Option<&RayScene>, ambient_quality: TransportQuality, bounce_quality: TransportQuality) -> usize {
+        let mut computed = 0;
+        for step in std::mem::take(&mut self.owed) {
+            match step {
+                Owed::Reset => {
+                    self.bounce.iter_mut().for_each(|b| *b = [0.0; 4]);
+                    self.bounce_with.iter_mut().for_each(|b| *b = [0.0; 4]);
+                }
+                Owed::Compute { todo, bounce_sun, with: with_on } => {
+                    let q = if bounce_sun.is_some() { bounce_quality } else { ambient_quality };
+                    self.compute(proxy, with.filter(|_| with_on), &todo, bounce_sun, q);
+                    computed += todo.len();
+                }
+            }
+        }
+        computed
+    }
+
+    /// The bookkeeping of [`Self::ensure`]: drops the sun-dependent values when the sun moved,
+    /// marks the pixels to compute as known, and returns them with the bounce sun they use and
+    /// whether the bounce was reset.
+    fn advance(&mut self, pixels: &[u32], sun: Option<Vec3>, rebuild_deg: f64, with: bool) -> (Vec<u32>, Option<Vec3>, bool) {
+        let mut reset = false;
         if let Some(l) = sun {
             let moved = self.bounce_sun.is_none_or(|s| (s.dot(l).clamp(-1.0, 1.0).acos().to_degrees() as f64) > rebuild_deg);
             if moved {
@@ -143,11 +210,10 @@ impl Receivers {
                 self.bounce.iter_mut().for_each(|b| *b = [0.0; 4]);
                 self.bounce_with.iter_mut().for_each(|b| *b = [0.0; 4]);
                 self.bounce_sun = Some(l);
-                stats.bounce_reset = true;
+                reset = true;
             }
         }
         let bounce_sun = sun.and(self.bounce_sun);
-        let with_ready = |i: usize| with.is_none() || self.ambient_with[i][3] > 0.0;
         let todo: Vec<u32> = pixels
             .iter()
             .copied()
@@ -155,9 +221,21 @@ impl Receivers {
                 let i = p as usize;
                 i < self.point.len()
                     && self.point[i].is_some()
-                    && (!self.have_ambient[i] || !with_ready(i) || (bounce_sun.is_some() && !self.have_bounce[i]))
+                    && (!self.have_ambient[i] || (with && !self.have_with[i]) || (bounce_sun.is_some() && !self.have_bounce[i]))
             })
             .collect();
+        for &p in &todo {
+            let i = p as usize;
+            self.have_ambient[i] = true;
+            self.have_bounce[i] |= bounce_sun.is_some();
+            self.have_with[i] |= with;
+        }
+        (todo, bounce_sun, reset)
+    }
+
+    /// Path-traces `c`, `b`, the sunlit fraction (and with `with`, `c_v`, `b_v`) at `todo` for
+    /// `bounce_sun` with quality `q`, into the stored values.
+    fn compute(&mut self, proxy: &RayScene, with: Option<&RayScene>, todo: &[u32], bounce_sun: Option<Vec3>, q: TransportQuality) {
         let seed = self.seed;
         type Row = (u32, Vec3, Vec3, f32, Option<(Vec3, Vec3)>);
         let results: Vec<Row> = todo
@@ -166,7 +244,6 @@ impl Receivers {
                 let i = p as usize;
                 let point = self.point[i]?;
                 let n = Vec3::new(self.normal[i][0], self.normal[i][1], self.normal[i][2]);
-                let q = if bounce_sun.is_some() { bounce_quality } else { ambient_quality };
                 let pixel_seed = seed ^ (p as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
                 let tr = transport(proxy, point, n, bounce_sun, q, pixel_seed);
                 let lit = bounce_sun.map_or(0.0, |l| lit_fraction(&self.camera, proxy, p, l));
@@ -182,19 +259,14 @@ impl Receivers {
         for (p, c, b, lit, tv) in results {
             let i = p as usize;
             self.ambient[i] = [c.x, c.y, c.z, lit];
-            self.have_ambient[i] = true;
             if bounce_sun.is_some() {
                 self.bounce[i] = [b.x, b.y, b.z, 1.0];
-                self.have_bounce[i] = true;
             }
             if let Some((cv, bv)) = tv {
                 self.ambient_with[i] = [cv.x, cv.y, cv.z, 1.0];
                 self.bounce_with[i] = [bv.x, bv.y, bv.z, 1.0];
             }
         }
-        stats.computed = todo.len();
-        stats.ms = t.elapsed().as_secs_f64() * 1e3;
-        stats
     }
 
     /// Pixels whose surface point lies within `radius_m` of one of the boxes `bounds`, where a

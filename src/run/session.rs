@@ -63,6 +63,19 @@ impl OutdoorSession {
         Ok(FrameRecord { estimate: light.estimate, lighting: light.lighting, relight, estimate_ms: light.estimate_ms, composite_ms: 0.0 })
     }
 
+    /// Keeps the state of every stage going over a frame whose output exists already (a resumed
+    /// run): the estimator's smoothing, the relights of the probes, and the compositor's
+    /// decisions (replayed without their work: see `render::compositor::replay`), so the frames
+    /// that follow equal an uninterrupted run's.
+    pub fn replay(&mut self, index: usize, time: &DateTime<FixedOffset>, frame: &Frame, lin: &Linearizer) -> anyhow::Result<FrameEstimate> {
+        let light = self.stage.light(index, time, frame, lin)?;
+        if let Some(grid) = light.grid {
+            self.compositor.set_probes(grid);
+        }
+        self.compositor.replay(&light.lighting);
+        Ok(light.estimate)
+    }
+
     /// One frame: estimate, relight when needed, composite offscreen and read back.
     pub fn process(&mut self, index: usize, time: &DateTime<FixedOffset>, frame: &Frame, lin: &Linearizer) -> anyhow::Result<OutdoorFrame> {
         let mut record = self.prepare(index, time, frame, lin)?;

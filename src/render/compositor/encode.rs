@@ -32,7 +32,10 @@ impl Compositor {
         let mut report = ctx.begin_report();
         let mut encoder = self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
 
-        // CPU work and uploads.
+        // Work replayed frames owe (a resumed run), then the frame's CPU work and uploads.
+        if self.owes() {
+            self.restore(&ctx, &mut encoder, &mut report);
+        }
         self.update_region(&ctx, &mut report);
         report.volumes = self.volumes.stats(ctx.reuses());
         if ctx.admit(&self.volumes, &mut report) {

@@ -54,6 +54,7 @@ mod config;
 mod context;
 mod encode;
 mod receiver_update;
+mod replay;
 mod resources;
 mod setup;
 mod stencil_cache;
@@ -129,6 +130,8 @@ pub struct Compositor {
     transfer: TransferPass,
     /// The proxy pixels whose `c`, `b` (`c_v`, `b_v`) are kept up to date.
     receiver_pixels: ReceiverPixels,
+    /// The stencil rebuild replayed frames owe (a resumed run; see `replay`).
+    owed_stencil: Option<replay::OwedStencil>,
 }
 
 impl Compositor {

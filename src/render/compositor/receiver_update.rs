@@ -40,7 +40,7 @@ impl ReceiverPixels {
     }
 
     /// The pixels for `sun` (`None`: no sun term) and the model, rebuilt past `rebuild_deg`.
-    fn pixels(&mut self, receivers: &Receivers, bounds: &[(Vec3, Vec3)], sun: Option<Vec3>, differential: bool, rebuild_deg: f64) -> &[u32] {
+    pub(super) fn pixels(&mut self, receivers: &Receivers, bounds: &[(Vec3, Vec3)], sun: Option<Vec3>, differential: bool, rebuild_deg: f64) -> &[u32] {
         let key = (sun, differential);
         let stale = match &self.chosen {
             Some((k, _)) => match (k.0, key.0) {
@@ -83,12 +83,17 @@ impl Compositor {
         report.timings.receivers_ms = s.ms;
         if s.computed > 0 || s.bounce_reset {
             let t = std::time::Instant::now();
-            let q = &self.gpu.queue;
-            self.res.ambient.write(q, &self.receivers.ambient);
-            self.res.bounce.write(q, &self.receivers.bounce);
-            self.res.ambient_with.write(q, &self.receivers.ambient_with);
-            self.res.bounce_with.write(q, &self.receivers.bounce_with);
+            self.upload_receivers();
             report.timings.upload_ms += t.elapsed().as_secs_f64() * 1e3;
         }
+    }
+
+    /// Uploads the receivers' `c`, `b`, `c_v`, `b_v`.
+    pub(super) fn upload_receivers(&self) {
+        let q = &self.gpu.queue;
+        self.res.ambient.write(q, &self.receivers.ambient);
+        self.res.bounce.write(q, &self.receivers.bounce);
+        self.res.ambient_with.write(q, &self.receivers.ambient_with);
+        self.res.bounce_with.write(q, &self.receivers.bounce_with);
     }
 }

@@ -195,6 +195,7 @@ impl Compositor {
             with_ray,
             transfer,
             receiver_pixels: ReceiverPixels::new(near_radius_m),
+            owed_stencil: None,
             gpu,
         })
     }

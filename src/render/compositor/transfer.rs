@@ -53,6 +53,34 @@ impl TransferPass {
     }
 }
 
+impl TransferPass {
+    /// The decision of [`Self::record`] for this frame's sun, without tracing (a replayed frame).
+    pub fn replay(&mut self, ctx: &FrameContext) {
+        if let Some((_, transfer)) = &mut self.traced {
+            transfer.replay(ctx.sun(), self.rebuild_deg);
+        }
+    }
+
+    /// True when replayed frames owe a trace.
+    pub fn owes(&self) -> bool {
+        self.traced.as_ref().is_some_and(|(_, t)| t.owes())
+    }
+
+    /// Traces what replayed frames owe and uploads it; true when it traced.
+    pub fn restore(&mut self, queue: &wgpu::Queue, res: &Resources, report: &mut PassReport) -> bool {
+        let Some((scene, transfer)) = &mut self.traced else { return false };
+        let u = transfer.restore(scene);
+        if u.traced == 0 {
+            return false;
+        }
+        report.timings.transfer_ms += u.ms;
+        report.transfer_traced += u.traced;
+        res.transfer_sky.write(queue, &transfer.sky);
+        res.transfer_sun.write(queue, &transfer.sun);
+        true
+    }
+}
+
 impl Pass<FrameContext> for TransferPass {
     const NAME: &'static str = pass::OBJECT_TRANSFER;
 

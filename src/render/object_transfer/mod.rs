@@ -290,6 +290,8 @@ pub struct ObjectTransfer {
     /// Sun direction `sun` belongs to; `None` before the first trace with a sun.
     traced_sun: Option<Vec3>,
     traced: bool,
+    /// A trace replayed frames decided on but did not do (with its sun), paid by `restore`.
+    owed: Option<Option<Vec3>>,
     quality: TransportQuality,
     seed: u64,
 }
@@ -310,7 +312,7 @@ impl ObjectTransfer {
             point[s.pixel as usize] = [s.point.x, s.point.y, s.point.z, s.footprint_m];
             normal[s.pixel as usize] = [s.normal.x, s.normal.y, s.normal.z, 0.0];
         }
-        Self { surfaces, object_pixels, stride, sky: vec![[0.0; 4]; n], sun: vec![[0.0; 4]; n], point, normal, traced_sun: None, traced: false, quality, seed }
+        Self { surfaces, object_pixels, stride, sky: vec![[0.0; 4]; n], sun: vec![[0.0; 4]; n], point, normal, traced_sun: None, traced: false, owed: None, quality, seed }
     }
 
     /// The traced pixels (the object pixels on the lattice).
@@ -350,10 +352,51 @@ impl ObjectTransfer {
     /// the direction they were traced for (a frame without sun keeps the stored values; its
     /// shading ignores `R_d`).
     pub fn ensure(&mut self, scene: &TransferScene, sun: Option<Vec3>, rebuild_deg: f64) -> TransferUpdate {
-        if !self.needs_trace(sun, rebuild_deg) {
-            self.traced = true;
+        if !self.advance(sun, rebuild_deg) {
             return TransferUpdate::default();
         }
+        self.trace_values(scene, sun)
+    }
+
+    /// What [`Self::ensure`] decides, without tracing: the traced state moves on as if it had
+    /// traced, and the trace is owed (for a run resumed after an interruption, whose earlier
+    /// frames are replayed without their work). [`Self::restore`] pays it.
+    pub fn replay(&mut self, sun: Option<Vec3>, rebuild_deg: f64) {
+        if self.advance(sun, rebuild_deg) {
+            self.owed = Some(sun);
+        }
+    }
+
+    /// True when replayed frames owe a trace.
+    pub fn owes(&self) -> bool {
+        self.owed.is_some()
+    }
+
+    /// Traces what the replayed frames owe (the last trace they decided on, with its sun);
+    /// nothing when they owe none.
+    pub fn restore(&mut self, scene: &TransferScene) -> TransferUpdate {
+        match self.owed.take() {
+            Some(sun) => self.trace_values(scene, sun),
+            None => TransferUpdate::default(),
+        }
+    }
+
+    /// The decision of [`Self::ensure`]: true when it must trace for `sun`; the traced state
+    /// (`traced`, `traced_sun`) is updated either way.
+    fn advance(&mut self, sun: Option<Vec3>, rebuild_deg: f64) -> bool {
+        let trace = self.needs_trace(sun, rebuild_deg);
+        self.traced = true;
+        if trace && sun.is_some() {
+            self.traced_sun = sun;
+        }
+        if trace {
+            self.owed = None;
+        }
+        trace
+    }
+
+    /// Traces every lattice pixel for `sun` into the stored values.
+    fn trace_values(&mut self, scene: &TransferScene, sun: Option<Vec3>) -> TransferUpdate {
         let t0 = std::time::Instant::now();
         let (q, seed) = (self.quality, self.seed);
         let values: Vec<PointTransfer> = self
@@ -364,10 +407,6 @@ impl ObjectTransfer {
         for (s, t) in self.surfaces.iter().zip(&values) {
             self.sky[s.pixel as usize] = [t.sky.x, t.sky.y, t.sky.z, 1.0];
             self.sun[s.pixel as usize] = [t.sun.x, t.sun.y, t.sun.z, 0.0];
-        }
-        self.traced = true;
-        if sun.is_some() {
-            self.traced_sun = sun;
         }
         TransferUpdate { traced: values.len(), ms: t0.elapsed().as_secs_f64() * 1e3 }
     }

@@ -10,17 +10,21 @@
 //! An interrupt (the `stop` counter set by Ctrl-C or SIGTERM) finishes the frame in hand, closes
 //! the container and writes the summary; the report then lists exactly the frames in the output.
 //! `resume` continues such a run: the frames already written are kept (a video's are copied into
-//! the new file: bit-exact for `.mkv`, re-encoded once for `.mp4`/`.avi`), the estimator is
-//! replayed over them (decode and estimate only) so its temporal smoothing continues as if never
-//! interrupted, and compositing starts at the first missing frame.
+//! the new file: bit-exact for `.mkv`, re-encoded once for `.mp4`/`.avi`), and the session is
+//! replayed over them ([`OutdoorSession::replay`]: decode and estimate, the probes' relights, the
+//! compositor's decisions without their work), so the smoothing and every cache continue as in
+//! an uninterrupted run and the frames after the resume point equal its frames.
 
+mod resume;
+
+use resume::{Resumed, fresh, resume};
 use super::session::OutdoorSession;
 use super::clock::ClockCheck;
-use super::sink::{Format, FrameWriter, OutputLock, Outputs, StageTime, Thumbs, output_kind, thumb_of};
+use super::sink::{Format, FrameWriter, OutputLock, Outputs, StageTime, Thumbs};
 use super::source::{FrameSource, Input, InputKind, SourceFrame};
 use super::{Observer, RunCounts};
 use crate::estimate::{Fallback, Status};
-use crate::io::frames::{Frame, Linearizer};
+use crate::io::frames::Linearizer;
 use crate::io::guard::OutputGuard;
 use crate::io::image::Rgb8;
 use crate::report::{JsonLines, Table};
@@ -177,137 +181,6 @@ pub struct AugmentOutcome {
     pub error: Option<anyhow::Error>,
 }
 
-/// Frames of an earlier run that can be kept: leading report lines `frame = 0, 1, …` that parse
-/// and whose output file exists (folders), capped by `frames_in_video` (videos). The report is
-/// cut back to them.
-fn resume_point(out: &Outputs, frames_in_video: Option<usize>) -> Result<usize> {
-    let text = match std::fs::read_to_string(&out.report) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(0),
-        Err(e) => return Err(e).with_context(|| format!("reading {}", out.report.display())),
-    };
-    let mut keep = 0usize;
-    let mut bytes = 0usize;
-    for line in text.split_inclusive('\n') {
-        if !line.ends_with('\n') {
-            break;
-        }
-        let Ok(v) = serde_json::from_str::<serde_json::Value>(line) else { break };
-        if v["frame"].as_u64() != Some(keep as u64) {
-            break;
-        }
-        if !out.video && !v["output"].as_str().is_some_and(|p| Path::new(p).exists()) {
-            break;
-        }
-        keep += 1;
-        bytes += line.len();
-    }
-    if let Some(n) = frames_in_video
-        && n < keep
-    {
-        keep = n;
-        bytes = text.split_inclusive('\n').take(n).map(str::len).sum();
-    }
-    std::fs::write(&out.report, &text.as_bytes()[..bytes]).with_context(|| format!("cutting {} back to {keep} frames", out.report.display()))?;
-    Ok(keep)
-}
-
-/// What a resume keeps: the frames already written, the estimator replayed over them.
-struct Resumed {
-    done: usize,
-    writer: FrameWriter,
-}
-
-/// Opens the output for `done` kept frames: the folder, or a video (a resumed one copies the
-/// earlier frames into a partial file that replaces the output when closed).
-#[cfg_attr(not(feature = "opencv"), allow(unused_variables))]
-fn open_writer(out: &Outputs, opts: &AugmentOptions, input: &Input, scene: &Scene, done: usize, old: Option<&mut Box<dyn FrameSource>>, thumbs: &mut Thumbs) -> Result<FrameWriter> {
-    if !out.video {
-        return Ok(FrameWriter::Dir { dir: opts.output.clone(), format: opts.format });
-    }
-    #[cfg(feature = "opencv")]
-    {
-        let partial = (done > 0).then(|| {
-            let ext = super::source::extension(&out.target).unwrap_or_default();
-            out.target.with_extension(format!("partial.{ext}"))
-        });
-        let path = partial.clone().unwrap_or_else(|| out.target.clone());
-        let k = &scene.camera.intrinsics;
-        let mut sink = crate::io::video::VideoSink::create(&path, input.fps, k.width, k.height).with_context(|| format!("{}: cannot write the output video", path.display()))?;
-        if let Some(v) = old {
-            for i in 0..done {
-                let Some(f) = v.read()? else { bail!("{}: ended after {i} frames while copying {done}", out.target.display()) };
-                let rgb: Vec<u8> = match &f.frame.data {
-                    crate::io::frames::FrameData::Ldr { codes, .. } => codes.iter().map(|&c| c as u8).collect(),
-                    crate::io::frames::FrameData::Hdr(_) => bail!("{}: unexpected HDR frame from a video", out.target.display()),
-                };
-                sink.write_rgb8(&rgb)?;
-                thumbs.push(i, &thumb_of(&f.frame, &input.photometry));
-            }
-        }
-        Ok(FrameWriter::Video { sink, target: out.target.clone(), partial })
-    }
-    #[cfg(not(feature = "opencv"))]
-    bail!("{}: writing video needs heliar built with `--features opencv`", out.target.display())
-}
-
-/// Keeps what an earlier run wrote and replays the estimator over it.
-#[allow(clippy::too_many_arguments)]
-fn resume(
-    out: &Outputs,
-    opts: &AugmentOptions,
-    input: &Input,
-    scene: &Scene,
-    source: &mut dyn FrameSource,
-    session: &mut OutdoorSession,
-    lin: &Linearizer,
-    thumbs: &mut Thumbs,
-    clock: &mut ClockCheck,
-    obs: &mut dyn Observer,
-) -> Result<Resumed> {
-    let mut old: Option<Box<dyn FrameSource>> = None;
-    let in_video = if !out.video {
-        None
-    } else if out.target.exists() {
-        #[cfg(feature = "opencv")]
-        {
-            let v = super::source::VideoFileSource::open(&out.target, Some(input.fps.max(1e-3))).with_context(|| format!("{}: the earlier output cannot be read to resume", out.target.display()))?;
-            let n = v.len();
-            old = Some(Box::new(v));
-            Some(n.unwrap_or(usize::MAX))
-        }
-        #[cfg(not(feature = "opencv"))]
-        Some(0)
-    } else {
-        Some(0)
-    };
-    let done = resume_point(out, in_video)?;
-    if done > 0 {
-        obs.start("replaying the estimator over the frames written", Some(done), 0);
-        for i in 0..done {
-            let Some(f) = source.read()? else { bail!("{}: the input has fewer frames ({i}) than the run being resumed ({done})", input.label) };
-            let t = input.clock.time(i, f.ts_ms, None)?;
-            clock.check(i, t);
-            session.stage.estimate_only(i, &t, &f.frame, lin).with_context(|| f.label.clone())?;
-            if !out.video {
-                let p = opts.output.join(format!("{}.{}", source.stem(i), output_kind(opts.format, &f.frame).extension()));
-                if thumbs.wants(i)
-                    && let Ok(fr) = Frame::load(&p)
-                {
-                    thumbs.push(i, &thumb_of(&fr, &input.photometry));
-                }
-            }
-            obs.advance();
-        }
-        obs.finish();
-        obs.note(&format!("resuming after {done} frames"));
-    } else {
-        obs.note(&format!("note: nothing to resume in {}: starting from the first frame", out.report.display()));
-    }
-    let writer = open_writer(out, opts, input, scene, done, old.as_mut(), thumbs)?;
-    Ok(Resumed { done, writer })
-}
-
 /// Augments `input` into `opts.output` (see the module docs). `stop` counts interrupts: the
 /// loop ends after the frame in hand once it is non-zero. Returns the outcome, whose `error`
 /// says why the loop stopped early; set-up failures (unreadable input, unwritable output) are
@@ -324,10 +197,7 @@ pub fn augment(scene: &Scene, input: &Input, session: &mut OutdoorSession, opts:
     let Resumed { done, mut writer } = if opts.resume {
         resume(&out, opts, input, scene, source.as_mut(), session, &lin, &mut thumbs, &mut clock_check, obs)?
     } else {
-        if out.report.exists() {
-            obs.note(&format!("note: overwriting the earlier run in {} (--resume continues one instead)", out.target.display()));
-        }
-        Resumed { done: 0, writer: open_writer(&out, opts, input, scene, 0, None, &mut thumbs)? }
+        fresh(&out, opts, input, scene, &mut thumbs, obs)?
     };
     let mut report = if done > 0 { JsonLines::append(&out.report) } else { JsonLines::create(&out.report) }.with_context(|| format!("{}: cannot write the report", out.report.display()))?;
 
