@@ -11,7 +11,13 @@ use rand::{Rng, SeedableRng, rngs::SmallRng};
 const PD: [f32; 3] = [3.0, 2.8, 2.5];
 const PA: [f32; 3] = [0.6, 0.7, 0.9];
 
+/// 32-bit float frames without a clip level: the cases below span values up to 4e5.
 fn hdr() -> Linearizer {
+    Linearizer::new(&Response::Linear, 1.0, 1.0, Some(f32::INFINITY))
+}
+
+/// The default HDR linearisation (half-float frames: 65504 and above is clipped).
+fn half() -> Linearizer {
     Linearizer::new(&Response::Linear, 1.0, 1.0, None)
 }
 
@@ -329,4 +335,60 @@ fn fewer_usable_pixels_than_requested() {
     sane(&e);
     assert_eq!(e.status, Status::TooFewSamples, "{e:?}");
     assert!(e.pd.is_none() && e.pa.is_none() && e.smoothed.is_none());
+}
+
+/// Issue 12 (1): one black frame (a dropped frame, a lens cap) among normal ones is reported as
+/// `dark_frame`, fits nothing and leaves the smoother alone, so the frames after it are right.
+/// A frame at 1% of the light (a lens cap with sensor noise) is dark too; the same 1% frame
+/// ten minutes after the last update is taken as real (a night, a time-lapse).
+#[test]
+fn a_dark_frame_does_not_poison_the_smoother() {
+    let time = afternoon();
+    let l = sun_dir(&time);
+    let w = world(WorldSpec::default(), l);
+    let img = render(&w, l, PD, PA, 0.01, 1);
+    let at = |s: i64| time + chrono::Duration::seconds(s);
+    let mut est = estimator(&w, EstimatorConfig::default());
+    let e0 = est.estimate(0, &at(0), &frame(img.clone()), &half()).unwrap();
+    assert_eq!(e0.status, Status::Ok, "{e0:?}");
+    let mut black = img.clone();
+    black.data.iter_mut().for_each(|p| *p = [0.0; 3]);
+    let e1 = est.estimate(1, &at(1), &frame(black.clone()), &half()).unwrap();
+    sane(&e1);
+    assert_eq!(e1.status, Status::DarkFrame, "{e1:?}");
+    assert_eq!((e1.pd, e1.pa), (None, None));
+    assert_eq!(e1.smoothed, e0.smoothed, "the smoothed lighting is held");
+    assert!(!e1.relight);
+    let mut capped = img.clone();
+    capped.data.iter_mut().for_each(|p| *p = p.map(|v| v * 0.01));
+    let e2 = est.estimate(2, &at(2), &frame(capped.clone()), &half()).unwrap();
+    assert_eq!(e2.status, Status::DarkFrame, "{e2:?}");
+    let e3 = est.estimate(3, &at(3), &frame(img.clone()), &half()).unwrap();
+    assert_eq!(e3.status, Status::Ok, "{e3:?}");
+    let s = e3.smoothed.unwrap();
+    assert!(rel_err(s.pd, PD) < 0.03 && rel_err(s.pa, PA) < 0.03, "{e3:?}");
+    // Ten minutes later, the same darkness is real light.
+    let e4 = est.estimate(4, &at(600), &frame(capped), &half()).unwrap();
+    assert_ne!(e4.status, Status::DarkFrame, "{e4:?}");
+    // A black first frame has nothing to compare with and is dark all the same.
+    let mut fresh = estimator(&w, EstimatorConfig::default());
+    let f0 = fresh.estimate(0, &at(0), &frame(black), &half()).unwrap();
+    assert_eq!(f0.status, Status::DarkFrame, "{f0:?}");
+    assert_eq!(f0.smoothed, None);
+}
+
+/// Issue 12 (2): a frame at the half-float maximum everywhere is clipped, not a bright sky.
+#[test]
+fn a_frame_at_the_half_float_maximum_is_saturated() {
+    let time = afternoon();
+    let l = sun_dir(&time);
+    let w = world(WorldSpec::default(), l);
+    let mut img = render(&w, l, PD, PA, 0.01, 1);
+    img.data.iter_mut().for_each(|p| *p = [65504.0; 3]);
+    let mut est = estimator(&w, EstimatorConfig::default());
+    let e = est.estimate(0, &time, &frame(img), &half()).unwrap();
+    sane(&e);
+    assert_eq!(e.status, Status::Saturated, "{e:?}");
+    assert_eq!((e.pd, e.pa), (None, None), "{e:?}");
+    assert_eq!(e.samples.clipped, e.samples.drawn);
 }

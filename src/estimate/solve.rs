@@ -206,113 +206,138 @@ pub fn robust_fit(rows: &ChannelRows, lit: &[bool], two_params: bool, noise_floo
     let y: Vec<f64> = (0..n).map(|i| rows.y[i] / d[i]).collect();
     let a: Vec<f64> = (0..n).map(|i| rows.a[i] / d[i]).collect();
     let b: Vec<f64> = if two_params { (0..n).map(|i| rows.b[i] / d[i]).collect() } else { vec![0.0; n] };
-    let (a, b) = (&a[..], &b[..]);
-    let resid = |pa: f64, pd: f64, out: &mut Vec<f64>| {
-        out.clear();
-        out.extend((0..n).map(|i| y[i] - a[i] * pa - b[i] * pd));
-    };
-
-    // 2. LMedS start.
-    let ones = vec![1.0; n];
-    let s = sums(a, b, &y, &ones);
-    let mut candidates = vec![nnls2(s.saa, s.sab, s.sbb, s.say, s.sby)];
-    let lit_idx: Vec<usize> = (0..n).filter(|&i| lit.get(i).copied().unwrap_or(false)).collect();
-    let dark_idx: Vec<usize> = (0..n).filter(|&i| !lit.get(i).copied().unwrap_or(false)).collect();
-    for _ in 0..LMEDS_TRIALS {
-        if two_params {
-            let (i, j) = if !lit_idx.is_empty() && !dark_idx.is_empty() {
-                (lit_idx[rng.random_range(0..lit_idx.len())], dark_idx[rng.random_range(0..dark_idx.len())])
-            } else {
-                (rng.random_range(0..n), rng.random_range(0..n))
-            };
-            let det = a[i] * b[j] - a[j] * b[i];
-            let size = (a[i] * b[j]).abs() + (a[j] * b[i]).abs();
-            if !(det.abs() > 1e-3 * size) {
-                continue;
-            }
-            let pa = (y[i] * b[j] - y[j] * b[i]) / det;
-            let pd = (a[i] * y[j] - a[j] * y[i]) / det;
-            candidates.push((pa.max(0.0), pd.max(0.0)));
-        } else {
-            let i = rng.random_range(0..n);
-            if a[i] > 0.0 {
-                candidates.push(((y[i] / a[i]).max(0.0), 0.0));
-            }
-        }
-    }
-    let stride = n.div_ceil(LMEDS_SCORE_ROWS).max(1);
-    let score_idx: Vec<usize> = (0..n).step_by(stride).collect();
-    let mut r = Vec::with_capacity(n);
-    let mut best = (f64::INFINITY, candidates[0]);
-    for &(pa, pd) in &candidates {
-        r.clear();
-        r.extend(score_idx.iter().map(|&i| {
-            let e = y[i] - a[i] * pa - b[i] * pd;
-            e * e
-        }));
-        let med = median_in_place(&mut r);
-        if med < best.0 {
-            best = (med, (pa, pd));
-        }
-    }
-    let p = if two_params { 2.0 } else { 1.0 };
-    let small_sample = 1.0 + 5.0 / (n as f64 - p).max(1.0);
-    let sigma = (MAD_TO_SIGMA * small_sample * best.0.sqrt()).max(SIGMA_FLOOR);
-
+    let scaled = Scaled { a: &a, b: &b, y: &y, d: &d, p: if two_params { 2.0 } else { 1.0 } };
+    // 2. LMedS start, and the robust scale from its median squared residual.
+    let (start, med) = scaled.lmeds_start(lit, two_params, rng);
+    let small_sample = 1.0 + 5.0 / (n as f64 - scaled.p).max(1.0);
+    let sigma = (MAD_TO_SIGMA * small_sample * med.sqrt()).max(SIGMA_FLOOR);
     // 3. IRLS with Tukey's biweight at that scale.
-    let (mut pa, mut pd) = best.1;
-    for _ in 0..IRLS_MAX_ITERS {
-        let mut st = Sums { saa: 0.0, sab: 0.0, sbb: 0.0, say: 0.0, sby: 0.0, sw: 0.0 };
-        for i in 0..n {
-            let wi = tukey(y[i] - a[i] * pa - b[i] * pd, sigma);
-            st.saa += wi * a[i] * a[i];
-            st.sab += wi * a[i] * b[i];
-            st.sbb += wi * b[i] * b[i];
-            st.say += wi * a[i] * y[i];
-            st.sby += wi * b[i] * y[i];
+    let (pa, pd) = scaled.irls(start, sigma);
+    // 4. Report.
+    Some(scaled.report(pa, pd, sigma, two_params))
+}
+
+/// The rows of one fit divided by their noise levels `d` (`p` parameters).
+struct Scaled<'a> {
+    a: &'a [f64],
+    b: &'a [f64],
+    y: &'a [f64],
+    d: &'a [f64],
+    p: f64,
+}
+
+impl Scaled<'_> {
+    /// The least-median-of-squares start (Rousseeuw): the plain fit and `LMEDS_TRIALS` exact fits
+    /// through random pairs (a sunlit and a shadowed row when both exist), scored on at most
+    /// `LMEDS_SCORE_ROWS` rows. Returns the best `(Pa, Pd)` and its median squared residual.
+    fn lmeds_start(&self, lit: &[bool], two_params: bool, rng: &mut impl Rng) -> ((f64, f64), f64) {
+        let (a, b, y) = (self.a, self.b, self.y);
+        let n = y.len();
+        let ones = vec![1.0; n];
+        let s = sums(a, b, y, &ones);
+        let mut candidates = vec![nnls2(s.saa, s.sab, s.sbb, s.say, s.sby)];
+        let lit_idx: Vec<usize> = (0..n).filter(|&i| lit.get(i).copied().unwrap_or(false)).collect();
+        let dark_idx: Vec<usize> = (0..n).filter(|&i| !lit.get(i).copied().unwrap_or(false)).collect();
+        for _ in 0..LMEDS_TRIALS {
+            if two_params {
+                let (i, j) = if !lit_idx.is_empty() && !dark_idx.is_empty() {
+                    (lit_idx[rng.random_range(0..lit_idx.len())], dark_idx[rng.random_range(0..dark_idx.len())])
+                } else {
+                    (rng.random_range(0..n), rng.random_range(0..n))
+                };
+                let det = a[i] * b[j] - a[j] * b[i];
+                let size = (a[i] * b[j]).abs() + (a[j] * b[i]).abs();
+                if !(det.abs() > 1e-3 * size) {
+                    continue;
+                }
+                let pa = (y[i] * b[j] - y[j] * b[i]) / det;
+                let pd = (a[i] * y[j] - a[j] * y[i]) / det;
+                candidates.push((pa.max(0.0), pd.max(0.0)));
+            } else {
+                let i = rng.random_range(0..n);
+                if a[i] > 0.0 {
+                    candidates.push(((y[i] / a[i]).max(0.0), 0.0));
+                }
+            }
         }
-        let (npa, npd) = nnls2(st.saa, st.sab, st.sbb, st.say, st.sby);
-        let change = (npa - pa).abs() + (npd - pd).abs();
-        pa = npa;
-        pd = npd;
-        if change <= IRLS_TOL * (pa + pd).max(1e-300) {
-            break;
+        let stride = n.div_ceil(LMEDS_SCORE_ROWS).max(1);
+        let score_idx: Vec<usize> = (0..n).step_by(stride).collect();
+        let mut r = Vec::with_capacity(n);
+        let mut best = (f64::INFINITY, candidates[0]);
+        for &(pa, pd) in &candidates {
+            r.clear();
+            r.extend(score_idx.iter().map(|&i| {
+                let e = y[i] - a[i] * pa - b[i] * pd;
+                e * e
+            }));
+            let med = median_in_place(&mut r);
+            if med < best.0 {
+                best = (med, (pa, pd));
+            }
         }
+        (best.1, best.0)
     }
 
-    // 4. Report.
-    let mut w = vec![0.0; n];
-    resid(pa, pd, &mut r);
-    for i in 0..n {
-        w[i] = tukey(r[i], sigma);
-    }
-    let s = sums(a, b, &y, &w);
-    let inliers = w.iter().filter(|&&x| x > 0.0).count();
-    let wss: f64 = (0..n).map(|i| w[i] * r[i] * r[i]).sum();
-    let dof = (s.sw - p).max(1.0);
-    let s2 = wss / dof;
-    let (pa_se, pd_se, cond) = if two_params {
-        let det = s.saa * s.sbb - s.sab * s.sab;
-        let cond = condition(s.saa, s.sab, s.sbb);
-        if det > 0.0 && cond < COND_CAP {
-            ((s2 * s.sbb / det).sqrt(), (s2 * s.saa / det).sqrt(), cond)
-        } else {
-            (f64::INFINITY, f64::INFINITY, cond)
+    /// Iteratively reweighted non-negative least squares with Tukey's biweight at `sigma`.
+    fn irls(&self, start: (f64, f64), sigma: f64) -> (f64, f64) {
+        let (a, b, y) = (self.a, self.b, self.y);
+        let (mut pa, mut pd) = start;
+        for _ in 0..IRLS_MAX_ITERS {
+            let mut st = Sums { saa: 0.0, sab: 0.0, sbb: 0.0, say: 0.0, sby: 0.0, sw: 0.0 };
+            for i in 0..y.len() {
+                let wi = tukey(y[i] - a[i] * pa - b[i] * pd, sigma);
+                st.saa += wi * a[i] * a[i];
+                st.sab += wi * a[i] * b[i];
+                st.sbb += wi * b[i] * b[i];
+                st.say += wi * a[i] * y[i];
+                st.sby += wi * b[i] * y[i];
+            }
+            let (npa, npd) = nnls2(st.saa, st.sab, st.sbb, st.say, st.sby);
+            let change = (npa - pa).abs() + (npd - pd).abs();
+            pa = npa;
+            pd = npd;
+            if change <= IRLS_TOL * (pa + pd).max(1e-300) {
+                break;
+            }
         }
-    } else {
-        let se = if s.saa > 0.0 { (s2 / s.saa).sqrt() } else { f64::INFINITY };
-        (se, f64::INFINITY, 1.0)
-    };
-    let wss_units: f64 = (0..n).map(|i| w[i] * (r[i] * d[i]).powi(2)).sum();
-    Some(ChannelFit {
-        pa,
-        pd,
-        pa_se,
-        pd_se,
-        residual_rms: if s.sw > 0.0 { (wss_units / s.sw).sqrt() } else { f64::INFINITY },
-        inliers,
-        condition: cond,
-    })
+        (pa, pd)
+    }
+
+    /// The fit's standard errors (from the weighted normal equations), condition number,
+    /// inliers and residual RMS in the rows' own units.
+    fn report(&self, pa: f64, pd: f64, sigma: f64, two_params: bool) -> ChannelFit {
+        let (a, b, y, d) = (self.a, self.b, self.y, self.d);
+        let n = y.len();
+        let r: Vec<f64> = (0..n).map(|i| y[i] - a[i] * pa - b[i] * pd).collect();
+        let w: Vec<f64> = r.iter().map(|&ri| tukey(ri, sigma)).collect();
+        let s = sums(a, b, y, &w);
+        let inliers = w.iter().filter(|&&x| x > 0.0).count();
+        let wss: f64 = (0..n).map(|i| w[i] * r[i] * r[i]).sum();
+        let dof = (s.sw - self.p).max(1.0);
+        let s2 = wss / dof;
+        let (pa_se, pd_se, cond) = if two_params {
+            let det = s.saa * s.sbb - s.sab * s.sab;
+            let cond = condition(s.saa, s.sab, s.sbb);
+            if det > 0.0 && cond < COND_CAP {
+                ((s2 * s.sbb / det).sqrt(), (s2 * s.saa / det).sqrt(), cond)
+            } else {
+                (f64::INFINITY, f64::INFINITY, cond)
+            }
+        } else {
+            let se = if s.saa > 0.0 { (s2 / s.saa).sqrt() } else { f64::INFINITY };
+            (se, f64::INFINITY, 1.0)
+        };
+        let wss_units: f64 = (0..n).map(|i| w[i] * (r[i] * d[i]).powi(2)).sum();
+        ChannelFit {
+            pa,
+            pd,
+            pa_se,
+            pd_se,
+            residual_rms: if s.sw > 0.0 { (wss_units / s.sw).sqrt() } else { f64::INFINITY },
+            inliers,
+            condition: cond,
+        }
+    }
 }
 
 #[cfg(test)]

@@ -75,11 +75,16 @@ impl Response {
     }
 }
 
+/// The largest finite half-float value: the default HDR clip level.
+pub const HALF_MAX: f32 = 65504.0;
+
 /// Turns frame pixels into scaled linear radiance.
 ///
 /// LDR: `radiance = response(code / max_code) / exposure`; a pixel is clipped when any channel's
 /// code is at or above `saturation · max_code`. HDR: `radiance = value / exposure`; a pixel is
-/// clipped when any channel is at or above `hdr_clip` (when given).
+/// clipped when any channel is at or above `hdr_clip`, by default [`HALF_MAX`]: a half-float
+/// EXR (what cameras and most renderers write) cannot hold more, so a value there is a clipped
+/// one. Frames in 32-bit float with brighter diffuse surfaces set `response.hdr_clip = inf`.
 #[derive(Clone, Debug)]
 pub struct Linearizer {
     lut8: [Vec<f32>; 3],
@@ -105,7 +110,7 @@ impl Linearizer {
             inv_exposure: 1.0 / exposure,
             sat8: (saturation * 255.0).ceil().min(255.0) as u16,
             sat16: (saturation * 65535.0).ceil().min(65535.0) as u16,
-            hdr_clip: hdr_clip.unwrap_or(f32::INFINITY),
+            hdr_clip: hdr_clip.unwrap_or(HALF_MAX),
         }
     }
 

@@ -318,7 +318,7 @@ pub struct ResponseSpec {
     /// LDR codes at or above this fraction of full scale count as clipped.
     #[serde(default = "sat")]
     pub saturation: f32,
-    /// HDR values at or above this count as clipped.
+    /// HDR values at or above this count as clipped (default: 65504, the half-float maximum).
     pub hdr_clip: Option<f32>,
 }
 

@@ -1,0 +1,90 @@
+//! One frame's samples (Jensen §3.1, "500 random pixels"): draw the pool entries, read and
+//! linearise their pixels, and keep the rows of the fit. Clipped and invalid pixels are
+//! dropped, and so are the unclipped pixels of a surface class that is partly clipped
+//! (censoring, see `CENSOR_FRACTION`).
+
+use super::pool::SunState;
+use super::{CENSOR_FRACTION, Estimator, SampleCounts};
+use crate::io::frames::{Frame, Linearizer, PixelState};
+use rand::rngs::SmallRng;
+
+/// What [`Estimator::gather`] leaves besides the rows.
+pub(super) struct Gathered {
+    /// Sample accounting.
+    pub counts: SampleCounts,
+    /// Clipped samples that were sunlit.
+    pub clipped_lit: usize,
+    /// More than `saturated_fraction` of the drawn samples clipped.
+    pub saturated: bool,
+}
+
+impl Estimator {
+    /// Draws the frame's samples and fills `rows`, `lit`, `bounce_only` and `rho_over_pi`.
+    pub(super) fn gather(&mut self, frame: &Frame, lin: &Linearizer, rng: &mut SmallRng) -> Gathered {
+        let Some(sun) = self.sun.as_ref() else { unreachable!("ensure_sun always sets the state") };
+        let sun: &SunState = sun;
+        let available = sun.available();
+        let n = self.config.samples.min(available);
+        let mut drawn = std::mem::take(&mut self.drawn);
+        sun.draw(n, rng, &mut drawn);
+        for r in &mut self.rows {
+            r.clear();
+        }
+        self.lit.clear();
+        self.bounce_only.clear();
+        self.rho_over_pi.clear();
+        let mut counts = SampleCounts { available, drawn: n, ..Default::default() };
+        let mut clipped_lit = 0;
+        // Censoring: count drawn and clipped samples per (node, lit) group first.
+        let mut groups: Vec<(u32, bool, u32, u32)> = Vec::new(); // (node, lit, drawn, clipped)
+        let mut states = std::mem::take(&mut self.states);
+        states.clear();
+        for &e in &drawn {
+            let e = e as usize;
+            let (v, state) = lin.radiance(frame, self.pool.pixel[e] as usize);
+            states.push((v, state));
+            let key = (self.pool.node[e], sun.lit[e]);
+            let g = match groups.iter().position(|g| (g.0, g.1) == key) {
+                Some(g) => g,
+                None => {
+                    groups.push((key.0, key.1, 0, 0));
+                    groups.len() - 1
+                }
+            };
+            groups[g].2 += 1;
+            groups[g].3 += (state == PixelState::Clipped) as u32;
+        }
+        let censored = |node: u32, lit: bool| {
+            groups.iter().any(|g| g.0 == node && g.1 == lit && g.3 as f64 > CENSOR_FRACTION * g.2 as f64)
+        };
+        for (&e, &(v, state)) in drawn.iter().zip(&states) {
+            let e = e as usize;
+            match state {
+                PixelState::Invalid => counts.invalid += 1,
+                PixelState::Clipped => {
+                    counts.clipped += 1;
+                    clipped_lit += sun.lit[e] as usize;
+                }
+                PixelState::Ok if censored(self.pool.node[e], sun.lit[e]) => counts.censored += 1,
+                PixelState::Ok => {
+                    let (a, b) = (self.pool.a[e], sun.b[e]);
+                    for c in 0..3 {
+                        self.rows[c].push(a[c] as f64, b[c] as f64, v[c] as f64);
+                    }
+                    self.lit.push(sun.lit[e]);
+                    // The part of b that is bounce light only (for held-Pd subtraction).
+                    let bo = if sun.lit[e] { [0.0; 3] } else { [b[0] as f64, b[1] as f64, b[2] as f64] };
+                    self.bounce_only.push(bo);
+                    let rho = self.pool.albedo[e] / std::f32::consts::PI;
+                    self.rho_over_pi.push([rho.x as f64, rho.y as f64, rho.z as f64]);
+                }
+            }
+        }
+        self.states = states;
+        self.drawn = drawn;
+        counts.usable = self.rows[0].len();
+        counts.lit = self.lit.iter().filter(|&&l| l).count();
+        let saturated = n > 0 && counts.clipped as f64 > self.config.saturated_fraction * n as f64;
+        Gathered { counts, clipped_lit, saturated }
+    }
+}
