@@ -24,7 +24,8 @@
 //! (the noise floor, √2 × one render's noise) is printed and written into `reference.toml`.
 
 use super::sky_render::{Lighting, SkyLight, render_env, render_region};
-use super::{Args, Courtyard, NOISE_ABS, NOISE_REL, STATUE_FILE, STATUE_ROTATION_Y_DEG, STATUE_TRANSLATION, WithStatue, normal, write};
+use super::statue::WithStatue;
+use super::{Args, Courtyard, NOISE_ABS, NOISE_REL, STATUE_FILE, STATUE_ROTATION_Y_DEG, STATUE_TRANSLATION, normal, write};
 use anyhow::{Context, Result};
 use glam::{DVec3, Vec3};
 use heliar::geometry::raycast::RayScene;
@@ -228,7 +229,7 @@ fn write_references(out: &Path, cam: &heliar::camera::Camera, proxy: &Mesh, extr
     let scene = RayScene::new(world);
     let surfaces = WithStatue { real, real_tris, statue: &statue };
     let suns: Vec<Vec3> = REFERENCE_FRAMES.iter().map(|&i| frames[i].sun).collect();
-    let region = super::reference_crop(cam, &statue, &suns)?;
+    let region = super::statue::reference_crop(cam, &statue, &suns)?;
     let mut renders: Vec<[LinearImage; 2]> = Vec::new();
     let mut names = Vec::new();
     for &i in &REFERENCE_FRAMES {

@@ -107,21 +107,9 @@ fn run_config(
     Ok(row)
 }
 
-pub fn run(a: BenchArgs) -> Result<()> {
-    let s = match a.what {
-        BenchWhat::Estimate(s) => s,
-        BenchWhat::Irradiance(s) => return crate::bench_irradiance::run(s),
-        BenchWhat::Vem(s) => return crate::bench_vem::run(s),
-        BenchWhat::Render(s) => return crate::bench_render::run(s),
-    };
-    let (scene, ray) = load_scene(&s.scene)?;
-    let seq = pick_sequence(&scene, s.sequence.as_deref())?.clone();
-    if seq.truth.is_none() {
-        bail!("sequence '{}' of {} has no truth file: nothing to measure error against", seq.name, s.scene.display());
-    }
-    let frames: Vec<Frame> = seq.files.iter().map(|p| Frame::load(p)).collect::<Result<_, _>>()?;
-    let base = scene.estimator.clone();
-    let configs: Vec<(String, EstimatorConfig)> = match s.knob {
+/// The estimator settings of a sweep over `knob`, with their labels.
+fn knob_configs(knob: Knob, base: &EstimatorConfig) -> Vec<(String, EstimatorConfig)> {
+    match knob {
         Knob::Samples => [50, 100, 200, 500, 1000, 2000, 5000]
             .iter()
             .map(|&n| (n.to_string(), EstimatorConfig { samples: n, pool_size: base.pool_size.max(n), ..base.clone() }))
@@ -147,7 +135,23 @@ pub fn run(a: BenchArgs) -> Result<()> {
             .iter()
             .map(|&p| (p.to_string(), EstimatorConfig { pool_size: p, samples: base.samples.min(p), ..base.clone() }))
             .collect(),
+    }
+}
+
+pub fn run(a: BenchArgs) -> Result<()> {
+    let s = match a.what {
+        BenchWhat::Estimate(s) => s,
+        BenchWhat::Irradiance(s) => return crate::bench_irradiance::run(s),
+        BenchWhat::Vem(s) => return crate::bench_vem::run(s),
+        BenchWhat::Render(s) => return crate::bench_render::run(s),
     };
+    let (scene, ray) = load_scene(&s.scene)?;
+    let seq = pick_sequence(&scene, s.sequence.as_deref())?.clone();
+    if seq.truth.is_none() {
+        bail!("sequence '{}' of {} has no truth file: nothing to measure error against", seq.name, s.scene.display());
+    }
+    let frames: Vec<Frame> = seq.files.iter().map(|p| Frame::load(p)).collect::<Result<_, _>>()?;
+    let configs = knob_configs(s.knob, &scene.estimator);
     let knob_name = match s.knob {
         Knob::Samples => "samples",
         Knob::AmbientPaths => "ambient_paths",

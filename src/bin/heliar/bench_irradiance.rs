@@ -164,19 +164,7 @@ pub fn run(a: IrradianceSweep) -> Result<()> {
     let capture = lighting_of(&default_bake);
     let lighting = Lighting { pd: capture.pd * 0.3, pa: capture.pa * 1.2, ..capture };
 
-    // Test points and normals.
-    let dirs = sphere_fibonacci(64);
-    let mut rng = SmallRng::seed_from_u64(7);
-    let (lo, hi) = (v3(g.min), v3(g.max));
-    let mut points = Vec::new();
-    while points.len() < a.points {
-        let p = lo + (hi - lo) * Vec3::new(rng.random(), rng.random(), rng.random());
-        if dirs.iter().any(|&d| ray.intersect(p, d, 0.5).is_some()) || ray.back_face_fraction(p, &dirs).is_some_and(|f| f >= 0.5) {
-            continue;
-        }
-        let n = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)).normalize_or(Vec3::Y);
-        points.push((p, n));
-    }
+    let points = test_points(&ray, &g, a.points);
     let setup = Setup { scene: scene.clone(), grid: g.clone(), ray: ray.clone(), lighting, points };
     let mut ref_scene = scene.clone();
     ref_scene.bake.ambient.paths = 1024;
@@ -239,9 +227,32 @@ pub fn run(a: IrradianceSweep) -> Result<()> {
         }
     };
 
+    report(&a, name, &rows, setup.points.len())
+}
+
+/// `n` random test points at least 0.5 m from every surface and outside closed geometry, with
+/// random normals.
+fn test_points(ray: &RayScene, g: &heliar::scene::GridSpec, n: usize) -> Vec<(Vec3, Vec3)> {
+    let dirs = sphere_fibonacci(64);
+    let mut rng = SmallRng::seed_from_u64(7);
+    let (lo, hi) = (v3(g.min), v3(g.max));
+    let mut points = Vec::new();
+    while points.len() < n {
+        let p = lo + (hi - lo) * Vec3::new(rng.random(), rng.random(), rng.random());
+        if dirs.iter().any(|&d| ray.intersect(p, d, 0.5).is_some()) || ray.back_face_fraction(p, &dirs).is_some_and(|f| f >= 0.5) {
+            continue;
+        }
+        let n = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)).normalize_or(Vec3::Y);
+        points.push((p, n));
+    }
+    points
+}
+
+/// Prints the table, writes the CSV and the plot.
+fn report(a: &IrradianceSweep, name: &str, rows: &[(String, Measure)], points: usize) -> Result<()> {
     let mut table = Table::new(&[name, "probes", "err_mean_pct", "err_p95_pct", "bake_ms", "transfer_ms", "relight_ms", "update_linear_ms", "update_full_ms"]);
     let mut pts = Vec::new();
-    for (label, m) in &rows {
+    for (label, m) in rows {
         table.push(vec![
             label.clone(),
             m.probes.to_string(),
@@ -262,7 +273,7 @@ pub fn run(a: IrradianceSweep) -> Result<()> {
     println!(
         "irradiance-volume sweep on {} ({} points ≥ 0.5 m from surfaces, {} brute-force rays each; lighting 0.3·Pd, 1.2·Pa of the capture; error = max over RGB of |E − E_ref| / max(E_ref, 5% of Pa))",
         a.scene.display(),
-        setup.points.len(),
+        points,
         a.rays
     );
     print!("{table}");

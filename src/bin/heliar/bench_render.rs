@@ -78,6 +78,16 @@ pub fn run(a: RenderSweep) -> Result<()> {
         bail!("{}: no [[virtual_objects]] to composite", scene.root.join(heliar::scene::MANIFEST_FILE).display());
     }
     let seq = scene.sequence(refs.sequence.as_deref()).context("the references' sequence")?.clone();
+    let frames = reference_frames(&scene, &ray, &refs, &seq)?;
+    let values = knob_values(a.knob, &CompositorConfig::for_scene(&scene));
+    let rows = sweep(&scene, &ray, &frames, values)?;
+    report(&a, &rows, &frames)
+}
+
+/// Estimates the sequence up to the last reference frame (the smoothing needs the frames
+/// before), and keeps what the references need.
+fn reference_frames(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayScene>, refs: &References, seq: &heliar::scene::Sequence) -> Result<Vec<RefFrame>> {
+    let (scene, ray) = (scene, ray.clone());
     let lin = seq.photometry.linearizer();
     let mut est = Estimator::new(&scene, ray.clone()).with_context(|| format!("setting up the estimator for {}", scene.root.display()))?;
     let mut probes = probe_source(&scene, ray.clone(), Ambient::Auto, |s, r| crate::bake::bake_with_progress(s, r, false))?;
@@ -87,8 +97,6 @@ pub fn run(a: RenderSweep) -> Result<()> {
     }
     let objects = heliar::geometry::raycast::RayScene::new(objects);
 
-    // Estimate the sequence up to the last reference frame (the smoothing needs the frames
-    // before), and keep what the references need.
     let last = refs.frames.iter().copied().max().unwrap_or(0);
     let mut frames = Vec::new();
     let pb = frame_bar(last + 1, "estimate");
@@ -105,8 +113,12 @@ pub fn run(a: RenderSweep) -> Result<()> {
     }
     pb.finish_and_clear();
 
-    let base = CompositorConfig::for_scene(&scene);
-    let values: Vec<(String, CompositorConfig, u32)> = match a.knob {
+    Ok(frames)
+}
+
+/// The compositor settings of a sweep over `knob`, with their labels and MSAA sample counts.
+fn knob_values(knob: Knob, base: &CompositorConfig) -> Vec<(String, CompositorConfig, u32)> {
+    match knob {
         Knob::TransferPaths => [0u32, 64, 128, 256, 512, 1024, 2048, 4096]
             .iter()
             .map(|&p| (p.to_string(), CompositorConfig { transfer_paths: p, transfer_stride: 1, ..base.clone() }, 4))
@@ -114,7 +126,11 @@ pub fn run(a: RenderSweep) -> Result<()> {
         Knob::TransferStride => [1u32, 2, 3, 4].iter().map(|&s| (s.to_string(), CompositorConfig { transfer_stride: s, ..base.clone() }, 4)).collect(),
         Knob::Msaa => [1u32, 4].iter().map(|&m| (m.to_string(), base.clone(), m)).collect(),
         Knob::Supersample => [1.0f64, 1.5, 2.0].iter().map(|&s| (s.to_string(), CompositorConfig { supersample: s, ..base.clone() }, 4)).collect(),
-    };
+    }
+}
+
+/// Runs the compositor once per setting over the reference frames.
+fn sweep(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayScene>, frames: &[RefFrame], values: Vec<(String, CompositorConfig, u32)>) -> Result<Vec<Row>> {
     let mut gpus: Vec<(u32, Arc<Gpu>)> = Vec::new();
     let pb = frame_bar(values.len(), "sweep");
     let mut rows = Vec::new();
@@ -128,10 +144,10 @@ pub fn run(a: RenderSweep) -> Result<()> {
             }
         };
         let t = std::time::Instant::now();
-        let mut comp = Compositor::for_scene(gpu, &scene, ray.clone(), config).with_context(|| format!("setting up the compositor for {}", scene.root.display()))?;
+        let mut comp = Compositor::for_scene(gpu, scene, ray.clone(), config).with_context(|| format!("setting up the compositor for {}", scene.root.display()))?;
         let setup_ms = ms(t);
         let (mut errors, mut frame_ms, mut transfer_ms, mut traced) = (Vec::new(), Vec::new(), 0.0f64, 0usize);
-        for f in &frames {
+        for f in frames {
             comp.set_probes(&f.grid);
             // A cold frame (transfer and receivers traced as on a run's first frame), then the
             // steady frame time of the same frame.
@@ -150,6 +166,11 @@ pub fn run(a: RenderSweep) -> Result<()> {
     }
     pb.finish_and_clear();
 
+    Ok(rows)
+}
+
+/// Prints the table, writes the CSV and the plot.
+fn report(a: &RenderSweep, rows: &[Row], frames: &[RefFrame]) -> Result<()> {
     let name = match a.knob {
         Knob::TransferPaths => "transfer_paths",
         Knob::TransferStride => "transfer_stride",
@@ -158,7 +179,7 @@ pub fn run(a: RenderSweep) -> Result<()> {
     };
     let mut table = Table::new(&[name, "worst_pct", "mean_pct", "object_pct", "shadow_pct", "interior_pct", "traced_px", "stride", "transfer_ms", "frame_ms", "setup_ms"]);
     let mut pts = Vec::new();
-    for r in &rows {
+    for r in rows {
         let n = r.errors.len().max(1) as f64;
         let worst = r.errors.iter().map(|e| e.object_and_shadow).fold(0.0, f64::max);
         let mean = |f: &dyn Fn(&CompositeError) -> f64| 100.0 * r.errors.iter().map(f).sum::<f64>() / n;

@@ -140,34 +140,7 @@ impl Resampler {
                         let x = i as f32 + (a as f32 + 0.5) / nx as f32;
                         let y = j as f32 + (b as f32 + 0.5) / ny as f32;
                         let Some(p) = at(x, y) else { continue };
-                        // Snap to pixel centres within rounding, so that same-grid inputs copy.
-                        let snap = |v: f64| if (v - v.round()).abs() < SNAP_PX { v.round() } else { v };
-                        let (x0, y0) = (snap(p.x).floor(), snap(p.y).floor());
-                        let p = DVec2::new(snap(p.x), snap(p.y));
-                        let (fx, fy) = ((p.x - x0) as f32, (p.y - y0) as f32);
-                        for (ox, oy, w) in [(0, 0, (1.0 - fx) * (1.0 - fy)), (1, 0, fx * (1.0 - fy)), (0, 1, (1.0 - fx) * fy), (1, 1, fx * fy)] {
-                            if w <= 0.0 {
-                                continue;
-                            }
-                            let mut c = x0 as i64 + ox;
-                            let mut r = y0 as i64 + oy;
-                            if wraps {
-                                c = c.rem_euclid(sw as i64);
-                                r = r.clamp(0, sh as i64 - 1);
-                            } else if c < 0 || r < 0 || c >= sw as i64 || r >= sh as i64 {
-                                continue;
-                            } else {
-                                // Pixels outside the lens's field of view hold no data.
-                                let seen = &mut sees[(r as u32 * sw + c as u32) as usize];
-                                if *seen == 0 {
-                                    *seen = if projection.sees(c as u32, r as u32) { 1 } else { 2 };
-                                }
-                                if *seen == 2 {
-                                    continue;
-                                }
-                            }
-                            taps.push(((r as u32) * sw + c as u32, w * sub_w));
-                        }
+                        bilinear_taps(p, (sw, sh), wraps, projection, &mut sees, sub_w, &mut taps);
                     }
                 }
                 taps.sort_by_key(|t| t.0);
@@ -264,6 +237,40 @@ impl Resampler {
             };
         }
         stats
+    }
+}
+
+
+/// Appends the bilinear taps of source point `p` (weights times `weight`) to `taps`: pixel
+/// centres within `SNAP_PX` snap (so same-grid inputs copy), columns wrap for wrapping
+/// projections, and pixels outside the lens's field of view (cached in `sees`: 0 not checked,
+/// 1 inside, 2 outside) are left out.
+fn bilinear_taps(p: DVec2, (sw, sh): (u32, u32), wraps: bool, projection: &Projection, sees: &mut [u8], weight: f32, taps: &mut Vec<(u32, f32)>) {
+    let snap = |v: f64| if (v - v.round()).abs() < SNAP_PX { v.round() } else { v };
+    let (x0, y0) = (snap(p.x).floor(), snap(p.y).floor());
+    let p = DVec2::new(snap(p.x), snap(p.y));
+    let (fx, fy) = ((p.x - x0) as f32, (p.y - y0) as f32);
+    for (ox, oy, w) in [(0, 0, (1.0 - fx) * (1.0 - fy)), (1, 0, fx * (1.0 - fy)), (0, 1, (1.0 - fx) * fy), (1, 1, fx * fy)] {
+        if w <= 0.0 {
+            continue;
+        }
+        let mut c = x0 as i64 + ox;
+        let mut r = y0 as i64 + oy;
+        if wraps {
+            c = c.rem_euclid(sw as i64);
+            r = r.clamp(0, sh as i64 - 1);
+        } else if c < 0 || r < 0 || c >= sw as i64 || r >= sh as i64 {
+            continue;
+        } else {
+            let seen = &mut sees[(r as u32 * sw + c as u32) as usize];
+            if *seen == 0 {
+                *seen = if projection.sees(c as u32, r as u32) { 1 } else { 2 };
+            }
+            if *seen == 2 {
+                continue;
+            }
+        }
+        taps.push(((r as u32) * sw + c as u32, w * weight));
     }
 }
 

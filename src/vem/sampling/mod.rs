@@ -132,44 +132,8 @@ impl PolarDistribution {
             let row = &map.data[j * w..(j + 1) * w];
             let cdf = &mut self.conditional[j * (w + 1)..(j + 1) * (w + 1)];
             cdf[0] = 0.0;
-            // Luminance, then the row's RGB sums and smallest value in twelve independent
-            // lanes (four texels × three channels): both loops vectorise. Finite sums and no
-            // negative value mean every texel is valid; otherwise the slow path checks each.
-            for (c, p) in cdf[1..].iter_mut().zip(row) {
-                *c = luminance(*p);
-            }
-            let flat = row.as_flattened();
-            let (mut sum, mut min) = ([0.0f32; 12], [0.0f32; 12]);
-            let chunks = flat.chunks_exact(12);
-            let rest = chunks.remainder();
-            for ch in chunks {
-                for k in 0..12 {
-                    sum[k] += ch[k];
-                    min[k] = if ch[k] < min[k] { ch[k] } else { min[k] };
-                }
-            }
-            for (k, v) in rest.iter().enumerate() {
-                sum[k] += v;
-                min[k] = if *v < min[k] { *v } else { min[k] };
-            }
-            let mut rgb = [0.0f64; 3];
-            for k in 0..12 {
-                rgb[k % 3] += sum[k] as f64;
-            }
-            let row_ok = rgb.iter().all(|v| v.is_finite()) && min.iter().all(|&m| m >= 0.0);
-            if !row_ok {
-                rgb = [0.0; 3];
-                for (c, p) in cdf[1..].iter_mut().zip(row) {
-                    if is_valid(p) {
-                        for k in 0..3 {
-                            rgb[k] += p[k] as f64;
-                        }
-                    } else {
-                        *c = 0.0;
-                        invalid += 1;
-                    }
-                }
-            }
+            let (rgb, bad) = row_luminance_and_rgb(row, cdf);
+            invalid += bad;
             prefix_sum(&mut cdf[1..]);
             let sum = cdf[w];
             if sum > 0.0 && sum.is_finite() {
@@ -188,31 +152,37 @@ impl PolarDistribution {
         }
         self.total = total;
         if total > 0.0 {
-            let mut acc = 0.0;
-            for j in 0..h {
-                self.ring_mass[j] /= total;
-                acc += self.ring_mass[j];
-                self.marginal[j + 1] = acc;
-            }
-            self.marginal[h] = 1.0;
-            // Rings without light borrow the conditional of the nearest ring with light.
-            for j in 0..h {
-                if self.ring_mass[j] > 0.0 {
-                    continue;
-                }
-                let src = (1..h)
-                    .flat_map(|d| [j.checked_sub(d), (j + d < h).then_some(j + d)])
-                    .flatten()
-                    .find(|&k| self.ring_mass[k] > 0.0);
-                if let Some(k) = src {
-                    self.cond_source[j] = k as u32;
-                    self.ring_sum[j] = self.ring_sum[k];
-                    let (a, b) = (k * (w + 1), j * (w + 1));
-                    self.conditional.copy_within(a..a + w + 1, b);
-                }
-            }
+            self.finish_marginal(w, h);
         }
         invalid
+    }
+
+    /// Normalises the ring masses into the marginal CDF; rings without light borrow the
+    /// conditional of the nearest ring with light.
+    fn finish_marginal(&mut self, w: usize, h: usize) {
+        let total = self.total;
+        let mut acc = 0.0;
+        for j in 0..h {
+            self.ring_mass[j] /= total;
+            acc += self.ring_mass[j];
+            self.marginal[j + 1] = acc;
+        }
+        self.marginal[h] = 1.0;
+        for j in 0..h {
+            if self.ring_mass[j] > 0.0 {
+                continue;
+            }
+            let src = (1..h)
+                .flat_map(|d| [j.checked_sub(d), (j + d < h).then_some(j + d)])
+                .flatten()
+                .find(|&k| self.ring_mass[k] > 0.0);
+            if let Some(k) = src {
+                self.cond_source[j] = k as u32;
+                self.ring_sum[j] = self.ring_sum[k];
+                let (a, b) = (k * (w + 1), j * (w + 1));
+                self.conditional.copy_within(a..a + w + 1, b);
+            }
+        }
     }
 
     /// Polar map width.
@@ -396,6 +366,51 @@ pub(crate) fn invert_cdf(knot: impl Fn(usize) -> f32, n: usize, v: f32) -> (u32,
     let (a, b) = (knot(lo), knot(lo + 1));
     let f = if b > a { ((v - a) / (b - a)).clamp(0.0, 1.0) } else { 0.5 };
     (lo as u32, f)
+}
+
+/// Writes the luminance of `row` into `cdf[1..]` and returns the row's RGB sums and how many
+/// texels were invalid (those get luminance 0 and stay out of the sums). The sums and smallest
+/// values run in twelve independent lanes (four texels × three channels), so both loops
+/// vectorise; finite sums and no negative value mean every texel is valid, otherwise the slow
+/// path checks each.
+fn row_luminance_and_rgb(row: &[[f32; 3]], cdf: &mut [f32]) -> ([f64; 3], usize) {
+    for (c, p) in cdf[1..].iter_mut().zip(row) {
+        *c = luminance(*p);
+    }
+    let flat = row.as_flattened();
+    let (mut sum, mut min) = ([0.0f32; 12], [0.0f32; 12]);
+    let chunks = flat.chunks_exact(12);
+    let rest = chunks.remainder();
+    for ch in chunks {
+        for k in 0..12 {
+            sum[k] += ch[k];
+            min[k] = if ch[k] < min[k] { ch[k] } else { min[k] };
+        }
+    }
+    for (k, v) in rest.iter().enumerate() {
+        sum[k] += v;
+        min[k] = if *v < min[k] { *v } else { min[k] };
+    }
+    let mut rgb = [0.0f64; 3];
+    for k in 0..12 {
+        rgb[k % 3] += sum[k] as f64;
+    }
+    let mut invalid = 0;
+    let row_ok = rgb.iter().all(|v| v.is_finite()) && min.iter().all(|&m| m >= 0.0);
+    if !row_ok {
+        rgb = [0.0; 3];
+        for (c, p) in cdf[1..].iter_mut().zip(row) {
+            if is_valid(p) {
+                for k in 0..3 {
+                    rgb[k] += p[k] as f64;
+                }
+            } else {
+                *c = 0.0;
+                invalid += 1;
+            }
+        }
+    }
+    (rgb, invalid)
 }
 
 #[cfg(test)]

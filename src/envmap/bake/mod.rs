@@ -28,21 +28,22 @@
 //!    input hashes match `bake.json` is loaded instead of recomputed.
 
 pub use crate::scene::settings::BakeConfig;
-use crate::estimate::{EstimateError, Estimator, Status};
+use crate::estimate::{EstimateError, Status};
 use crate::geometry::ambient::transport;
 use crate::geometry::raycast::RayScene;
 use crate::geometry::sampling::sphere_fibonacci;
 use crate::io::IoError;
-use crate::io::frames::{Frame, FrameData, Linearizer, Response};
 use crate::io::image::{ExrPrecision, LinearImage};
 use crate::camera::View;
 use crate::scene::{AlbedoSource, Scene};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use std::f32::consts::PI;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
+use steps::{Hits, Inversion, capture_lighting, fill_flagged, hit_buffers};
+
+mod steps;
 
 /// Texels whose inverse-rendering denominator is below this fraction of `Pa` are flagged: they
 /// receive almost no light, so their radiance says nothing about their albedo.
@@ -248,18 +249,7 @@ pub fn bake_with_map(scene: &Scene, ray: std::sync::Arc<RayScene>, map: Option<L
     // 1. Hit buffers.
     let n = (w * h) as usize;
     let view = View::Equirect { centre, width: w, height: h };
-    let hits: Vec<Option<crate::geometry::raycast::Hit>> = (0..n)
-        .into_par_iter()
-        .map(|i| {
-            let (o, d) = view.ray(i as u32 % w, i as u32 / w)?;
-            ray.intersect(o.as_vec3(), d.as_vec3(), f32::MAX)
-        })
-        .collect();
-    let mesh = ray.mesh();
-    let node: Vec<u32> = hits.iter().map(|h| h.map_or(SKY, |h| mesh.tri_node[h.tri as usize])).collect();
-    let position: Vec<Vec3> = hits.iter().map(|h| h.map_or(Vec3::ZERO, |h| h.point)).collect();
-    let normal: Vec<Vec3> = hits.iter().map(|h| h.map_or(Vec3::ZERO, |h| h.normal)).collect();
-    let base: Vec<Vec3> = hits.iter().map(|h| h.map_or(Vec3::ZERO, |h| ray.albedo(&h))).collect();
+    let Hits { node, position, normal, base } = hit_buffers(&ray, &view, n);
     info.surface_texels = node.iter().filter(|&&k| k != SKY).count();
     info.sky_texels = n - info.surface_texels;
     lap(&mut info, "hit buffers");
@@ -282,63 +272,17 @@ pub fn bake_with_map(scene: &Scene, ray: std::sync::Arc<RayScene>, map: Option<L
     // 3–4. Albedo.
     let albedo = match (&captured, env.albedo) {
         (Some((img, path)), AlbedoSource::Inverse) => {
-            let time = crate::scene::parse_time(&mpath, "envmap.capture_time", &env.capture_time.to_string())
-                .map_err(|e| BakeError::Info { path: mpath.clone(), message: e.to_string() })?;
-            let sun_pos = crate::sun::sun_position(&scene.observer, &time).map_err(EstimateError::from)?;
-            let (pd, pa, l, sun_above) = match (env.capture_pd, env.capture_pa) {
-                (Some(pd), Some(pa)) => {
-                    info.capture_status = None;
-                    (pd, pa, scene.geo.sun_dir_in_world(&sun_pos), sun_pos.above_horizon())
-                }
-                _ => {
-                    let mut est = Estimator::with_view(scene.estimator.clone(), scene.observer, scene.geo, view, ray.clone())?;
-                    let frame = Frame { width: w, height: h, data: FrameData::Hdr(img.clone()) };
-                    let e = est.estimate(0, &time, &frame, &Linearizer::new(&Response::Linear, 1.0, 1.0, None))?;
-                    let (Some(pd), Some(pa)) = (e.pd, e.pa) else {
-                        return Err(BakeError::CaptureLighting { path: path.clone(), status: e.status });
-                    };
-                    info.capture_status = Some(e.status);
-                    (pd, pa, Vec3::from(e.sun.dir_world), e.sun.above_horizon)
-                }
-            };
-            info.capture_sun_dir = l.to_array();
-            info.capture_pd = pd;
-            info.capture_pa = pa;
+            let (pd, pa, l, sun_above) = capture_lighting(scene, &ray, view, img, path, &mut info)?;
             lap(&mut info, "lighting at capture");
-            let (pd, pa) = (Vec3::new(pd[0] as f32, pd[1] as f32, pd[2] as f32), Vec3::new(pa[0] as f32, pa[1] as f32, pa[2] as f32));
-            let sun_up = sun_above && pd.max_element() > 0.0;
-            let done = AtomicU64::new(0);
-            let inverted: Vec<(Vec3, bool)> = (0..n)
-                .into_par_iter()
-                .map(|i| {
-                    if node[i] == SKY {
-                        return (Vec3::ZERO, true);
-                    }
-                    let (p, nn) = (position[i], normal[i]);
-                    let (direct, bounce) = if sun_up {
-                        let cos = nn.dot(l).max(0.0);
-                        let s = cos > 0.0 && ray.sees_direction(p, nn, l);
-                        let b = transport(&ray, p, nn, Some(l), cfg.bounce, 0xb0c0_0000 + i as u64).b;
-                        (if s { cos } else { 0.0 }, b)
-                    } else {
-                        (0.0, Vec3::ZERO)
-                    };
-                    let k = done.fetch_add(1, Ordering::Relaxed) + 1;
-                    if k % 1024 == 0 || k == n as u64 {
-                        progress("albedo inversion", k, n as u64);
-                    }
-                    let denom = ambient[i] * pa + (Vec3::splat(direct) + bounce) * pd;
-                    let rho = Vec3::from(img.data[i]) * PI / denom;
-                    let ok = denom.cmpge(pa * MIN_DENOMINATOR_REL).all() && rho.is_finite() && rho.cmpge(Vec3::ZERO).all() && rho.cmple(Vec3::splat(MAX_ALBEDO)).all();
-                    (if ok { rho } else { Vec3::ZERO }, ok)
-                })
-                .collect();
-            let (mut rho, valid): (Vec<Vec3>, Vec<bool>) = inverted.into_iter().unzip();
-            let (from_neighbours, from_base) = fill_flagged(&mut rho, &valid, &node, &base, w, h);
+            let hits = Hits { node, position, normal, base };
+            let inv = Inversion { ray: &ray, hits: &hits, ambient: &ambient, cfg, progress };
+            let (mut rho, valid) = inv.run(img, pd, pa, l, sun_above);
+            let (from_neighbours, from_base) = fill_flagged(&mut rho, &valid, &hits.node, &hits.base, w, h);
             info.filled_from_neighbours = from_neighbours;
             info.filled_from_base_colour = from_base;
             lap(&mut info, "albedo inversion");
-            rho
+            let Hits { node, position, normal, .. } = hits;
+            return Ok(Baked { width: w, height: h, centre: centre.as_vec3(), node, position, normal, ambient, albedo: rho, info });
         }
         _ => {
             info.albedo_source = AlbedoSource::Gltf;
@@ -346,55 +290,6 @@ pub fn bake_with_map(scene: &Scene, ray: std::sync::Arc<RayScene>, map: Option<L
         }
     };
     Ok(Baked { width: w, height: h, centre: centre.as_vec3(), node, position, normal, ambient, albedo, info })
-}
-
-/// Fills flagged texels from valid 8-neighbours of the same node (repeated averaging, wrapping in
-/// x), then from the base colour. Returns the two counts.
-fn fill_flagged(rho: &mut [Vec3], valid: &[bool], node: &[u32], base: &[Vec3], w: u32, h: u32) -> (usize, usize) {
-    let (w, h) = (w as i64, h as i64);
-    let mut ok = valid.to_vec();
-    let flagged = ok.iter().zip(node).filter(|(v, k)| !**v && **k != SKY).count();
-    loop {
-        let mut changes = Vec::new();
-        for i in 0..(w * h) as usize {
-            if ok[i] || node[i] == SKY {
-                continue;
-            }
-            let (x, y) = (i as i64 % w, i as i64 / w);
-            let (mut sum, mut cnt) = (Vec3::ZERO, 0);
-            for dy in -1..=1 {
-                for dx in -1..=1 {
-                    let (nx, ny) = ((x + dx).rem_euclid(w), y + dy);
-                    if ny < 0 || ny >= h || (dx == 0 && dy == 0) {
-                        continue;
-                    }
-                    let j = (ny * w + nx) as usize;
-                    if ok[j] && node[j] == node[i] {
-                        sum += rho[j];
-                        cnt += 1;
-                    }
-                }
-            }
-            if cnt > 0 {
-                changes.push((i, sum / cnt as f32));
-            }
-        }
-        if changes.is_empty() {
-            break;
-        }
-        for (i, v) in changes {
-            rho[i] = v;
-            ok[i] = true;
-        }
-    }
-    let mut from_base = 0;
-    for i in 0..rho.len() {
-        if !ok[i] && node[i] != SKY {
-            rho[i] = base[i];
-            from_base += 1;
-        }
-    }
-    (flagged - from_base, from_base)
 }
 
 const FILES: [&str; 5] = ["albedo.exr", "normal.exr", "ambient.exr", "geometry.exr", "bake.json"];
