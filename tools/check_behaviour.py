@@ -88,6 +88,11 @@ def measure(binary, work):
     frames = os.path.join(dst, 'frames') if os.path.isdir(os.path.join(dst, 'frames')) else dst
     file_hashes(frames, {'exr', 'png'}, 'vem_render/frames', out)
     jsonl_hashes(os.path.join(dst, 'frames.jsonl'), 'vem_render/report', out)
+    # The GPU the frames were rasterised on: llvmpipe's results depend on its vector width, so
+    # 8-bit frames can differ by a code between machines. Recorded with the hashes and named
+    # when frames differ.
+    with open(os.path.join(dst, 'report.json'), encoding='utf-8') as f:
+        out['_adapter'] = json.load(f).get('adapter', 'unknown')
     return out
 
 
@@ -120,9 +125,12 @@ def main():
         return 0
     with open(HASHES, encoding='utf-8') as f:
         want = json.load(f)
+    adapter = (want.pop('_adapter', None), got.pop('_adapter', None))
     bad = [(k, want.get(k), got.get(k)) for k in sorted(set(want) | set(got)) if want.get(k) != got.get(k)]
     for k, w, g in bad:
         print(f'differs: {k}: stored {w}, now {g}')
+    if bad and adapter[0] != adapter[1]:
+        print(f'note: the hashes were recorded on the GPU adapter "{adapter[0]}", this run used "{adapter[1]}"; rendered frames can differ between them')
     print(f'{len(want) - len([b for b in bad if b[1] is not None])} of {len(want)} stored hashes match' + ('' if not bad else f'; {len(bad)} differ'))
     return 1 if bad else 0
 
