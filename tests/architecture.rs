@@ -21,7 +21,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("report", &[]),
     ("camera", &["geometry"]),
     ("scene", &["camera", "geometry", "io", "sun"]),
-    ("estimate", &["camera", "geometry", "io", "scene", "sun"]),
+    ("estimate", &["camera", "geometry", "io", "scene", "sky", "sun"]),
     ("envmap", &["camera", "estimate", "geometry", "io", "lighting", "scene", "sun"]),
     ("irradiance", &["envmap", "geometry", "lighting", "scene"]),
     ("vem", &["camera", "geometry", "io", "report", "scene"]),

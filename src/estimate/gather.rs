@@ -67,7 +67,10 @@ impl Estimator {
                 }
                 PixelState::Ok if censored(self.pool.node[e], sun.lit[e]) => counts.censored += 1,
                 PixelState::Ok => {
-                    let (a, b) = (self.pool.a[e], sun.b[e]);
+                    let (a, b) = match &self.sun_sky {
+                        Some(sky) => (sky.a[e], std::array::from_fn(|c| sun.b[e][c] + sky.b[e][c])),
+                        None => (self.pool.a[e], sun.b[e]),
+                    };
                     for c in 0..3 {
                         self.rows[c].push(a[c] as f64, b[c] as f64, v[c] as f64);
                     }

@@ -23,6 +23,7 @@ pub mod pool;
 mod report;
 mod gather;
 mod decide;
+pub mod sky_terms;
 pub mod smoother;
 pub mod solve;
 
@@ -72,6 +73,10 @@ pub struct Estimator {
     last_split: Option<[f64; 3]>,
     last_smoothed: Option<[f64; 6]>,
     t0: Option<DateTime<FixedOffset>>,
+    /// The sky's shape and the terrain (`None`: Jensen's uniform sky), and their terms for the
+    /// current sun.
+    sky: Option<sky_terms::SkyTerms>,
+    sun_sky: Option<sky_terms::SunSky>,
     /// Time of the last frame that updated the smoother.
     last_update: Option<DateTime<FixedOffset>>,
     rows: [ChannelRows; 3],
@@ -123,6 +128,7 @@ impl Estimator {
         }
         let t = std::time::Instant::now();
         let pool = Pool::build(&map, &scene, config.pool_size, config.ambient, config.seed);
+        let sky = sky_terms::SkyTerms::build(&pool, &scene, &config.sky).map_err(EstimateError::Sky)?;
         let pool_ms = t.elapsed().as_secs_f64() * 1e3;
         let stats = SetupStats {
             diffuse_pixels: map.diffuse_pixels,
@@ -145,6 +151,8 @@ impl Estimator {
             last_smoothed: None,
             t0: None,
             last_update: None,
+            sky,
+            sun_sky: None,
             rows: Default::default(),
             lit: Vec::new(),
             bounce_only: Vec::new(),
@@ -193,7 +201,7 @@ impl Estimator {
     }
 
     /// Makes sure the sun state matches `dir`; returns whether it was rebuilt.
-    fn ensure_sun(&mut self, dir: Vec3, above: bool) -> bool {
+    fn ensure_sun(&mut self, dir: Vec3, above: bool) -> Result<bool, EstimateError> {
         let stale = match &self.sun {
             None => true,
             Some(s) => {
@@ -203,8 +211,9 @@ impl Estimator {
         };
         if stale {
             self.sun = Some(SunState::build(&self.map, &self.pool, &self.scene, dir, above, &self.config));
+            self.sun_sky = self.sky.as_ref().map(|s| s.for_sun(&self.pool, dir, above)).transpose().map_err(EstimateError::Sky)?;
         }
-        stale
+        Ok(stale)
     }
 
     /// Estimates the lighting of one frame. `index` seeds the frame's draw.
@@ -221,7 +230,7 @@ impl Estimator {
             crate::io::frames::FrameData::Ldr { .. } => LDR_NOISE_FLOOR_REL,
             crate::io::frames::FrameData::Hdr(_) => HDR_NOISE_FLOOR_REL,
         };
-        let rebuilt = self.ensure_sun(dir, above);
+        let rebuilt = self.ensure_sun(dir, above)?;
         let sun_rebuild_ms = if rebuilt { self.sun.as_ref().map_or(0.0, |s| s.build_ms) } else { 0.0 };
         let t_start = std::time::Instant::now();
 

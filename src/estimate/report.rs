@@ -159,6 +159,9 @@ pub enum EstimateError {
     /// The solar position model failed.
     #[error(transparent)]
     Sun(#[from] SunError),
+    /// The sky model (`[estimator.sky]`) cannot be built.
+    #[error("[estimator.sky]: {0}")]
+    Sky(crate::sky::SkyError),
 }
 
 /// Set-up statistics, for the run summary.

@@ -46,6 +46,64 @@ pub struct EstimatorConfig {
     pub relight_sun_deg: f64,
     /// Seed of all random draws.
     pub seed: u64,
+    /// The sky's shape and the terrain below the horizon (`[estimator.sky]`).
+    pub sky: SkyTermsConfig,
+}
+
+/// The sky's angular shape in the estimator's ambient term.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SkyShape {
+    /// Jensen's uniform sky (the bundled courtyard's generator has one).
+    Uniform,
+    /// The Hosek–Wilkie clear sky for the frame's sun (brighter near the sun and the horizon).
+    HosekWilkie,
+}
+
+/// `[estimator.sky]`: the sky's shape and the terrain beyond the proxy (see `estimate::sky_terms`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SkyTermsConfig {
+    /// The sky's shape: `hosek_wilkie` (default) or `uniform`.
+    pub shape: SkyShape,
+    /// Turbidity of the Hosek–Wilkie sky, 1–10 (3: a clear day).
+    pub turbidity: f64,
+    /// Albedo (RGB) of the flat terrain beyond the proxy that lights surfaces from below the
+    /// horizon: 0.8 fresh snow, 0.2 grass or soil (default), 0.08 asphalt, 0 for nothing below.
+    pub terrain_albedo: [f32; 3],
+    /// Directions per surface of the sky and terrain quadrature.
+    pub directions: usize,
+}
+
+/// Turbidity range of the Hosek–Wilkie model.
+pub const SKY_TURBIDITY_RANGE: (f64, f64) = (1.0, 10.0);
+
+impl Default for SkyTermsConfig {
+    fn default() -> Self {
+        Self { shape: SkyShape::HosekWilkie, turbidity: 3.0, terrain_albedo: [0.2; 3], directions: 256 }
+    }
+}
+
+impl SkyTermsConfig {
+    /// Jensen's model: uniform sky, nothing below the horizon.
+    pub fn jensen() -> Self {
+        Self { shape: SkyShape::Uniform, terrain_albedo: [0.0; 3], ..Self::default() }
+    }
+
+    /// Checks ranges; `Err((field, message))`.
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        let (lo, hi) = SKY_TURBIDITY_RANGE;
+        if !(lo..=hi).contains(&self.turbidity) {
+            return Err(("sky.turbidity", format!("must be in [{lo}, {hi}], got {}", self.turbidity)));
+        }
+        if !self.terrain_albedo.iter().all(|a| (0.0..=1.0).contains(a)) {
+            return Err(("sky.terrain_albedo", format!("must be in [0, 1] per channel, got {:?}", self.terrain_albedo)));
+        }
+        if !(16..=4096).contains(&self.directions) {
+            return Err(("sky.directions", format!("must be in [16, 4096], got {}", self.directions)));
+        }
+        Ok(())
+    }
 }
 
 impl Default for EstimatorConfig {
@@ -66,6 +124,7 @@ impl Default for EstimatorConfig {
             relight_threshold: 0.02,
             relight_sun_deg: 0.5,
             seed: 0,
+            sky: SkyTermsConfig::default(),
         }
     }
 }
@@ -100,7 +159,7 @@ impl EstimatorConfig {
         if !(self.saturated_fraction > 0.0 && self.saturated_fraction <= 1.0) {
             return Err(("saturated_fraction", "must be in (0, 1]".into()));
         }
-        Ok(())
+        self.sky.validate()
     }
 }
 

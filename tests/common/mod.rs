@@ -152,7 +152,13 @@ pub fn frame(img: LinearImage) -> Frame {
     Frame { width: img.width, height: img.height, data: FrameData::Hdr(img) }
 }
 
-pub fn estimator(world: &World, config: EstimatorConfig) -> Estimator {
+/// The estimator for a synthetic world. Those worlds are rendered with Jensen's uniform sky and
+/// nothing below the horizon, so the model gets the same (`SkyTermsConfig::jensen`) unless the
+/// caller chose another sky.
+pub fn estimator(world: &World, mut config: EstimatorConfig) -> Estimator {
+    if config.sky == heliar::scene::settings::SkyTermsConfig::default() {
+        config.sky = heliar::scene::settings::SkyTermsConfig::jensen();
+    }
     Estimator::with_camera(config, observer(), GeoFrame::default(), &world.camera, world.ray.clone()).expect("estimator")
 }
 

@@ -393,6 +393,11 @@ translation = [{}, {}, {}]
 rotation_y_deg = {STATUE_ROTATION_Y_DEG}
 scale = 1.0
 
+[estimator.sky]
+# The generator's sky is uniform and nothing lies below the horizon: Jensen's model.
+shape = "uniform"
+terrain_albedo = [0.0, 0.0, 0.0]
+
 [envmap]
 file = "env.exr"
 capture_center = [{}, {}, {}]

@@ -1,0 +1,187 @@
+//! The sky's shape and the terrain below the horizon in the estimator's model (issue 13; the
+//! model of Jensen §3.1 with its uniform sky replaced).
+//!
+//! Jensen's model lights every surface by a uniform sky of radiance `Pa/π` over the upper
+//! hemisphere and nothing from below. Real skies are brighter near the sun and the horizon, so a
+//! surface facing the sun receives more sky light than its uniform `c` says and the fit hands the
+//! surplus to `Pd`; and terrain beyond the proxy (snow, a street) lights surfaces from below,
+//! which the fit hands to `Pa`. Here the ambient column becomes
+//!
+//! `a = ρ/π · (c + E_shape − E_uniform + ρ_t/π · E_below)`,  and the direct column gains
+//! `ρ/π · ρ_t/π · max(l_y, 0) · E_below`,
+//!
+//! with, over a fixed cosine-weighted set of directions from the surface ([`CosineSet`]) that
+//! leave the proxy: `E_shape` the irradiance of the Hosek–Wilkie sky for the frame's sun
+//! normalised per channel to unit irradiance on an unoccluded horizontal surface (so its weight is
+//! still `Pa`, the crate's definition), `E_uniform` the same for the uniform sky (the direct part
+//! of `c`, which it replaces; the interreflected part of `c` keeps the uniform sky), and
+//! `E_below` the irradiance per unit radiance from directions below the horizon (the terrain,
+//! `L_t = ρ_t/π·(Pa + max(l_y,0)·Pd)`, [`crate::sky::terrain`]). Both unknowns stay linear, so the
+//! solver is unchanged. Visibility along the set is traced once per pool entry; a new sun only
+//! re-evaluates the sky.
+
+use super::pool::Pool;
+use crate::geometry::raycast::RayScene;
+use crate::scene::settings::{SkyShape, SkyTermsConfig};
+use crate::sky::SkyError;
+use crate::sky::hosek::HosekSky;
+use crate::sky::quadrature::{CosineSet, hemisphere_integral};
+use glam::Vec3;
+use rayon::prelude::*;
+use std::f32::consts::PI;
+
+/// Per pool entry, which directions of the set leave the proxy.
+pub struct SkyTerms {
+    config: SkyTermsConfig,
+    set: CosineSet,
+    /// Per entry, one bit per direction of `set` (in `set.around(n)` order).
+    open: Vec<Vec<u64>>,
+}
+
+/// The sky terms of one sun: per entry, the ambient coefficient and the extra direct one.
+#[derive(Clone, Debug, Default)]
+pub struct SunSky {
+    /// `ρ/π·(c + E_shape − E_uniform + ρ_t/π·E_below)` per channel.
+    pub a: Vec<[f32; 3]>,
+    /// `ρ/π·ρ_t/π·max(l_y,0)·E_below` per channel.
+    pub b: Vec<[f32; 3]>,
+}
+
+impl SkyTerms {
+    /// Traces the visibility of every pool entry; `None` when the configuration is Jensen's
+    /// (uniform sky, black terrain), whose `a` is the pool's own.
+    pub fn build(pool: &Pool, scene: &RayScene, config: &SkyTermsConfig) -> Result<Option<Self>, SkyError> {
+        if config.shape == SkyShape::Uniform && config.terrain_albedo == [0.0; 3] {
+            return Ok(None);
+        }
+        let set = CosineSet::fibonacci(config.directions)?;
+        let open = (0..pool.len())
+            .into_par_iter()
+            .map(|k| {
+                let (p, n) = (pool.point[k], pool.normal[k]);
+                let mut bits = vec![0u64; set.len().div_ceil(64)];
+                for (j, d) in set.around(n).enumerate() {
+                    if scene.sees_direction(p, n, d) {
+                        bits[j / 64] |= 1 << (j % 64);
+                    }
+                }
+                bits
+            })
+            .collect();
+        Ok(Some(Self { config: config.clone(), set, open }))
+    }
+
+    /// The terms for the sun toward `l` (a sun below the horizon: the sky's shape for a sun on
+    /// the horizon, no sun on the terrain).
+    pub fn for_sun(&self, pool: &Pool, l: Vec3, above_horizon: bool) -> Result<SunSky, SkyError> {
+        let shape: Box<dyn Fn(Vec3) -> [f32; 3] + Sync> = match self.config.shape {
+            SkyShape::Uniform => Box::new(|_| [1.0 / PI; 3]),
+            SkyShape::HosekWilkie => {
+                let ground = self.config.terrain_albedo.map(|v| v.clamp(0.0, 1.0) as f64);
+                let sky = HosekSky::new(l, self.config.turbidity, ground)?;
+                let norm: [f32; 3] = std::array::from_fn(|c| (1.0 / hemisphere_integral(|d| sky.radiance_rgb(d.as_vec3())[c] as f64)) as f32);
+                if norm.iter().any(|v| !v.is_finite()) {
+                    return Err(SkyError::Parameter { field: "estimator.sky", reason: "gives a sky without light", value: self.config.turbidity });
+                }
+                Box::new(move |d| {
+                    let r = sky.radiance_rgb(d);
+                    [r[0] * norm[0], r[1] * norm[1], r[2] * norm[2]]
+                })
+            }
+        };
+        let w = self.set.weight();
+        let rho_t = Vec3::from(self.config.terrain_albedo) / PI;
+        let sun_y = if above_horizon { l.y.max(0.0) } else { 0.0 };
+        let per: Vec<([f32; 3], [f32; 3])> = (0..pool.len())
+            .into_par_iter()
+            .map(|k| {
+                let (mut e_shape, mut e_uniform, mut below) = (Vec3::ZERO, 0.0f32, 0u32);
+                for (j, d) in self.set.around(pool.normal[k]).enumerate() {
+                    if self.open[k][j / 64] & (1 << (j % 64)) == 0 {
+                        continue;
+                    }
+                    if d.y < 0.0 {
+                        below += 1;
+                    } else {
+                        e_shape += Vec3::from(shape(d));
+                        e_uniform += 1.0 / PI;
+                    }
+                }
+                let (e_shape, e_uniform, e_below) = (e_shape * w, e_uniform * w, below as f32 * w);
+                let rho = pool.albedo[k] / PI;
+                let a = Vec3::from(pool.a[k]) + rho * (e_shape - Vec3::splat(e_uniform) + rho_t * e_below);
+                let b = rho * rho_t * e_below * sun_y;
+                (a.to_array(), b.to_array())
+            })
+            .collect();
+        let (a, b) = per.into_iter().unzip();
+        Ok(SunSky { a, b })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{Material, Mesh, NodeInfo};
+    use glam::Vec2;
+
+    /// A scene with one small triangle far away (nothing occludes the test surfaces).
+    fn open_scene() -> RayScene {
+        let mut m = Mesh::default();
+        m.positions.extend([Vec3::new(1e4, 1e4, 1e4), Vec3::new(1e4 + 1.0, 1e4, 1e4), Vec3::new(1e4, 1e4 + 1.0, 1e4)]);
+        m.uvs.extend([Vec2::ZERO; 3]);
+        m.triangles.push([0, 1, 2]);
+        m.tri_node.push(0);
+        m.tri_material.push(0);
+        m.nodes.push(NodeInfo { name: "far".into(), diffuse: false });
+        m.materials.push(Material::default());
+        RayScene::new(m)
+    }
+
+    /// Entries with albedo π (so `a = E` directly) and `c` = the uniform sky's share.
+    fn pool(normals: &[Vec3], c: &[f32]) -> Pool {
+        let mut p = Pool::default();
+        for (n, c) in normals.iter().zip(c) {
+            p.pixel.push(0);
+            p.point.push(Vec3::ZERO);
+            p.normal.push(*n);
+            p.albedo.push(Vec3::splat(PI));
+            p.c.push(Vec3::splat(*c));
+            p.a.push([*c; 3]);
+            p.node.push(0);
+        }
+        p
+    }
+
+    /// Closed forms on open surfaces: an upward surface gets unit irradiance from the sky shape
+    /// (its normalisation) and nothing from below; a vertical one half its cosine integral from
+    /// below (`π/2` per unit radiance, so `ρ_t/π·π/2 = ρ_t/2` per `Pa`); a wall facing a low sun
+    /// gets more sky than one facing away (the circumsolar brightening the uniform sky lacks).
+    #[test]
+    fn the_sky_shape_is_normalised_and_the_terrain_lights_walls_from_below() {
+        let scene = open_scene();
+        let sun = Vec3::new(0.0, 0.1, -1.0).normalize();
+        let normals = [Vec3::Y, Vec3::new(0.0, 0.0, -1.0), Vec3::Z];
+        // Uniform `c` of an open horizontal surface is 1, of an open wall 1/2.
+        let p = pool(&normals, &[1.0, 0.5, 0.5]);
+        let cfg = SkyTermsConfig { terrain_albedo: [0.4; 3], directions: 2048, ..SkyTermsConfig::default() };
+        let terms = SkyTerms::build(&p, &scene, &cfg).unwrap().expect("not Jensen's model");
+        let s = terms.for_sun(&p, sun, true).unwrap();
+        for c in 0..3 {
+            assert!((s.a[0][c] - 1.0).abs() < 0.01, "up: {:?}", s.a[0]);
+            assert!(s.b[0][c].abs() < 1e-6, "nothing below an upward surface: {:?}", s.b[0]);
+            // Walls: sky share (≈ 1/2 for a uniform sky) plus the terrain's ρ_t/2 = 0.2.
+            let toward = s.a[1][c] - 0.2;
+            let away = s.a[2][c] - 0.2;
+            assert!(toward > 0.55 && away < 0.45, "toward the sun {toward}, away {away}");
+            // The terrain's sun term: ρ_t/2·max(l_y,0).
+            assert!((s.b[1][c] - 0.2 * sun.y).abs() < 0.01, "{:?}", s.b[1]);
+        }
+        // Jensen's configuration needs no terms at all.
+        assert!(SkyTerms::build(&p, &scene, &SkyTermsConfig::jensen()).unwrap().is_none());
+        // A uniform shape with terrain keeps the sky part as it was.
+        let u = SkyTermsConfig { shape: SkyShape::Uniform, ..cfg };
+        let su = SkyTerms::build(&p, &scene, &u).unwrap().unwrap().for_sun(&p, sun, true).unwrap();
+        assert!((su.a[0][0] - 1.0).abs() < 1e-3 && (su.a[1][0] - 0.7).abs() < 0.01, "{:?}", su.a);
+    }
+}
