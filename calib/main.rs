@@ -267,6 +267,10 @@ struct HdrArgs {
 }
 
 fn hdr(a: HdrArgs) -> Result<()> {
+    ops::hdr::check_times(&a.images, &a.times).context("--images/--times")?;
+    if !a.back.is_empty() {
+        ops::hdr::check_times(&a.back, &a.times).context("--back/--times")?;
+    }
     let imgs = a.images.iter().map(|p| Rgb8::open(p)).collect::<Result<Vec<_>, _>>()?;
     let reflection = if a.reflection.is_empty() {
         None

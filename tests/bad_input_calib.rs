@@ -105,3 +105,36 @@ fn unmark_overrides_the_gltf_extras_in_the_manifest() {
     assert!(e.contains("proxy.not_diffuse_nodes") && e.contains("wall"), "{e}");
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// Three bracketed exposures of a gradient, `dir/e{i}.png`.
+fn bracket(dir: &Path) -> Vec<PathBuf> {
+    let (w, h) = (48u32, 32u32);
+    [0.004f32, 0.016, 0.064]
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let data: Vec<u8> = (0..h).flat_map(|_| (0..w).flat_map(move |x| [heliar::io::image::srgb_u8_from_linear(8.0 * t * 0.02 * 10f32.powf(2.5 * x as f32 / w as f32)); 3])).collect();
+            let p = dir.join(format!("e{i}.png"));
+            image::save_buffer(&p, &data, w, h, image::ExtendedColorType::Rgb8).unwrap();
+            p
+        })
+        .collect()
+}
+
+fn join(paths: &[PathBuf]) -> String {
+    paths.iter().map(|p| p.to_str().unwrap()).collect::<Vec<_>>().join(",")
+}
+
+#[test]
+fn hdr_refuses_exposure_times_that_do_not_bracket() {
+    let d = scratch("hdr-times");
+    let imgs = bracket(&d);
+    let out = d.join("out/merged.exr");
+    for (times, named) in [("0.004,0.004,0.016", ["e0.png", "e1.png", "0.004"]), ("0.016,0.004,0.016", ["e0.png", "e2.png", "0.016"]), ("0.004,0,0.016", ["e1.png", "0 s", "positive"])] {
+        refused(&["hdr", "--images", &join(&imgs), "--times", times, "-o", s(&out)], &named, &[&d]);
+        assert!(!out.exists() && !d.join("out").exists());
+    }
+    refused(&["hdr", "--images", &join(&imgs), "--times", "0.004,0.016", "-o", s(&out)], &["2 times for 3 exposures"], &[&d]);
+    std::fs::remove_dir_all(&d).ok();
+}
+
