@@ -362,6 +362,13 @@ struct PhotometricArgs {
     /// Write the fit into this fisheye calibration's [response] (kind = "log", the patches file).
     #[arg(long)]
     calib: Option<PathBuf>,
+    /// Largest relative luminance error (percent, over the fit and check patches) of a fit that
+    /// is written into --calib.
+    #[arg(long, default_value_t = ops::photometric::MAX_FIT_ERROR_PCT, allow_hyphen_values = true)]
+    max_error: f64,
+    /// Write the fit even when its error exceeds --max-error.
+    #[arg(long)]
+    force: bool,
 }
 
 fn photometric(a: PhotometricArgs) -> Result<()> {
@@ -369,39 +376,26 @@ fn photometric(a: PhotometricArgs) -> Result<()> {
     if !(a.code_max.is_finite() && a.code_max > 0.0) {
         bail!("--code-max {}: must be positive", a.code_max);
     }
+    if !(a.max_error.is_finite() && a.max_error > 0.0) {
+        bail!("--max-error {}: must be a positive percentage", a.max_error);
+    }
     let patches = heliar::vem::capture::lens_file::read_patches(&a.patches, a.code_max)?;
     let (fit, report) = LogResponse::fit(&patches).map_err(|m| anyhow::anyhow!("{}: {m}", a.patches.display()))?;
     let v = serde_json::json!({"a": fit.a, "b": fit.b, "report": report, "dynamic_range_decades": (1.0 / fit.b) / std::f64::consts::LN_10});
     println!("{}", serde_json::to_string_pretty(&v)?);
-    if let Some(calib) = &a.calib {
-        let text = std::fs::read_to_string(calib).with_context(|| format!("reading {}", calib.display()))?;
-        let mut doc: toml_edit::DocumentMut = text.parse().with_context(|| format!("{}: not valid TOML", calib.display()))?;
-        let dir = calib.parent().unwrap_or(std::path::Path::new("."));
-        let rel = pathdiff(&std::fs::canonicalize(&a.patches)?, &std::fs::canonicalize(dir)?);
-        let r = doc.entry("response").or_insert(toml_edit::table()).as_table_mut().context("[response] is not a table")?;
-        r["kind"] = toml_edit::value("log");
-        r["patches"] = toml_edit::value(rel);
-        r["code_max"] = toml_edit::value(a.code_max);
-        for k in ["a", "b", "table", "gamma"] {
-            r.remove(k);
+    let worst = ops::photometric::worst_error_pct(&report);
+    eprintln!("fit error: up to {worst:.1}% in luminance (tolerance {}%)", a.max_error);
+    match &a.calib {
+        Some(calib) => {
+            ops::photometric::check_fit(&report, a.max_error, &a.patches, a.force)?;
+            if !(worst <= a.max_error) {
+                eprintln!("warning: writing a fit beyond the tolerance (--force)");
+            }
+            ops::photometric::write_into_calib(calib, &a.patches, a.code_max, &fit)?;
+            eprintln!("wrote the log response into {}", calib.display());
         }
-        // Validate the edited file before it replaces the old one.
-        let tmp = calib.with_file_name(format!(".{}.check-{}.toml", calib.file_stem().unwrap_or_default().to_string_lossy(), std::process::id()));
-        std::fs::write(&tmp, doc.to_string()).with_context(|| format!("writing {}", tmp.display()))?;
-        let checked = heliar::vem::capture::lens_file::FisheyeCalib::load(&tmp);
-        std::fs::remove_file(&tmp).ok();
-        checked.with_context(|| format!("the edited {} would not load", calib.display()))?;
-        edit::write_atomic(calib, doc.to_string().as_bytes())?;
-        eprintln!("wrote the log response into {}", calib.display());
+        None if !(worst <= a.max_error) => eprintln!("warning: the fit is beyond the tolerance of {}% (--max-error); it would not be written into a calibration", a.max_error),
+        None => {}
     }
     Ok(())
-}
-
-/// `path` relative to `base` (both absolute), with `..` where needed.
-fn pathdiff(path: &std::path::Path, base: &std::path::Path) -> String {
-    let (p, b): (Vec<_>, Vec<_>) = (path.components().collect(), base.components().collect());
-    let common = p.iter().zip(&b).take_while(|(x, y)| x == y).count();
-    let mut out: Vec<String> = std::iter::repeat_n("..".to_string(), b.len() - common).collect();
-    out.extend(p[common..].iter().map(|c| c.as_os_str().to_string_lossy().into_owned()));
-    out.join("/")
 }

@@ -138,3 +138,39 @@ fn hdr_refuses_exposure_times_that_do_not_bracket() {
     std::fs::remove_dir_all(&d).ok();
 }
 
+/// An equidistant fisheye calibration at `dir/fisheye.toml`.
+fn fisheye_calib(dir: &Path) -> PathBuf {
+    let f = 100.0 / 95f64.to_radians();
+    let p = dir.join("fisheye.toml");
+    std::fs::write(
+        &p,
+        format!(
+            "width = 200\nheight = 200\nfx = {f}\nfy = {f}\ncx = 99.5\ncy = 99.5\nk = [0.0, 0.0, 0.0, 0.0]\nmax_theta_deg = 95.0\n\n\
+             [orientation]\noptical_axis = [0.0, 0.0, -1.0]\nimage_up = [0.0, 1.0, 0.0]\n\n[response]\nkind = \"linear\"\nexposure = 1.0\n"
+        ),
+    )
+    .unwrap();
+    p
+}
+
+#[test]
+fn photometric_refuses_to_write_a_fit_that_does_not_fit() {
+    let d = scratch("photometric");
+    let fcalib = fisheye_calib(&d);
+    // Codes that grow with luminance but are nowhere near logarithmic (a clipping camera).
+    let patches = d.join("patches.csv");
+    std::fs::write(&patches, "5,0.1\n6,1\n7,10\n8,100\n250,1000\n255,10000\n").unwrap();
+    let err = refused(&["photometric", "--patches", s(&patches), "--calib", s(&fcalib)], &["patches.csv", "%", "--max-error", "--force", "not written"], &[&d]);
+    assert!(err.contains("fit error: up to"), "the error is printed: {err}");
+    // A tolerance of its own is honoured, and --force writes the fit anyway, with a warning.
+    refused(&["photometric", "--patches", s(&patches), "--calib", s(&fcalib), "--max-error", "50"], &["tolerance of 50%"], &[&d]);
+    refused(&["photometric", "--patches", s(&patches), "--max-error", "-1"], &["--max-error"], &[&d]);
+    let (ok, _, err) = calib(&["photometric", "--patches", s(&patches), "--calib", s(&fcalib), "--force"]);
+    assert!(ok && err.contains("warning"), "{err}");
+    assert!(std::fs::read_to_string(&fcalib).unwrap().contains("kind = \"log\""));
+    // Without --calib nothing is written: the fit is reported with a warning, and the exit is 0.
+    let (ok, _, err) = calib(&["photometric", "--patches", s(&patches)]);
+    assert!(ok && err.contains("beyond the tolerance"), "{err}");
+    std::fs::remove_dir_all(&d).ok();
+}
+
