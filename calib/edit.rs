@@ -38,12 +38,10 @@ fn copy_tree_linking_big(src: &Path, dst: &Path, link_dirs: &[PathBuf]) -> Resul
     Ok(())
 }
 
-/// Writes `bytes` to `path` atomically (temporary file in the same folder, then rename).
+/// Writes `bytes` to `path` atomically (temporary file in the same folder, then rename:
+/// `heliar::io::write_atomic`).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let tmp = path.with_extension(format!("tmp-{}", std::process::id()));
-    std::fs::write(&tmp, bytes).with_context(|| format!("writing {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("replacing {}", path.display()))?;
-    Ok(())
+    heliar::io::write_atomic(path, bytes).with_context(|| format!("writing {}", path.display()))
 }
 
 /// Applies `changes` (path relative to the scene → new contents) to the scene at `dir` after

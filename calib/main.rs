@@ -92,6 +92,9 @@ struct IntrinsicsArgs {
     /// Camera file to write (its pose and response are kept when it exists).
     #[arg(long, short)]
     output: Option<PathBuf>,
+    /// Write the output even over one of the inputs.
+    #[arg(long)]
+    force: bool,
 }
 
 fn intrinsics(a: IntrinsicsArgs) -> Result<()> {
@@ -101,6 +104,10 @@ fn intrinsics(a: IntrinsicsArgs) -> Result<()> {
         (None, Some(v)) => ViewSource::Video { path: v.clone(), every: a.every },
         _ => bail!("give --images DIR or --video FILE"),
     };
+    if let Some(out) = &a.output {
+        let input = a.images.as_ref().or(a.video.as_ref()).map(PathBuf::as_path);
+        heliar::io::guard::OutputGuard::new(None, &input.into_iter().collect::<Vec<_>>(), a.force).check_file(out).context("--output")?;
+    }
     let mut views = Vec::new();
     let mut size: Option<(u32, u32)> = None;
     let mut seen = 0usize;
@@ -152,6 +159,9 @@ struct PoseArgs {
     /// Only report; do not change the scene.
     #[arg(long)]
     dry_run: bool,
+    /// Write the overlay even over one of the inputs.
+    #[arg(long)]
+    force: bool,
 }
 
 fn pose(a: PoseArgs) -> Result<()> {
@@ -159,18 +169,25 @@ fn pose(a: PoseArgs) -> Result<()> {
     let (px, world) = ops::pose::read_pairs(&a.pairs)?;
     let k = &scene.camera.intrinsics;
     ops::pose::check_inside(k, &px, &a.pairs.display().to_string())?;
+    let overlay = a.image.as_ref().map(|_| a.overlay.clone().unwrap_or_else(|| a.pairs.with_extension("overlay.png")));
+    if let Some(out) = &overlay {
+        let scene_files = [a.scene.join(heliar::scene::MANIFEST_FILE), a.scene.join(&scene.manifest.camera.file), a.scene.join(&scene.manifest.proxy.file)];
+        let mut inputs: Vec<&std::path::Path> = vec![&a.pairs];
+        inputs.extend(a.image.as_deref());
+        inputs.extend(scene_files.iter().map(PathBuf::as_path));
+        heliar::io::guard::OutputGuard::new(None, &inputs, a.force).check_file(out).context("--overlay")?;
+    }
     let fit = solve_pose(k, &px, &world)?;
     println!("{}", serde_json::to_string_pretty(&fit)?);
     for warning in ops::pose::warnings(&fit) {
         eprintln!("warning: {warning}");
     }
-    if let Some(img_path) = &a.image {
+    if let (Some(img_path), Some(out)) = (&a.image, &overlay) {
         let cam = heliar::camera::Camera { intrinsics: k.clone(), pose: fit.pose() };
-        let out = a.overlay.clone().unwrap_or_else(|| a.pairs.with_extension("overlay.png"));
         let mut im = image::open(img_path).with_context(|| format!("reading {}", img_path.display()))?.to_rgb8();
         let outline = ops::pose::project_outline(&cam, &ops::pose::outline_edges(&scene.proxy));
         ops::pose::draw_overlay(&mut im, &outline, &px);
-        im.save(&out).with_context(|| format!("writing {}", out.display()))?;
+        heliar::io::write_via_temp(out, |tmp| im.save(tmp).map_err(anyhow::Error::from)).with_context(|| format!("writing {}", out.display()))?;
         eprintln!("wrote {}", out.display());
     }
     if a.dry_run {
@@ -264,6 +281,9 @@ struct HdrArgs {
     /// Width of the stitched equirect map (height = width / 2).
     #[arg(long, default_value_t = 1024)]
     width: u32,
+    /// Write the outputs even over one of the inputs.
+    #[arg(long)]
+    force: bool,
 }
 
 fn hdr(a: HdrArgs) -> Result<()> {
@@ -271,6 +291,10 @@ fn hdr(a: HdrArgs) -> Result<()> {
     if !a.back.is_empty() {
         ops::hdr::check_times(&a.back, &a.times).context("--back/--times")?;
     }
+    let inputs: Vec<&std::path::Path> = a.images.iter().chain(&a.back).map(PathBuf::as_path).chain(a.fisheye.as_deref()).collect();
+    let guard = heliar::io::guard::OutputGuard::new(None, &inputs, a.force);
+    guard.check_file(&a.output).context("--output")?;
+    guard.check_file(&ops::hdr::response_path(&a.output)).context("--output (the response beside it)")?;
     let imgs = a.images.iter().map(|p| Rgb8::open(p)).collect::<Result<Vec<_>, _>>()?;
     let reflection = if a.reflection.is_empty() {
         None
@@ -391,6 +415,8 @@ fn photometric(a: PhotometricArgs) -> Result<()> {
             if !(worst <= a.max_error) {
                 eprintln!("warning: writing a fit beyond the tolerance (--force)");
             }
+            let guard = heliar::io::guard::OutputGuard::new(None, &[&a.patches], a.force);
+            guard.check_file(calib)?;
             ops::photometric::write_into_calib(calib, &a.patches, a.code_max, &fit)?;
             eprintln!("wrote the log response into {}", calib.display());
         }

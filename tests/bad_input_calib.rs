@@ -174,3 +174,53 @@ fn photometric_refuses_to_write_a_fit_that_does_not_fit() {
     std::fs::remove_dir_all(&d).ok();
 }
 
+/// Pairs `u,v,x,y,z` of proxy corners seen through the bundled camera (`dir/pairs.csv`).
+fn true_pairs(dir: &Path) -> PathBuf {
+    let truth = heliar::scene::Scene::load(&bundled()).unwrap();
+    let k = &truth.camera.intrinsics;
+    let corners = [
+        [-8.0, 0.0, -8.0], [-8.0, 6.0, -8.0], [-2.8, 2.4, 1.5], [-2.8, 0.0, 1.5], [-2.8, 2.4, -1.5], [5.0, 0.0, -8.0],
+        [-8.0, 0.0, 4.0], [3.0, 5.0, -8.0], [0.0, 0.0, 0.0], [4.0, 0.0, 3.0], [-8.0, 4.0, -2.0], [8.0, 7.0, -8.0],
+    ];
+    let mut csv = String::from("u,v,x,y,z\n");
+    for c in corners {
+        if let Some(uv) = truth.camera.project_world(glam::DVec3::from(c)).filter(|uv| uv.x > 2.0 && uv.y > 2.0 && uv.x < k.width as f64 - 3.0 && uv.y < k.height as f64 - 3.0) {
+            csv += &format!("{},{},{},{},{}\n", uv.x, uv.y, c[0], c[1], c[2]);
+        }
+    }
+    let p = dir.join("pairs.csv");
+    std::fs::write(&p, csv).unwrap();
+    p
+}
+
+#[test]
+fn commands_refuse_to_write_over_their_inputs() {
+    let d = scratch("over-inputs");
+    let imgs = bracket(&d);
+    let times = "0.004,0.016,0.064";
+    // hdr -o onto one of its exposures, directly or through a symlink, or with the response
+    // landing on an input.
+    refused(&["hdr", "--images", &join(&imgs), "--times", times, "-o", s(&imgs[1])], &["e1.png", "input", "--force"], &[&d]);
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::symlink(&imgs[2], d.join("link.png")).unwrap();
+        refused(&["hdr", "--images", &join(&imgs), "--times", times, "-o", s(&d.join("link.png"))], &["link.png", "e2.png"], &[&d]);
+    }
+    // intrinsics -o onto a file of its image folder.
+    refused(&["intrinsics", "--images", s(&d), "--board", "9x6", "--square-mm", "30", "-o", s(&imgs[0])], &["--output", "e0.png"], &[&d]);
+    // pose --overlay onto its pairs or onto the scene's camera file.
+    let scene = small_scene(&d.join("s"));
+    let pairs = true_pairs(&d);
+    let frame = bundled().join("frames/ldr/frame_000.png");
+    for over in [pairs.clone(), scene.join("calib/camera.toml")] {
+        refused(&["pose", s(&scene), "--pairs", s(&pairs), "--image", s(&frame), "--overlay", s(&over)], &["--overlay", over.file_name().unwrap().to_str().unwrap()], &[&d]);
+    }
+    // With --force the merge goes over the exposure, through a temporary file and a rename
+    // (nothing left beside it).
+    let (ok, _, err) = calib(&["hdr", "--images", &join(&imgs), "--times", times, "-o", s(&d.join("e9.exr")), "--force"]);
+    assert!(ok, "{err}");
+    let left: Vec<_> = std::fs::read_dir(&d).unwrap().flatten().map(|e| e.file_name().to_string_lossy().into_owned()).filter(|n| n.contains("tmp")).collect();
+    assert!(left.is_empty(), "{left:?}");
+    std::fs::remove_dir_all(&d).ok();
+}
+

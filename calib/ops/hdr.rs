@@ -72,17 +72,16 @@ pub fn write_outputs(out: &Path, merged: &LinearImage, response: &[[f32; 3]]) ->
     if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent).with_context(|| format!("creating {}", parent.display()))?;
     }
-    let stem = out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = out.with_file_name(format!(".{stem}.tmp-{}.exr", std::process::id()));
-    if let Err(e) = merged.write_exr(&tmp, ExrPrecision::Float) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(e.into());
-    }
-    std::fs::rename(&tmp, out).with_context(|| format!("replacing {}", out.display()))?;
+    heliar::io::write_via_temp(out, |tmp| merged.write_exr(tmp, ExrPrecision::Float)).with_context(|| format!("writing {}", out.display()))?;
     let csv: String = std::iter::once("r,g,b\n".to_string()).chain(response.iter().map(|r| format!("{},{},{}\n", r[0], r[1], r[2]))).collect();
-    let rpath = out.with_extension("response.csv");
+    let rpath = response_path(out);
     crate::edit::write_atomic(&rpath, csv.as_bytes())?;
     Ok(rpath)
+}
+
+/// Where the response of the merge written to `out` goes: `*.response.csv` beside it.
+pub fn response_path(out: &Path) -> PathBuf {
+    out.with_extension("response.csv")
 }
 
 #[cfg(test)]
