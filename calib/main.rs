@@ -162,6 +162,10 @@ struct PoseArgs {
     /// Write the overlay even over one of the inputs.
     #[arg(long)]
     force: bool,
+    /// Write the pose even when the scene's camera file (camera.file) lies outside the scene
+    /// folder.
+    #[arg(long)]
+    allow_outside_scene: bool,
 }
 
 fn pose(a: PoseArgs) -> Result<()> {
@@ -169,6 +173,9 @@ fn pose(a: PoseArgs) -> Result<()> {
     let (px, world) = ops::pose::read_pairs(&a.pairs)?;
     let k = &scene.camera.intrinsics;
     ops::pose::check_inside(k, &px, &a.pairs.display().to_string())?;
+    if !a.dry_run {
+        ops::pose::check_camera_inside(&a.scene, &scene, a.allow_outside_scene)?;
+    }
     let overlay = a.image.as_ref().map(|_| a.overlay.clone().unwrap_or_else(|| a.pairs.with_extension("overlay.png")));
     if let Some(out) = &overlay {
         let scene_files = [a.scene.join(heliar::scene::MANIFEST_FILE), a.scene.join(&scene.manifest.camera.file), a.scene.join(&scene.manifest.proxy.file)];
@@ -193,7 +200,7 @@ fn pose(a: PoseArgs) -> Result<()> {
     if a.dry_run {
         return Ok(());
     }
-    let (_, path) = ops::pose::save_pose(&a.scene, &scene, &fit)?;
+    let (_, path) = ops::pose::save_pose(&a.scene, &scene, &fit, a.allow_outside_scene)?;
     eprintln!("updated {} (RMS {:.2} px, max {:.2} px)", path.display(), fit.rms_px, fit.max_px);
     Ok(())
 }

@@ -224,3 +224,32 @@ fn commands_refuse_to_write_over_their_inputs() {
     std::fs::remove_dir_all(&d).ok();
 }
 
+#[test]
+fn pose_stays_inside_the_scene_folder() {
+    let d = scratch("outside");
+    let scene = small_scene(&d.join("a"));
+    let pairs = true_pairs(&d);
+    // camera.file reaching out of the scene with `..`.
+    std::fs::create_dir_all(d.join("x")).unwrap();
+    std::fs::rename(scene.join("calib/camera.toml"), d.join("x/camera.toml")).unwrap();
+    let m = std::fs::read_to_string(scene.join("scene.toml")).unwrap();
+    std::fs::write(scene.join("scene.toml"), m.replace("calib/camera.toml", "../../x/camera.toml")).unwrap();
+    refused(&["pose", s(&scene), "--pairs", s(&pairs)], &["camera.file", "../../x/camera.toml", "outside the scene folder", "--allow-outside-scene"], &[&d]);
+    // …or through a symlinked folder.
+    #[cfg(unix)]
+    {
+        std::fs::write(scene.join("scene.toml"), &m).unwrap();
+        std::fs::remove_dir_all(scene.join("calib")).unwrap();
+        std::os::unix::fs::symlink(d.join("x"), scene.join("calib")).unwrap();
+        refused(&["pose", s(&scene), "--pairs", s(&pairs)], &["camera.file", "outside the scene folder"], &[&d]);
+    }
+    // Allowed explicitly: the outside file gets the pose, the scene loads with it, and nothing is
+    // left beside it.
+    let (ok, _, err) = calib(&["pose", s(&scene), "--pairs", s(&pairs), "--allow-outside-scene"]);
+    assert!(ok, "{err}");
+    assert!(std::fs::read_to_string(d.join("x/camera.toml")).unwrap().contains("rvec_camera_from_world"));
+    heliar::scene::Scene::load(&scene).unwrap();
+    assert_eq!(std::fs::read_dir(d.join("x")).unwrap().count(), 1);
+    std::fs::remove_dir_all(&d).ok();
+}
+

@@ -89,14 +89,36 @@ pub fn camera_toml_with_pose(text: &str, path: &Path, fit: &PoseFit) -> Result<S
 }
 
 /// Stores the pose in the scene's camera file (validated, atomic); returns the reloaded scene and
-/// the camera file's path.
-pub fn save_pose(scene_dir: &Path, scene: &Scene, fit: &PoseFit) -> Result<(Scene, PathBuf)> {
+/// the camera file's path. The camera file (`camera.file` of the manifest, resolved against the
+/// scene folder with symlinks and `..`) must lie inside the scene folder unless `allow_outside`
+/// (`--allow-outside-scene`).
+pub fn save_pose(scene_dir: &Path, scene: &Scene, fit: &PoseFit, allow_outside: bool) -> Result<(Scene, PathBuf)> {
     let rel = PathBuf::from(&scene.manifest.camera.file);
     let path = scene_dir.join(&rel);
     let text = std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
     let new = camera_toml_with_pose(&text, &path, fit)?;
-    let s = crate::edit::edit_scene(scene_dir, &[(rel, new.into_bytes())])?;
+    let s = match check_camera_inside(scene_dir, scene, allow_outside)? {
+        Some(inside) => crate::edit::edit_scene(scene_dir, &[(inside, new.into_bytes())])?,
+        None => crate::edit::edit_camera_outside(scene_dir, &heliar::io::guard::resolve(&path), new.as_bytes())?,
+    };
     Ok((s, path))
+}
+
+/// The scene's camera file relative to the scene folder (symlinks and `..` resolved), or `None`
+/// when it lies outside and `allow_outside`; an error naming the manifest's `camera.file` when it
+/// lies outside and not `allow_outside`.
+pub fn check_camera_inside(scene_dir: &Path, scene: &Scene, allow_outside: bool) -> Result<Option<PathBuf>> {
+    let file = &scene.manifest.camera.file;
+    match crate::edit::rel_inside(scene_dir, Path::new(file)) {
+        Some(inside) => Ok(Some(inside)),
+        None if allow_outside => Ok(None),
+        None => bail!(
+            "{}: camera.file = \"{file}\" is {}, outside the scene folder {}; the pose was not written (move the camera file into the scene, or --allow-outside-scene)",
+            scene_dir.join(heliar::scene::MANIFEST_FILE).display(),
+            heliar::io::guard::resolve(&scene_dir.join(file)).display(),
+            scene_dir.display()
+        ),
+    }
 }
 
 /// The proxy's visible outline: its border and crease edges (edges inside a flat face, such as

@@ -172,7 +172,7 @@ impl PoseTab {
         if self.complete_pairs().ok().as_ref() != Some(&s.used) {
             bail!("the pairs changed since the last solve; solve again before saving");
         }
-        let (scene, path) = ops::save_pose(&state.dir, &state.scene, &s.fit)?;
+        let (scene, path) = ops::save_pose(&state.dir, &state.scene, &s.fit, false)?;
         state.replace(scene);
         self.outline_cache = None;
         Ok(format!("updated {} (RMS {:.2} px, max {:.2} px)", path.display(), s.fit.rms_px, s.fit.max_px))
