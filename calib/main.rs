@@ -11,7 +11,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use glam::DVec2;
 use heliar::opencv_calib::Rgb8;
-use heliar::opencv_calib::chessboard::{calibrate_fisheye, calibrate_pinhole, detect_corners};
+use heliar::opencv_calib::chessboard::{calibrate_fisheye, calibrate_pinhole};
 use heliar::opencv_calib::pose::solve_pose;
 use heliar::scene::Scene;
 use ops::intrinsics::ViewSource;
@@ -108,27 +108,27 @@ fn intrinsics(a: IntrinsicsArgs) -> Result<()> {
         let input = a.images.as_ref().or(a.video.as_ref()).map(PathBuf::as_path);
         heliar::io::guard::OutputGuard::new(None, &input.into_iter().collect::<Vec<_>>(), a.force).check_file(out).context("--output")?;
     }
-    let mut views = Vec::new();
-    let mut size: Option<(u32, u32)> = None;
-    let mut seen = 0usize;
-    ops::intrinsics::for_each_view(&source, |img: Result<Rgb8>, label| {
-        let img = img?;
-        seen += 1;
-        ops::intrinsics::check_view_size(&mut size, &img, &label)?;
-        match detect_corners(&img, &board)? {
-            Some(c) => views.push(c),
-            None => eprintln!("{label}: board not found, skipped"),
-        }
-        Ok(true)
-    })?;
-    let (w, h) = size.context("no images")?;
-    eprintln!("board found in {} of {seen} views", views.len());
+    let found = ops::intrinsics::collect_views(&source, &board)?;
+    for skip in &found.skipped {
+        eprintln!("warning: skipped {skip}");
+    }
+    let (w, h) = found.size;
+    let views = &found.corners;
+    eprintln!("board found in {} of {} views ({} skipped, at least {} needed)", views.len(), found.seen, found.skipped.len(), heliar::opencv_calib::chessboard::MIN_VIEWS);
+    let (lo, hi) = found.half_windows.iter().fold((i32::MAX, i32::MIN), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+    eprintln!(
+        "sub-pixel corner window (cornerSubPix): half-size {} px ({} of the smallest square side, clamped to [{}, {}])",
+        if lo == hi { lo.to_string() } else { format!("{lo}–{hi}") },
+        heliar::opencv_calib::chessboard::SUBPIX_WINDOW_FRACTION,
+        heliar::opencv_calib::chessboard::SUBPIX_HALF_WINDOW_MIN,
+        heliar::opencv_calib::chessboard::SUBPIX_HALF_WINDOW_MAX
+    );
     if a.fisheye {
-        let c = calibrate_fisheye(&views, &board, w, h)?;
+        let c = calibrate_fisheye(views, &board, w, h)?;
         println!("{}", serde_json::to_string_pretty(&ops::intrinsics::fisheye_json(w, h, &c))?);
         return Ok(());
     }
-    let c = calibrate_pinhole(&views, &board, w, h, a.k3)?;
+    let c = calibrate_pinhole(views, &board, w, h, a.k3)?;
     let warnings = ops::intrinsics::warnings(&c);
     println!("{}", serde_json::to_string_pretty(&ops::intrinsics::pinhole_json(w, h, &c))?);
     for warning in warnings {

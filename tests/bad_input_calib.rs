@@ -253,3 +253,63 @@ fn pose_stays_inside_the_scene_folder() {
     std::fs::remove_dir_all(&d).ok();
 }
 
+/// Chessboard views through the bundled camera's lens, `dir/v{i}.png` for each of `poses`
+/// (tilt x, tilt y, distance); a view through a camera of `size` instead when given.
+fn board_views(dir: &Path, poses: &[(f64, f64, f64)], size: Option<(u32, u32)>) -> Vec<PathBuf> {
+    use glam::{DMat3, DVec3};
+    use heliar::camera::{Camera, Intrinsics, Pose};
+    let k = heliar::scene::Scene::load(&bundled()).unwrap().camera.intrinsics;
+    let k = match size {
+        Some((w, h)) => Intrinsics::brown_conrady(w, h, k.fx, k.fy, w as f64 / 2.0, h as f64 / 2.0, [0.0; 5]),
+        None => k,
+    };
+    let cam = Camera { intrinsics: k, pose: Pose { rotation: DMat3::IDENTITY, translation: DVec3::ZERO } };
+    let board = heliar::opencv_calib::chessboard::Board { cols: 9, rows: 6, square_m: 0.03 };
+    std::fs::create_dir_all(dir).unwrap();
+    poses
+        .iter()
+        .enumerate()
+        .map(|(i, &(ax, ay, dist))| {
+            let rot = DMat3::from_rotation_x(ax) * DMat3::from_rotation_y(ay) * DMat3::from_rotation_z(0.1 * i as f64);
+            let pose = Pose { rotation: rot, translation: DVec3::new(0.0, 0.0, dist) + rot * DVec3::new(-0.15, -0.1, 0.0) };
+            let img = heliar::opencv_calib::chessboard::render_board(&cam, &board, &pose, 2);
+            let p = dir.join(format!("v{i}{}.png", if size.is_some() { "_other" } else { "" }));
+            image::save_buffer(&p, &img.data, img.width, img.height, image::ExtendedColorType::Rgb8).unwrap();
+            p
+        })
+        .collect()
+}
+
+#[test]
+fn intrinsics_skip_odd_views_while_enough_remain() {
+    let d = scratch("views");
+    let boards = d.join("boards");
+    let good = [(0.0, 0.0, 0.7), (0.35, 0.0, 0.75), (-0.35, 0.1, 0.75), (0.0, 0.4, 0.65), (0.1, -0.4, 0.8), (0.3, 0.3, 0.85)];
+    let views = board_views(&boards, &good, None);
+    // A photo without a board (the first view, blanked), one of another size, one broken JPEG.
+    let first = image::open(&views[0]).unwrap().to_rgb8();
+    image::RgbImage::from_pixel(first.width(), first.height(), image::Rgb([128, 128, 128])).save(boards.join("blank.png")).unwrap();
+    board_views(&boards, &good[..1], Some((400, 300)));
+    std::fs::write(boards.join("broken.jpg"), b"\xff\xd8\xff\xe0 not really a jpeg").unwrap();
+    let args = ["intrinsics", "--images", s(&boards), "--board", "9x6", "--square-mm", "30"];
+    let before = hashes(&boards);
+    let (ok, out, err) = calib(&args);
+    assert!(ok, "{err}");
+    for (name, why) in [("blank.png", "board not found"), ("v0_other.png", "400×300"), ("broken.jpg", "unreadable")] {
+        assert!(err.lines().any(|l| l.contains("skipped") && l.contains(name) && l.contains(why)), "{name}: {err}");
+    }
+    assert!(err.contains("board found in 6 of 9 views") && err.contains("at least 3"), "{err}");
+    // The corner window follows the squares' size in pixels, and is said.
+    assert!(err.contains("sub-pixel corner window") && err.contains("half-size"), "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["result"]["views"].as_u64(), Some(6), "{v}");
+    assert_eq!(hashes(&boards), before);
+    // Too few usable views left: an error naming the minimum and every view skipped.
+    for p in &views[2..] {
+        std::fs::remove_file(p).unwrap();
+    }
+    let err = refused(&args, &["2 usable views of 5", "at least 3", "blank.png", "v0_other.png", "broken.jpg"], &[&boards]);
+    assert!(!err.contains("panicked"), "{err}");
+    std::fs::remove_dir_all(&d).ok();
+}
+
