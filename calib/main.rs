@@ -173,6 +173,7 @@ fn pose(a: PoseArgs) -> Result<()> {
     let (px, world) = ops::pose::read_pairs(&a.pairs)?;
     let k = &scene.camera.intrinsics;
     ops::pose::check_inside(k, &px, &a.pairs.display().to_string())?;
+    ops::pose::check_pairs(&px, &world, &a.pairs.display().to_string())?;
     if !a.dry_run {
         ops::pose::check_camera_inside(&a.scene, &scene, a.allow_outside_scene)?;
     }

@@ -313,3 +313,27 @@ fn intrinsics_skip_odd_views_while_enough_remain() {
     std::fs::remove_dir_all(&d).ok();
 }
 
+#[test]
+fn pose_checks_its_pairs_before_opencv() {
+    let d = scratch("pairs");
+    let scene = small_scene(&d);
+    let pairs = true_pairs(&d);
+    let text = std::fs::read_to_string(&pairs).unwrap();
+    let rows: Vec<&str> = text.lines().skip(1).collect();
+    let bad = d.join("bad.csv");
+    let cases: Vec<(String, Vec<&str>)> = vec![
+        // The same row twice: the same pixel and the same world point.
+        (format!("u,v,x,y,z\n{}\n{}\n{}\n{}\n", rows[0], rows[1], rows[2], rows[1]), vec!["bad.csv", "pairs 2 and 4", "same pixel"]),
+        // Distinct pixels for one world point.
+        (format!("u,v,x,y,z\n{}\n{}\n{}\n10,10,{}\n", rows[0], rows[1], rows[2], rows[0].splitn(3, ',').nth(2).unwrap()), vec!["bad.csv", "pairs 1 and 4", "same world point"]),
+        // World points on one line (a vertical edge).
+        ("u,v,x,y,z\n10,10,-8,0,-8\n20,30,-8,1,-8\n30,50,-8,2,-8\n45,80,-8,3.5,-8\n".into(), vec!["bad.csv", "one line"]),
+        ("u,v,x,y,z\n10,10,-8,0,-8\n20,30,-8,1,-8\n30,50,-7,2,-8\n".into(), vec!["bad.csv", "3 point pairs", "at least 4"]),
+    ];
+    for (csv, words) in cases {
+        std::fs::write(&bad, csv).unwrap();
+        let err = refused(&["pose", s(&scene), "--pairs", s(&bad)], &words, &[&scene, &bad]);
+        assert!(!err.contains("Assertion") && !err.contains("OpenCV"), "{err}");
+    }
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -141,6 +141,7 @@ impl PoseTab {
             let (px, world) = self.complete_pairs()?;
             let k = &state.scene.camera.intrinsics;
             ops::check_inside(k, &px, "the pairs")?;
+            ops::check_pairs(&px, &world, "the pairs")?;
             let fit = solve_pose(k, &px, &world)?;
             let camera = Camera { intrinsics: k.clone(), pose: fit.pose() };
             let errors_px = ops::pair_errors_px(&camera, &px, &world);
