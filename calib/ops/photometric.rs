@@ -14,9 +14,11 @@ use std::path::Path;
 pub const MAX_FIT_ERROR_PCT: f64 = 25.0;
 
 /// The worst relative error of a fit, percent: over the fit patches and, when there are any,
-/// the check patches.
+/// the check patches (NaN when either is).
 pub fn worst_error_pct(report: &FitReport) -> f64 {
-    100.0 * report.fit_max_rel_error.max(report.check_max_rel_error.unwrap_or(0.0))
+    let (fit, check) = (report.fit_max_rel_error, report.check_max_rel_error.unwrap_or(0.0));
+    // `f64::max` would drop a NaN; a fit with one is not within any tolerance.
+    if fit.is_nan() || check.is_nan() { f64::NAN } else { 100.0 * fit.max(check) }
 }
 
 /// Refuses a fit whose worst error exceeds `max_pct` (percent) unless `force`.
