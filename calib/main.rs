@@ -420,7 +420,7 @@ fn photometric(a: PhotometricArgs) -> Result<()> {
     match &a.calib {
         Some(calib) => {
             ops::photometric::check_fit(&report, a.max_error, &a.patches, a.force)?;
-            if !(worst <= a.max_error) {
+            if !ops::photometric::within(worst, a.max_error) {
                 eprintln!("warning: writing a fit beyond the tolerance (--force)");
             }
             let guard = heliar::io::guard::OutputGuard::new(None, &[&a.patches], a.force);
@@ -428,7 +428,7 @@ fn photometric(a: PhotometricArgs) -> Result<()> {
             ops::photometric::write_into_calib(calib, &a.patches, a.code_max, &fit)?;
             eprintln!("wrote the log response into {}", calib.display());
         }
-        None if !(worst <= a.max_error) => eprintln!("warning: the fit is beyond the tolerance of {}% (--max-error); it would not be written into a calibration", a.max_error),
+        None if !ops::photometric::within(worst, a.max_error) => eprintln!("warning: the fit is beyond the tolerance of {}% (--max-error); it would not be written into a calibration", a.max_error),
         None => {}
     }
     Ok(())

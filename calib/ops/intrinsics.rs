@@ -125,12 +125,15 @@ pub struct Views {
     pub seen: usize,
 }
 
+type Found = (String, (u32, u32), Vector<Point2f>, i32);
+
 /// Reads every view of `source` and finds `board` in it. A view that cannot be read, in which
 /// the board is not found, or whose size differs from that of most views with the board (ties:
 /// the first seen) is skipped, and named in [`Views::skipped`]; an error only when fewer than
 /// [`MIN_VIEWS`] usable views remain (or the source itself cannot be read).
 pub fn collect_views(source: &ViewSource, board: &Board) -> Result<Views> {
-    let mut found: Vec<(String, (u32, u32), Vector<Point2f>, i32)> = Vec::new();
+    // Label, size, corners and sub-pixel half-window of each view with the board.
+    let mut found: Vec<Found> = Vec::new();
     let mut skipped = Vec::new();
     let mut seen = 0usize;
     for_each_view(source, |img, label| {

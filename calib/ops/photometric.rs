@@ -21,10 +21,15 @@ pub fn worst_error_pct(report: &FitReport) -> f64 {
     if fit.is_nan() || check.is_nan() { f64::NAN } else { 100.0 * fit.max(check) }
 }
 
+/// Whether an error of `worst_pct` is within the tolerance `max_pct` (a NaN error is not).
+pub fn within(worst_pct: f64, max_pct: f64) -> bool {
+    worst_pct <= max_pct
+}
+
 /// Refuses a fit whose worst error exceeds `max_pct` (percent) unless `force`.
 pub fn check_fit(report: &FitReport, max_pct: f64, patches: &Path, force: bool) -> Result<()> {
     let worst = worst_error_pct(report);
-    if !(worst <= max_pct) && !force {
+    if !within(worst, max_pct) && !force {
         bail!(
             "{}: the fit is off by up to {worst:.1}% in luminance (fit patches {:.1}%{}), above the tolerance of {max_pct}% (--max-error); not written (check the patches, or --force)",
             patches.display(),

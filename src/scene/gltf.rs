@@ -92,7 +92,7 @@ pub fn load_gltf_marked(path: &Path, placement: Mat4, extra_diffuse: &[String], 
     while let Some((node, parent, parent_diffuse)) = stack.pop() {
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
         let name = node.name().map(str::to_owned).unwrap_or_else(|| format!("node{}", node.index()));
-        let diffuse = (parent_diffuse || node_marked_diffuse(&node) || extra_diffuse.iter().any(|n| *n == name)) && !not_diffuse.iter().any(|n| *n == name);
+        let diffuse = (parent_diffuse || node_marked_diffuse(&node) || extra_diffuse.contains(&name)) && !not_diffuse.contains(&name);
         for child in node.children() {
             stack.push((child, world, diffuse));
         }
