@@ -21,11 +21,13 @@ fn copy_tree_linking_big(src: &Path, dst: &Path, link_dirs: &[PathBuf]) -> Resul
         let entry = entry?;
         let p = entry.path();
         let q = dst.join(entry.file_name());
-        if entry.file_type()?.is_dir() {
+        let link = entry.file_type()?.is_symlink();
+        if p.is_dir() {
             if p.file_name().is_some_and(|n| n == "baked") {
                 continue;
             }
-            if link_dirs.iter().any(|d| d == &p) {
+            // A linked folder stays a link (to where it points): the copy is only read.
+            if link_dirs.iter().any(|d| d == &p) || link {
                 #[cfg(unix)]
                 std::os::unix::fs::symlink(std::fs::canonicalize(&p)?, &q).with_context(|| format!("linking {}", q.display()))?;
                 continue;
@@ -38,17 +40,22 @@ fn copy_tree_linking_big(src: &Path, dst: &Path, link_dirs: &[PathBuf]) -> Resul
     Ok(())
 }
 
-/// Writes `bytes` to `path` atomically (temporary file in the same folder, then rename).
+/// Writes `bytes` to `path` atomically (temporary file in the same folder, then rename:
+/// `heliar::io::write_atomic`).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let tmp = path.with_extension(format!("tmp-{}", std::process::id()));
-    std::fs::write(&tmp, bytes).with_context(|| format!("writing {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("replacing {}", path.display()))?;
-    Ok(())
+    heliar::io::write_atomic(path, bytes).with_context(|| format!("writing {}", path.display()))
 }
 
-/// Applies `changes` (path relative to the scene → new contents) to the scene at `dir` after
-/// checking that the changed scene loads.
-pub fn edit_scene(dir: &Path, changes: &[(PathBuf, Vec<u8>)]) -> Result<Scene> {
+/// `rel` (a path of the scene at `dir`) relative to the scene folder after resolving symlinks and
+/// `..` (see `heliar::io::guard::resolve`); `None` when it resolves outside the folder.
+pub fn rel_inside(dir: &Path, rel: &Path) -> Option<PathBuf> {
+    let root = heliar::io::guard::resolve(dir);
+    heliar::io::guard::resolve(&dir.join(rel)).strip_prefix(&root).ok().map(Path::to_owned)
+}
+
+/// Checks that the scene at `dir` still loads with `changes` (path relative to the scene → new
+/// contents) applied, on a temporary copy; `dir` itself is not touched.
+fn validate_edit(dir: &Path, changes: &[(PathBuf, Vec<u8>)]) -> Result<()> {
     let scene = Scene::load(dir).with_context(|| format!("loading {}", dir.display()))?;
     let frame_dirs: Vec<PathBuf> = scene.manifest.sequences.iter().map(|s| dir.join(&s.dir)).collect();
     let tmp = temp_sibling(dir, "edit");
@@ -65,14 +72,49 @@ pub fn edit_scene(dir: &Path, changes: &[(PathBuf, Vec<u8>)]) -> Result<Scene> {
         Scene::load(&tmp).context("the edited scene does not load; nothing was changed")
     })();
     let _ = std::fs::remove_dir_all(&tmp);
-    result?;
+    result.map(|_| ())
+}
+
+/// Applies `changes` (path relative to the scene → new contents) to the scene at `dir` after
+/// checking that the changed scene loads. Every changed file must lie inside the scene folder
+/// (symlinks and `..` resolved): an edit never reaches a file elsewhere.
+pub fn edit_scene(dir: &Path, changes: &[(PathBuf, Vec<u8>)]) -> Result<Scene> {
+    let mut inside = Vec::with_capacity(changes.len());
     for (rel, bytes) in changes {
+        let Some(r) = rel_inside(dir, rel) else {
+            bail!("{}: outside the scene folder {}; heliar-calib edits only the scene's own files", dir.join(rel).display(), dir.display());
+        };
+        inside.push((r, bytes.clone()));
+    }
+    validate_edit(dir, &inside)?;
+    for (rel, bytes) in &inside {
         let p = dir.join(rel);
         if let Some(parent) = p.parent() {
             std::fs::create_dir_all(parent)?;
         }
         write_atomic(&p, bytes)?;
     }
+    Scene::load(dir).with_context(|| format!("reloading {}", dir.display()))
+}
+
+/// Replaces the scene's camera file, which lies outside the scene folder at `target` (the user
+/// allowed it), with `bytes`, after checking that the scene loads with it: the new contents go
+/// to a temporary file beside `target` (so files it names resolve as they will), and a temporary
+/// copy of the scene whose `camera.file` points there is loaded.
+pub fn edit_camera_outside(dir: &Path, target: &Path, bytes: &[u8]) -> Result<Scene> {
+    let mpath = dir.join(heliar::scene::MANIFEST_FILE);
+    let check = heliar::io::temp_path_for(target);
+    let result = (|| -> Result<()> {
+        std::fs::write(&check, bytes).with_context(|| format!("writing {}", check.display()))?;
+        let text = std::fs::read_to_string(&mpath).with_context(|| format!("reading {}", mpath.display()))?;
+        let mut doc: toml_edit::DocumentMut = text.parse().with_context(|| format!("{}: not valid TOML", mpath.display()))?;
+        let camera = doc.get_mut("camera").and_then(|c| c.as_table_like_mut()).with_context(|| format!("{}: no [camera] table", mpath.display()))?;
+        camera.insert("file", toml_edit::value(check.to_string_lossy().into_owned()));
+        validate_edit(dir, &[(PathBuf::from(heliar::scene::MANIFEST_FILE), doc.to_string().into_bytes())])
+    })();
+    let _ = std::fs::remove_file(&check);
+    result?;
+    write_atomic(target, bytes)?;
     Scene::load(dir).with_context(|| format!("reloading {}", dir.display()))
 }
 

@@ -11,7 +11,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use glam::DVec2;
 use heliar::opencv_calib::Rgb8;
-use heliar::opencv_calib::chessboard::{calibrate_fisheye, calibrate_pinhole, detect_corners};
+use heliar::opencv_calib::chessboard::{calibrate_fisheye, calibrate_pinhole};
 use heliar::opencv_calib::pose::solve_pose;
 use heliar::scene::Scene;
 use ops::intrinsics::ViewSource;
@@ -92,6 +92,9 @@ struct IntrinsicsArgs {
     /// Camera file to write (its pose and response are kept when it exists).
     #[arg(long, short)]
     output: Option<PathBuf>,
+    /// Write the output even over one of the inputs.
+    #[arg(long)]
+    force: bool,
 }
 
 fn intrinsics(a: IntrinsicsArgs) -> Result<()> {
@@ -101,27 +104,31 @@ fn intrinsics(a: IntrinsicsArgs) -> Result<()> {
         (None, Some(v)) => ViewSource::Video { path: v.clone(), every: a.every },
         _ => bail!("give --images DIR or --video FILE"),
     };
-    let mut views = Vec::new();
-    let mut size: Option<(u32, u32)> = None;
-    let mut seen = 0usize;
-    ops::intrinsics::for_each_view(&source, |img: Result<Rgb8>, label| {
-        let img = img?;
-        seen += 1;
-        ops::intrinsics::check_view_size(&mut size, &img, &label)?;
-        match detect_corners(&img, &board)? {
-            Some(c) => views.push(c),
-            None => eprintln!("{label}: board not found, skipped"),
-        }
-        Ok(true)
-    })?;
-    let (w, h) = size.context("no images")?;
-    eprintln!("board found in {} of {seen} views", views.len());
+    if let Some(out) = &a.output {
+        let input = a.images.as_ref().or(a.video.as_ref()).map(PathBuf::as_path);
+        heliar::io::guard::OutputGuard::new(None, &input.into_iter().collect::<Vec<_>>(), a.force).check_file(out).context("--output")?;
+    }
+    let found = ops::intrinsics::collect_views(&source, &board)?;
+    for skip in &found.skipped {
+        eprintln!("warning: skipped {skip}");
+    }
+    let (w, h) = found.size;
+    let views = &found.corners;
+    eprintln!("board found in {} of {} views ({} skipped, at least {} needed)", views.len(), found.seen, found.skipped.len(), heliar::opencv_calib::chessboard::MIN_VIEWS);
+    let (lo, hi) = found.half_windows.iter().fold((i32::MAX, i32::MIN), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+    eprintln!(
+        "sub-pixel corner window (cornerSubPix): half-size {} px ({} of the smallest square side, clamped to [{}, {}])",
+        if lo == hi { lo.to_string() } else { format!("{lo}–{hi}") },
+        heliar::opencv_calib::chessboard::SUBPIX_WINDOW_FRACTION,
+        heliar::opencv_calib::chessboard::SUBPIX_HALF_WINDOW_MIN,
+        heliar::opencv_calib::chessboard::SUBPIX_HALF_WINDOW_MAX
+    );
     if a.fisheye {
-        let c = calibrate_fisheye(&views, &board, w, h)?;
+        let c = calibrate_fisheye(views, &board, w, h)?;
         println!("{}", serde_json::to_string_pretty(&ops::intrinsics::fisheye_json(w, h, &c))?);
         return Ok(());
     }
-    let c = calibrate_pinhole(&views, &board, w, h, a.k3)?;
+    let c = calibrate_pinhole(views, &board, w, h, a.k3)?;
     let warnings = ops::intrinsics::warnings(&c);
     println!("{}", serde_json::to_string_pretty(&ops::intrinsics::pinhole_json(w, h, &c))?);
     for warning in warnings {
@@ -152,6 +159,13 @@ struct PoseArgs {
     /// Only report; do not change the scene.
     #[arg(long)]
     dry_run: bool,
+    /// Write the overlay even over one of the inputs.
+    #[arg(long)]
+    force: bool,
+    /// Write the pose even when the scene's camera file (camera.file) lies outside the scene
+    /// folder.
+    #[arg(long)]
+    allow_outside_scene: bool,
 }
 
 fn pose(a: PoseArgs) -> Result<()> {
@@ -159,24 +173,35 @@ fn pose(a: PoseArgs) -> Result<()> {
     let (px, world) = ops::pose::read_pairs(&a.pairs)?;
     let k = &scene.camera.intrinsics;
     ops::pose::check_inside(k, &px, &a.pairs.display().to_string())?;
+    ops::pose::check_pairs(&px, &world, &a.pairs.display().to_string())?;
+    if !a.dry_run {
+        ops::pose::check_camera_inside(&a.scene, &scene, a.allow_outside_scene)?;
+    }
+    let overlay = a.image.as_ref().map(|_| a.overlay.clone().unwrap_or_else(|| a.pairs.with_extension("overlay.png")));
+    if let Some(out) = &overlay {
+        let scene_files = [a.scene.join(heliar::scene::MANIFEST_FILE), a.scene.join(&scene.manifest.camera.file), a.scene.join(&scene.manifest.proxy.file)];
+        let mut inputs: Vec<&std::path::Path> = vec![&a.pairs];
+        inputs.extend(a.image.as_deref());
+        inputs.extend(scene_files.iter().map(PathBuf::as_path));
+        heliar::io::guard::OutputGuard::new(None, &inputs, a.force).check_file(out).context("--overlay")?;
+    }
     let fit = solve_pose(k, &px, &world)?;
     println!("{}", serde_json::to_string_pretty(&fit)?);
     for warning in ops::pose::warnings(&fit) {
         eprintln!("warning: {warning}");
     }
-    if let Some(img_path) = &a.image {
+    if let (Some(img_path), Some(out)) = (&a.image, &overlay) {
         let cam = heliar::camera::Camera { intrinsics: k.clone(), pose: fit.pose() };
-        let out = a.overlay.clone().unwrap_or_else(|| a.pairs.with_extension("overlay.png"));
         let mut im = image::open(img_path).with_context(|| format!("reading {}", img_path.display()))?.to_rgb8();
         let outline = ops::pose::project_outline(&cam, &ops::pose::outline_edges(&scene.proxy));
         ops::pose::draw_overlay(&mut im, &outline, &px);
-        im.save(&out).with_context(|| format!("writing {}", out.display()))?;
+        heliar::io::write_via_temp(out, |tmp| im.save(tmp).map_err(anyhow::Error::from)).with_context(|| format!("writing {}", out.display()))?;
         eprintln!("wrote {}", out.display());
     }
     if a.dry_run {
         return Ok(());
     }
-    let (_, path) = ops::pose::save_pose(&a.scene, &scene, &fit)?;
+    let (_, path) = ops::pose::save_pose(&a.scene, &scene, &fit, a.allow_outside_scene)?;
     eprintln!("updated {} (RMS {:.2} px, max {:.2} px)", path.display(), fit.rms_px, fit.max_px);
     Ok(())
 }
@@ -191,7 +216,8 @@ struct MarkArgs {
     /// Pixels `u,v` of the camera image: the proxy node each one sees is marked.
     #[arg(long, allow_hyphen_values = true)]
     pixel: Vec<String>,
-    /// Unmark instead (only nodes listed in the manifest can be unmarked; glTF extras stay).
+    /// Unmark instead. A node the proxy's glTF extras mark is unmarked by listing it in the
+    /// manifest's `proxy.not_diffuse_nodes` (the proxy file is left alone).
     #[arg(long)]
     unmark: bool,
 }
@@ -213,8 +239,25 @@ fn mark(a: MarkArgs) -> Result<()> {
     for n in &names {
         ops::mark::node_index(&scene, n)?;
     }
-    let list = ops::mark::updated_list(&scene.manifest.proxy.diffuse_nodes, &names, a.unmark);
-    let s = ops::mark::set_diffuse_nodes(&a.scene, &list)?;
+    let extras = ops::mark::marked_by_extras(&scene)?;
+    let by_extras = |n: &str| extras.iter().any(|x| x == n);
+    let (list, not) = ops::mark::updated_lists(&scene, &names, a.unmark, by_extras);
+    let manifest = a.scene.join(heliar::scene::MANIFEST_FILE);
+    let not = (not != scene.manifest.proxy.not_diffuse_nodes).then_some(not);
+    let s = ops::mark::set_marks(&a.scene, &list, not.as_deref()).with_context(|| format!("{}: not changed", manifest.display()))?;
+    for n in &names {
+        let now = s.proxy.nodes.iter().any(|x| x.name == *n && x.diffuse);
+        match (a.unmark, now) {
+            (true, false) if by_extras(n) => eprintln!(
+                "unmarked '{n}': the glTF extras of {} mark it; the override is recorded in {} as proxy.not_diffuse_nodes (mark it again to undo)",
+                scene.manifest.proxy.file,
+                manifest.display()
+            ),
+            (true, false) => eprintln!("unmarked '{n}'"),
+            (true, true) => eprintln!("warning: '{n}' is still marked: it inherits the mark of a parent node (unmark that one)"),
+            (false, _) => eprintln!("marked '{n}'"),
+        }
+    }
     println!("{}", serde_json::to_string(&s.proxy.nodes.iter().filter(|n| n.diffuse).map(|n| &n.name).collect::<Vec<_>>())?);
     Ok(())
 }
@@ -246,9 +289,20 @@ struct HdrArgs {
     /// Width of the stitched equirect map (height = width / 2).
     #[arg(long, default_value_t = 1024)]
     width: u32,
+    /// Write the outputs even over one of the inputs.
+    #[arg(long)]
+    force: bool,
 }
 
 fn hdr(a: HdrArgs) -> Result<()> {
+    ops::hdr::check_times(&a.images, &a.times).context("--images/--times")?;
+    if !a.back.is_empty() {
+        ops::hdr::check_times(&a.back, &a.times).context("--back/--times")?;
+    }
+    let inputs: Vec<&std::path::Path> = a.images.iter().chain(&a.back).map(PathBuf::as_path).chain(a.fisheye.as_deref()).collect();
+    let guard = heliar::io::guard::OutputGuard::new(None, &inputs, a.force);
+    guard.check_file(&a.output).context("--output")?;
+    guard.check_file(&ops::hdr::response_path(&a.output)).context("--output (the response beside it)")?;
     let imgs = a.images.iter().map(|p| Rgb8::open(p)).collect::<Result<Vec<_>, _>>()?;
     let reflection = if a.reflection.is_empty() {
         None
@@ -340,6 +394,13 @@ struct PhotometricArgs {
     /// Write the fit into this fisheye calibration's [response] (kind = "log", the patches file).
     #[arg(long)]
     calib: Option<PathBuf>,
+    /// Largest relative luminance error (percent, over the fit and check patches) of a fit that
+    /// is written into --calib.
+    #[arg(long, default_value_t = ops::photometric::MAX_FIT_ERROR_PCT, allow_hyphen_values = true)]
+    max_error: f64,
+    /// Write the fit even when its error exceeds --max-error.
+    #[arg(long)]
+    force: bool,
 }
 
 fn photometric(a: PhotometricArgs) -> Result<()> {
@@ -347,39 +408,28 @@ fn photometric(a: PhotometricArgs) -> Result<()> {
     if !(a.code_max.is_finite() && a.code_max > 0.0) {
         bail!("--code-max {}: must be positive", a.code_max);
     }
+    if !(a.max_error.is_finite() && a.max_error > 0.0) {
+        bail!("--max-error {}: must be a positive percentage", a.max_error);
+    }
     let patches = heliar::vem::capture::lens_file::read_patches(&a.patches, a.code_max)?;
     let (fit, report) = LogResponse::fit(&patches).map_err(|m| anyhow::anyhow!("{}: {m}", a.patches.display()))?;
     let v = serde_json::json!({"a": fit.a, "b": fit.b, "report": report, "dynamic_range_decades": (1.0 / fit.b) / std::f64::consts::LN_10});
     println!("{}", serde_json::to_string_pretty(&v)?);
-    if let Some(calib) = &a.calib {
-        let text = std::fs::read_to_string(calib).with_context(|| format!("reading {}", calib.display()))?;
-        let mut doc: toml_edit::DocumentMut = text.parse().with_context(|| format!("{}: not valid TOML", calib.display()))?;
-        let dir = calib.parent().unwrap_or(std::path::Path::new("."));
-        let rel = pathdiff(&std::fs::canonicalize(&a.patches)?, &std::fs::canonicalize(dir)?);
-        let r = doc.entry("response").or_insert(toml_edit::table()).as_table_mut().context("[response] is not a table")?;
-        r["kind"] = toml_edit::value("log");
-        r["patches"] = toml_edit::value(rel);
-        r["code_max"] = toml_edit::value(a.code_max);
-        for k in ["a", "b", "table", "gamma"] {
-            r.remove(k);
+    let worst = ops::photometric::worst_error_pct(&report);
+    eprintln!("fit error: up to {worst:.1}% in luminance (tolerance {}%)", a.max_error);
+    match &a.calib {
+        Some(calib) => {
+            ops::photometric::check_fit(&report, a.max_error, &a.patches, a.force)?;
+            if !ops::photometric::within(worst, a.max_error) {
+                eprintln!("warning: writing a fit beyond the tolerance (--force)");
+            }
+            let guard = heliar::io::guard::OutputGuard::new(None, &[&a.patches], a.force);
+            guard.check_file(calib)?;
+            ops::photometric::write_into_calib(calib, &a.patches, a.code_max, &fit)?;
+            eprintln!("wrote the log response into {}", calib.display());
         }
-        // Validate the edited file before it replaces the old one.
-        let tmp = calib.with_file_name(format!(".{}.check-{}.toml", calib.file_stem().unwrap_or_default().to_string_lossy(), std::process::id()));
-        std::fs::write(&tmp, doc.to_string()).with_context(|| format!("writing {}", tmp.display()))?;
-        let checked = heliar::vem::capture::lens_file::FisheyeCalib::load(&tmp);
-        std::fs::remove_file(&tmp).ok();
-        checked.with_context(|| format!("the edited {} would not load", calib.display()))?;
-        edit::write_atomic(calib, doc.to_string().as_bytes())?;
-        eprintln!("wrote the log response into {}", calib.display());
+        None if !ops::photometric::within(worst, a.max_error) => eprintln!("warning: the fit is beyond the tolerance of {}% (--max-error); it would not be written into a calibration", a.max_error),
+        None => {}
     }
     Ok(())
-}
-
-/// `path` relative to `base` (both absolute), with `..` where needed.
-fn pathdiff(path: &std::path::Path, base: &std::path::Path) -> String {
-    let (p, b): (Vec<_>, Vec<_>) = (path.components().collect(), base.components().collect());
-    let common = p.iter().zip(&b).take_while(|(x, y)| x == y).count();
-    let mut out: Vec<String> = std::iter::repeat_n("..".to_string(), b.len() - common).collect();
-    out.extend(p[common..].iter().map(|c| c.as_os_str().to_string_lossy().into_owned()));
-    out.join("/")
 }

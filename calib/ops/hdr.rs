@@ -27,6 +27,30 @@ pub fn parse_exposure_time(s: &str) -> Result<f32> {
     Ok(v as f32)
 }
 
+/// Checks the exposure times of a bracket before anything is merged: one per exposure, each a
+/// positive number of seconds, and all different (two exposures with the same time add no
+/// range: the response cannot be recovered and the merge comes out flat). `images` names the
+/// exposures in the errors.
+pub fn check_times(images: &[PathBuf], times_s: &[f32]) -> Result<()> {
+    if images.len() != times_s.len() {
+        bail!("{} times for {} exposures; give one time per exposure, in the same order", times_s.len(), images.len());
+    }
+    if let Some((p, t)) = images.iter().zip(times_s).find(|(_, t)| !(t.is_finite() && **t > 0.0)) {
+        bail!("{}: exposure time {t} s; times must be positive seconds", p.display());
+    }
+    let mut order: Vec<(f32, &PathBuf)> = times_s.iter().copied().zip(images).collect();
+    order.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if let Some(w) = order.windows(2).find(|w| w[1].0 <= w[0].0) {
+        bail!(
+            "{} and {} both have exposure time {} s; a bracket needs a different time for each exposure",
+            w[0].1.display(),
+            w[1].1.display(),
+            w[0].0
+        );
+    }
+    Ok(())
+}
+
 /// Covers the lens reflection `reflection` with the clean patch `clean` (same size) in every
 /// exposure, then recovers the response and merges (Debevec–Malik). Returns the relative radiance
 /// and the response (256 rows, RGB).
@@ -48,17 +72,16 @@ pub fn write_outputs(out: &Path, merged: &LinearImage, response: &[[f32; 3]]) ->
     if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent).with_context(|| format!("creating {}", parent.display()))?;
     }
-    let stem = out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = out.with_file_name(format!(".{stem}.tmp-{}.exr", std::process::id()));
-    if let Err(e) = merged.write_exr(&tmp, ExrPrecision::Float) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(e.into());
-    }
-    std::fs::rename(&tmp, out).with_context(|| format!("replacing {}", out.display()))?;
+    heliar::io::write_via_temp(out, |tmp| merged.write_exr(tmp, ExrPrecision::Float)).with_context(|| format!("writing {}", out.display()))?;
     let csv: String = std::iter::once("r,g,b\n".to_string()).chain(response.iter().map(|r| format!("{},{},{}\n", r[0], r[1], r[2]))).collect();
-    let rpath = out.with_extension("response.csv");
+    let rpath = response_path(out);
     crate::edit::write_atomic(&rpath, csv.as_bytes())?;
     Ok(rpath)
+}
+
+/// Where the response of the merge written to `out` goes: `*.response.csv` beside it.
+pub fn response_path(out: &Path) -> PathBuf {
+    out.with_extension("response.csv")
 }
 
 #[cfg(test)]
@@ -73,5 +96,15 @@ mod tests {
         for s in ["", "0", "-1", "1/0", "fast", "nan"] {
             assert!(parse_exposure_time(s).is_err(), "{s}");
         }
+    }
+
+    #[test]
+    fn brackets_need_distinct_positive_times() {
+        let names: Vec<PathBuf> = ["a.png", "b.png", "c.png"].iter().map(PathBuf::from).collect();
+        assert!(check_times(&names, &[0.25, 0.004, 0.016]).is_ok());
+        let e = check_times(&names, &[0.004, 0.016, 0.004]).unwrap_err().to_string();
+        assert!(e.contains("a.png") && e.contains("c.png") && e.contains("0.004"), "{e}");
+        assert!(check_times(&names, &[0.004, 0.0, 0.016]).unwrap_err().to_string().contains("b.png"));
+        assert!(check_times(&names, &[0.004, 0.016]).unwrap_err().to_string().contains("2 times for 3"));
     }
 }

@@ -3,7 +3,8 @@
 
 use anyhow::{Context, Result, bail};
 use heliar::opencv_calib::Rgb8;
-use heliar::opencv_calib::chessboard::{Board, FisheyeCalibration, PinholeCalibration};
+use heliar::opencv_calib::chessboard::{Board, FisheyeCalibration, MIN_VIEWS, PinholeCalibration, detect_corners_with_window};
+use opencv::core::{Point2f, Vector};
 use heliar::io::frames::{Frame, FrameData};
 use std::path::{Path, PathBuf};
 
@@ -108,6 +109,68 @@ pub fn check_view_size(size: &mut Option<(u32, u32)>, img: &Rgb8, label: &str) -
         None => *size = Some((img.width, img.height)),
     }
     Ok(())
+}
+
+/// The usable views of a source: those with the board found, all of one size.
+pub struct Views {
+    /// The corners of each usable view.
+    pub corners: Vec<Vector<Point2f>>,
+    /// Their size.
+    pub size: (u32, u32),
+    /// The `cornerSubPix` half-window of each usable view (pixels).
+    pub half_windows: Vec<i32>,
+    /// The views left out, each as `label: why`.
+    pub skipped: Vec<String>,
+    /// Views looked at.
+    pub seen: usize,
+}
+
+type Found = (String, (u32, u32), Vector<Point2f>, i32);
+
+/// Reads every view of `source` and finds `board` in it. A view that cannot be read, in which
+/// the board is not found, or whose size differs from that of most views with the board (ties:
+/// the first seen) is skipped, and named in [`Views::skipped`]; an error only when fewer than
+/// [`MIN_VIEWS`] usable views remain (or the source itself cannot be read).
+pub fn collect_views(source: &ViewSource, board: &Board) -> Result<Views> {
+    // Label, size, corners and sub-pixel half-window of each view with the board.
+    let mut found: Vec<Found> = Vec::new();
+    let mut skipped = Vec::new();
+    let mut seen = 0usize;
+    for_each_view(source, |img, label| {
+        seen += 1;
+        match img.and_then(|img| Ok((img.width, img.height, detect_corners_with_window(&img, board)?))) {
+            Err(e) => skipped.push(format!("{label}: unreadable ({e:#})")),
+            Ok((_, _, None)) => skipped.push(format!("{label}: board not found")),
+            Ok((w, h, Some((c, half)))) => found.push((label, (w, h), c, half)),
+        }
+        Ok(true)
+    })?;
+    let mut counts: Vec<((u32, u32), usize)> = Vec::new();
+    for (_, size, _, _) in &found {
+        match counts.iter_mut().find(|(s, _)| s == size) {
+            Some((_, n)) => *n += 1,
+            None => counts.push((*size, 1)),
+        }
+    }
+    let size = counts.iter().fold(None::<((u32, u32), usize)>, |best, &(s, n)| if best.is_some_and(|(_, m)| m >= n) { best } else { Some((s, n)) }).map(|(s, _)| s);
+    let (mut corners, mut half_windows) = (Vec::new(), Vec::new());
+    for (label, s, c, half) in found {
+        match size {
+            Some(size) if s != size => skipped.push(format!("{label}: {}×{} but the other views are {}×{}", s.0, s.1, size.0, size.1)),
+            _ => {
+                corners.push(c);
+                half_windows.push(half);
+            }
+        }
+    }
+    let Some(size) = size.filter(|_| corners.len() >= MIN_VIEWS) else {
+        bail!(
+            "{} usable views of {seen}; at least {MIN_VIEWS} are needed (vary the board's tilt and position){}",
+            corners.len(),
+            skipped.iter().map(|s| format!("\n  skipped {s}")).collect::<String>()
+        );
+    };
+    Ok(Views { corners, size, half_windows, skipped, seen })
 }
 
 /// What is doubtful about a pinhole calibration, in words (empty when it looks good).

@@ -15,7 +15,8 @@ pub enum Marked {
     No,
     /// Listed in the manifest's `proxy.diffuse_nodes` (can be unmarked here).
     Manifest,
-    /// Marked by the glTF node's extras (edit the proxy file to change it).
+    /// Marked by the glTF node's extras (unmarking records the override in the manifest's
+    /// `proxy.not_diffuse_nodes`).
     Extras,
 }
 
@@ -71,14 +72,58 @@ pub fn updated_list(current: &[String], names: &[String], unmark: bool) -> Vec<S
     list
 }
 
-/// The manifest `text` with `proxy.diffuse_nodes = list` (everything else, comments included,
-/// kept). `path` is only for the error message.
-pub fn manifest_with_diffuse_nodes(text: &str, path: &Path, list: &[String]) -> Result<String> {
+/// The manifest's two lists after marking (or unmarking) `names`: `(proxy.diffuse_nodes,
+/// proxy.not_diffuse_nodes)`. `by_extras` says whether the proxy's glTF extras mark a node.
+///
+/// Unmarking removes the name from `diffuse_nodes` and, when the extras mark the node, records it
+/// in `not_diffuse_nodes` (the override: the proxy file is left alone). Marking removes the name
+/// from `not_diffuse_nodes`, and lists it in `diffuse_nodes` unless that removal alone marks it
+/// again (the extras do).
+pub fn updated_lists(scene: &Scene, names: &[String], unmark: bool, by_extras: impl Fn(&str) -> bool) -> (Vec<String>, Vec<String>) {
+    let p = &scene.manifest.proxy;
+    let mut not = p.not_diffuse_nodes.clone();
+    let mut marked_again = Vec::new();
+    for n in names {
+        if unmark {
+            if by_extras(n) && !not.contains(n) {
+                not.push(n.clone());
+            }
+        } else if not.contains(n) {
+            not.retain(|x| x != n);
+            if by_extras(n) {
+                marked_again.push(n.clone());
+            }
+        }
+    }
+    let to_list: Vec<String> = names.iter().filter(|n| !marked_again.contains(n)).cloned().collect();
+    (updated_list(&p.diffuse_nodes, &to_list, unmark), not)
+}
+
+/// The names of the proxy's nodes its glTF extras mark (their own or an ancestor's), whatever the
+/// manifest says.
+pub fn marked_by_extras(scene: &Scene) -> Result<Vec<String>> {
+    let path = scene.root.join(&scene.manifest.proxy.file);
+    let (mesh, _) = heliar::scene::gltf::load_gltf(&path, glam::Mat4::IDENTITY, &[]).with_context(|| format!("reading {}", path.display()))?;
+    Ok(mesh.nodes.into_iter().filter(|n| n.diffuse).map(|n| n.name).collect())
+}
+
+/// The manifest `text` with `proxy.diffuse_nodes = list` and, when given,
+/// `proxy.not_diffuse_nodes = not` (left out when empty and not there yet); everything else,
+/// comments included, is kept. `path` is only for the error message.
+pub fn manifest_with_lists(text: &str, path: &Path, list: &[String], not: Option<&[String]>) -> Result<String> {
     let mut doc: toml_edit::DocumentMut = text.parse().with_context(|| format!("{}: not valid TOML", path.display()))?;
     let Some(proxy) = doc.get_mut("proxy").and_then(|p| p.as_table_like_mut()) else {
         bail!("{}: no [proxy] table", path.display());
     };
-    match proxy.get_mut("diffuse_nodes").and_then(|v| v.as_array_mut()) {
+    set_array(proxy, "diffuse_nodes", list, true);
+    if let Some(not) = not {
+        set_array(proxy, "not_diffuse_nodes", not, false);
+    }
+    Ok(doc.to_string())
+}
+
+fn set_array(table: &mut dyn toml_edit::TableLike, key: &str, list: &[String], insert_empty: bool) {
+    match table.get_mut(key).and_then(|v| v.as_array_mut()) {
         // Edit the array in place so the decoration around it (comments after it) stays.
         Some(arr) => {
             arr.clear();
@@ -86,20 +131,21 @@ pub fn manifest_with_diffuse_nodes(text: &str, path: &Path, list: &[String]) -> 
                 arr.push(n.as_str());
             }
         }
+        None if list.is_empty() && !insert_empty => {}
         None => {
-            proxy.insert("diffuse_nodes", super::toml_array(list.iter().map(String::as_str)));
+            table.insert(key, super::toml_array(list.iter().map(String::as_str)));
         }
     }
-    Ok(doc.to_string())
 }
 
-/// Writes `proxy.diffuse_nodes = list` into the scene's manifest (validated on a copy first, then
-/// replaced atomically); returns the reloaded scene. Removing the last marked node fails, since
-/// a scene needs at least one estimation surface.
-pub fn set_diffuse_nodes(scene_dir: &Path, list: &[String]) -> Result<Scene> {
+/// Writes `proxy.diffuse_nodes = list` (and `proxy.not_diffuse_nodes = not`, when given) into
+/// the scene's manifest (validated on a copy first, then replaced atomically); returns the
+/// reloaded scene. Removing the last marked node fails, since a scene needs at least one
+/// estimation surface.
+pub fn set_marks(scene_dir: &Path, list: &[String], not: Option<&[String]>) -> Result<Scene> {
     let mpath = scene_dir.join(MANIFEST_FILE);
     let text = std::fs::read_to_string(&mpath).with_context(|| format!("reading {}", mpath.display()))?;
-    let new = manifest_with_diffuse_nodes(&text, &mpath, list)?;
+    let new = manifest_with_lists(&text, &mpath, list, not)?;
     crate::edit::edit_scene(scene_dir, &[(PathBuf::from(MANIFEST_FILE), new.into_bytes())])
 }
 
@@ -112,12 +158,12 @@ mod tests {
         let text = "name = \"x\" # the name\n\n[proxy]\nfile = \"proxy.glb\" # ours\ndiffuse_nodes = [\"ground\"] # paving\n\n[camera]\nfile = \"c.toml\"\n";
         let list = updated_list(&["ground".into()], &["wall".into(), "ground".into()], false);
         assert_eq!(list, ["ground", "wall"]);
-        let new = manifest_with_diffuse_nodes(text, Path::new("scene.toml"), &list).unwrap();
+        let new = manifest_with_lists(text, Path::new("scene.toml"), &list, None).unwrap();
         assert!(new.contains("# the name") && new.contains("# ours") && new.contains("# paving"), "{new}");
         assert!(new.contains("diffuse_nodes = [\"ground\", \"wall\"]"), "{new}");
-        let without = manifest_with_diffuse_nodes("[proxy]\nfile = \"p.glb\"\n", Path::new("scene.toml"), &list).unwrap();
+        let without = manifest_with_lists("[proxy]\nfile = \"p.glb\"\n", Path::new("scene.toml"), &list, None).unwrap();
         assert!(without.contains("diffuse_nodes = [\"ground\", \"wall\"]"), "{without}");
         assert_eq!(updated_list(&list, &["ground".into()], true), ["wall"]);
-        assert!(manifest_with_diffuse_nodes("name = 1\n", Path::new("scene.toml"), &list).unwrap_err().to_string().contains("[proxy]"));
+        assert!(manifest_with_lists("name = 1\n", Path::new("scene.toml"), &list, None).unwrap_err().to_string().contains("[proxy]"));
     }
 }

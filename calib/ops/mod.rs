@@ -6,6 +6,7 @@
 pub mod hdr;
 pub mod intrinsics;
 pub mod mark;
+pub mod photometric;
 pub mod pose;
 pub mod scene;
 

@@ -63,6 +63,51 @@ pub fn check_inside(k: &Intrinsics, px: &[DVec2], label: &str) -> Result<()> {
     Ok(())
 }
 
+/// Fewest point pairs for a pose (six unknowns, two equations a pair, and P3P's ambiguity).
+pub const MIN_PAIRS: usize = 4;
+/// Two clicks closer than this (pixels) are the same image point.
+pub const SAME_PIXEL_PX: f64 = 0.5;
+/// Two world points closer than this (metres) are the same point.
+pub const SAME_POINT_M: f64 = 1e-3;
+/// World points within this fraction of their extent of one line are collinear: a rotation about
+/// that line is not determined.
+pub const COLLINEAR_FRACTION: f64 = 1e-3;
+
+/// Checks pairs before they reach OpenCV (whose assertions would be the only message): at least
+/// [`MIN_PAIRS`], no image point or world point given twice, and world points not all on one
+/// line. Errors name the pairs (1-based, in file order) and `label` (the pairs' source).
+pub fn check_pairs(px: &[DVec2], world: &[DVec3], label: &str) -> Result<()> {
+    if px.len() < MIN_PAIRS {
+        bail!("{label}: {} point pairs; at least {MIN_PAIRS} are needed", px.len());
+    }
+    for i in 0..px.len() {
+        for j in i + 1..px.len() {
+            if (px[i] - px[j]).length() < SAME_PIXEL_PX {
+                bail!("{label}: pairs {} and {} click the same pixel ({:.1}, {:.1}); each pair needs its own image point", i + 1, j + 1, px[j].x, px[j].y);
+            }
+            if (world[i] - world[j]).length() < SAME_POINT_M {
+                bail!("{label}: pairs {} and {} name the same world point ({}, {}, {}); each pair needs its own proxy point", i + 1, j + 1, world[j].x, world[j].y, world[j].z);
+            }
+        }
+    }
+    // The line through the two points farthest apart; every point's distance from it.
+    let (mut a, mut b, mut extent) = (0, 0, 0.0);
+    for i in 0..world.len() {
+        for j in i + 1..world.len() {
+            let l = (world[i] - world[j]).length();
+            if l > extent {
+                (a, b, extent) = (i, j, l);
+            }
+        }
+    }
+    let dir = (world[b] - world[a]) / extent;
+    let off = world.iter().map(|p| (*p - world[a]).reject_from_normalized(dir).length()).fold(0.0, f64::max);
+    if off <= COLLINEAR_FRACTION * extent {
+        bail!("{label}: all {} world points lie on one line (from pair {} to pair {}); add points off that line (a corner of another edge)", world.len(), a + 1, b + 1);
+    }
+    Ok(())
+}
+
 /// What is doubtful about a pose, in words.
 pub fn warnings(fit: &PoseFit) -> Vec<String> {
     if fit.rms_px > RMS_WARN_PX {
@@ -89,14 +134,36 @@ pub fn camera_toml_with_pose(text: &str, path: &Path, fit: &PoseFit) -> Result<S
 }
 
 /// Stores the pose in the scene's camera file (validated, atomic); returns the reloaded scene and
-/// the camera file's path.
-pub fn save_pose(scene_dir: &Path, scene: &Scene, fit: &PoseFit) -> Result<(Scene, PathBuf)> {
+/// the camera file's path. The camera file (`camera.file` of the manifest, resolved against the
+/// scene folder with symlinks and `..`) must lie inside the scene folder unless `allow_outside`
+/// (`--allow-outside-scene`).
+pub fn save_pose(scene_dir: &Path, scene: &Scene, fit: &PoseFit, allow_outside: bool) -> Result<(Scene, PathBuf)> {
     let rel = PathBuf::from(&scene.manifest.camera.file);
     let path = scene_dir.join(&rel);
     let text = std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
     let new = camera_toml_with_pose(&text, &path, fit)?;
-    let s = crate::edit::edit_scene(scene_dir, &[(rel, new.into_bytes())])?;
+    let s = match check_camera_inside(scene_dir, scene, allow_outside)? {
+        Some(inside) => crate::edit::edit_scene(scene_dir, &[(inside, new.into_bytes())])?,
+        None => crate::edit::edit_camera_outside(scene_dir, &heliar::io::guard::resolve(&path), new.as_bytes())?,
+    };
     Ok((s, path))
+}
+
+/// The scene's camera file relative to the scene folder (symlinks and `..` resolved), or `None`
+/// when it lies outside and `allow_outside`; an error naming the manifest's `camera.file` when it
+/// lies outside and not `allow_outside`.
+pub fn check_camera_inside(scene_dir: &Path, scene: &Scene, allow_outside: bool) -> Result<Option<PathBuf>> {
+    let file = &scene.manifest.camera.file;
+    match crate::edit::rel_inside(scene_dir, Path::new(file)) {
+        Some(inside) => Ok(Some(inside)),
+        None if allow_outside => Ok(None),
+        None => bail!(
+            "{}: camera.file = \"{file}\" is {}, outside the scene folder {}; the pose was not written (move the camera file into the scene, or --allow-outside-scene)",
+            scene_dir.join(heliar::scene::MANIFEST_FILE).display(),
+            heliar::io::guard::resolve(&scene_dir.join(file)).display(),
+            scene_dir.display()
+        ),
+    }
 }
 
 /// The proxy's visible outline: its border and crease edges (edges inside a flat face, such as
@@ -209,6 +276,23 @@ mod tests {
         assert!(check_inside(&k, &[DVec2::new(9.4, 7.4)], "x").is_ok());
         assert!(check_inside(&k, &[DVec2::new(1.0, 1.0), DVec2::new(10.0, 1.0)], "x").unwrap_err().to_string().contains("pair 2"));
         assert!(check_inside(&k, &[DVec2::new(f64::NAN, 1.0)], "x").is_err());
+    }
+
+    #[test]
+    fn pairs_opencv_cannot_use_are_named() {
+        let px: Vec<DVec2> = (0..5).map(|i| DVec2::new(10.0 * i as f64, 3.0 * (i * i) as f64)).collect();
+        let world = vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z, DVec3::ONE];
+        assert!(check_pairs(&px, &world, "p.csv").is_ok());
+        assert!(check_pairs(&px[..3], &world[..3], "p.csv").unwrap_err().to_string().contains("at least 4"));
+        let mut dup = px.clone();
+        dup[3] = dup[1] + DVec2::splat(0.1);
+        assert!(check_pairs(&dup, &world, "p.csv").unwrap_err().to_string().contains("pairs 2 and 4 click the same pixel"));
+        let mut same = world.clone();
+        same[4] = same[0];
+        assert!(check_pairs(&px, &same, "p.csv").unwrap_err().to_string().contains("pairs 1 and 5 name the same world point"));
+        let line: Vec<DVec3> = (0..5).map(|i| DVec3::new(i as f64, 2.0 * i as f64, 0.5)).collect();
+        let e = check_pairs(&px, &line, "p.csv").unwrap_err().to_string();
+        assert!(e.contains("p.csv") && e.contains("one line"), "{e}");
     }
 
     #[test]

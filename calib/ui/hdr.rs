@@ -127,8 +127,10 @@ impl HdrTab {
         self.cleaned = None;
         let mut images: Vec<Rgb8> = Vec::new();
         let mut times = Vec::new();
+        let mut paths = Vec::new();
         for (i, r) in self.rows.iter().enumerate() {
             let path = PathBuf::from(r.path.trim());
+            paths.push(path.clone());
             if path.as_os_str().is_empty() {
                 bail!("exposure {}: give the image file", i + 1);
             }
@@ -141,6 +143,7 @@ impl HdrTab {
             }
             images.push(img);
         }
+        ops::check_times(&paths, &times)?;
         if images.len() < 3 {
             bail!("{} exposures; Debevec's method needs at least 3 (e.g. -2, 0, +2 EV)", images.len());
         }

@@ -100,16 +100,23 @@ impl MarkTab {
         self.toggle_node(state, node)
     }
 
-    /// Marks node `index` if it is not marked, unmarks it if the manifest lists it.
+    /// Marks node `index` if it is not marked, unmarks it if the manifest lists it. A node the
+    /// glTF extras mark is not unmarked by a click (`heliar-calib mark --unmark` records the
+    /// override); one unmarked that way is marked again by a click.
     pub fn toggle_node(&mut self, state: &mut SceneState, index: usize) -> Result<String> {
         let name = state.scene.proxy.nodes.get(index).map(|n| n.name.clone()).context("no such node")?;
-        let current = &state.scene.manifest.proxy.diffuse_nodes;
-        let (list, verb) = match ops::marked(&state.scene, index) {
-            Marked::Extras => bail!("'{name}' is marked in the proxy's glTF extras ({}); edit the proxy to unmark it", state.scene.manifest.proxy.file),
-            Marked::Manifest => (ops::updated_list(current, std::slice::from_ref(&name), true), "unmarked"),
-            Marked::No => (ops::updated_list(current, std::slice::from_ref(&name), false), "marked"),
-        };
-        let scene = ops::set_diffuse_nodes(&state.dir, &list).with_context(|| format!("'{name}' was not {verb}"))?;
+        let m = ops::marked(&state.scene, index);
+        if m == Marked::Extras {
+            bail!(
+                "'{name}' is marked in the proxy's glTF extras ({}); edit the proxy, or override it with `heliar-calib mark --unmark --node {name}` (proxy.not_diffuse_nodes)",
+                state.scene.manifest.proxy.file
+            );
+        }
+        let (unmark, verb) = if m == Marked::Manifest { (true, "unmarked") } else { (false, "marked") };
+        let extras = if state.scene.manifest.proxy.not_diffuse_nodes.is_empty() { Vec::new() } else { ops::marked_by_extras(&state.scene)? };
+        let (list, not) = ops::updated_lists(&state.scene, std::slice::from_ref(&name), unmark, |n| !unmark && extras.iter().any(|x| x == n));
+        let not = (not != state.scene.manifest.proxy.not_diffuse_nodes).then_some(not);
+        let scene = ops::set_marks(&state.dir, &list, not.as_deref()).with_context(|| format!("'{name}' was not {verb}"))?;
         state.replace(scene);
         let still = if verb == "unmarked" && ops::marked(&state.scene, index) == Marked::Extras { " (the glTF extras still mark it)" } else { "" };
         Ok(format!("{verb} '{name}'{still}; scene.toml: proxy.diffuse_nodes = {list:?}"))

@@ -141,6 +141,7 @@ impl PoseTab {
             let (px, world) = self.complete_pairs()?;
             let k = &state.scene.camera.intrinsics;
             ops::check_inside(k, &px, "the pairs")?;
+            ops::check_pairs(&px, &world, "the pairs")?;
             let fit = solve_pose(k, &px, &world)?;
             let camera = Camera { intrinsics: k.clone(), pose: fit.pose() };
             let errors_px = ops::pair_errors_px(&camera, &px, &world);
@@ -172,7 +173,7 @@ impl PoseTab {
         if self.complete_pairs().ok().as_ref() != Some(&s.used) {
             bail!("the pairs changed since the last solve; solve again before saving");
         }
-        let (scene, path) = ops::save_pose(&state.dir, &state.scene, &s.fit)?;
+        let (scene, path) = ops::save_pose(&state.dir, &state.scene, &s.fit, false)?;
         state.replace(scene);
         self.outline_cache = None;
         Ok(format!("updated {} (RMS {:.2} px, max {:.2} px)", path.display(), s.fit.rms_px, s.fit.max_px))

@@ -2,7 +2,11 @@
 //!
 //! # How it works
 //! Inner corners are found with `findChessboardCorners` and refined to sub-pixel accuracy with
-//! `cornerSubPix`; `calibrateCamera` then fits the pinhole + Brown–Conrady model (OpenCV's
+//! `cornerSubPix`, whose search window is sized from the board as seen: a half-window of
+//! [`SUBPIX_WINDOW_FRACTION`] of the smallest square side in pixels, clamped to
+//! [`SUBPIX_HALF_WINDOW_MIN`, `SUBPIX_HALF_WINDOW_MAX`] (a window reaching a neighbouring corner
+//! pulls the refinement toward it; one much smaller than the square's blur sees too little edge).
+//! `calibrateCamera` then fits the pinhole + Brown–Conrady model (OpenCV's
 //! `[k1, k2, p1, p2, k3]`, the convention of `calib/camera.toml`) by Levenberg–Marquardt, or
 //! `fisheye::calibrate` fits the Kannala–Brandt model. The RMS reprojection error (pixels) says how
 //! well the model explains the corners; a good calibration is below 0.5 px.
@@ -42,8 +46,44 @@ impl Board {
     }
 }
 
+/// Half-window of `cornerSubPix` as a fraction of the smallest square side (pixels) in the view.
+pub const SUBPIX_WINDOW_FRACTION: f64 = 0.4;
+/// Smallest half-window (pixels) of `cornerSubPix`.
+pub const SUBPIX_HALF_WINDOW_MIN: i32 = 2;
+/// Largest half-window (pixels) of `cornerSubPix`.
+pub const SUBPIX_HALF_WINDOW_MAX: i32 = 11;
+
+/// The `cornerSubPix` half-window for corners of `board` found at `corners` (row-major, as
+/// `findChessboardCorners` orders them): [`SUBPIX_WINDOW_FRACTION`] of the shortest distance
+/// between neighbouring corners, rounded and clamped.
+pub fn subpix_half_window(corners: &[(f32, f32)], board: &Board) -> i32 {
+    let (cols, rows) = (board.cols as usize, board.rows as usize);
+    let mut side = f64::INFINITY;
+    let dist = |a: (f32, f32), b: (f32, f32)| (((a.0 - b.0) as f64).powi(2) + ((a.1 - b.1) as f64).powi(2)).sqrt();
+    for r in 0..rows {
+        for c in 0..cols {
+            let i = r * cols + c;
+            if c + 1 < cols && i + 1 < corners.len() {
+                side = side.min(dist(corners[i], corners[i + 1]));
+            }
+            if r + 1 < rows && i + cols < corners.len() {
+                side = side.min(dist(corners[i], corners[i + cols]));
+            }
+        }
+    }
+    if !side.is_finite() {
+        return SUBPIX_HALF_WINDOW_MIN;
+    }
+    ((SUBPIX_WINDOW_FRACTION * side).round() as i32).clamp(SUBPIX_HALF_WINDOW_MIN, SUBPIX_HALF_WINDOW_MAX)
+}
+
 /// Finds and refines the inner corners of `board` in `img`; `None` when the board is not found.
 pub fn detect_corners(img: &Rgb8, board: &Board) -> Result<Option<Vector<Point2f>>, OpenCvCalibError> {
+    Ok(detect_corners_with_window(img, board)?.map(|(c, _)| c))
+}
+
+/// [`detect_corners`], with the `cornerSubPix` half-window used ([`subpix_half_window`]).
+pub fn detect_corners_with_window(img: &Rgb8, board: &Board) -> Result<Option<(Vector<Point2f>, i32)>, OpenCvCalibError> {
     let gray = img.to_gray_mat()?;
     let mut corners = Vector::<Point2f>::new();
     let size = Size::new(board.cols as i32, board.rows as i32);
@@ -52,8 +92,10 @@ pub fn detect_corners(img: &Rgb8, board: &Board) -> Result<Option<Vector<Point2f
         return Ok(None);
     }
     let crit = TermCriteria::new(TermCriteria_Type::COUNT as i32 + TermCriteria_Type::EPS as i32, 50, 1e-4)?;
-    imgproc::corner_sub_pix(&gray, &mut corners, Size::new(5, 5), Size::new(-1, -1), crit)?;
-    Ok(Some(corners))
+    let found: Vec<(f32, f32)> = corners.iter().map(|p| (p.x, p.y)).collect();
+    let half = subpix_half_window(&found, board);
+    imgproc::corner_sub_pix(&gray, &mut corners, Size::new(half, half), Size::new(-1, -1), crit)?;
+    Ok(Some((corners, half)))
 }
 
 /// Result of a pinhole calibration.
@@ -275,5 +317,20 @@ mod tests {
         }
         // Too few views is a clear error.
         assert!(calibrate_pinhole(&views[..2], &board, 640, 480, false).unwrap_err().to_string().contains("at least 3"));
+    }
+
+    #[test]
+    fn the_subpixel_window_follows_the_square_size() {
+        let board = Board { cols: 3, rows: 3, square_m: 0.03 };
+        let grid = |side: f32| (0..9).map(|i| ((i % 3) as f32 * side, (i / 3) as f32 * side)).collect::<Vec<_>>();
+        assert_eq!(subpix_half_window(&grid(12.5), &board), 5);
+        assert_eq!(subpix_half_window(&grid(20.0), &board), 8);
+        // Clamped: tiny squares keep 2 px, huge ones 11 px.
+        assert_eq!(subpix_half_window(&grid(3.0), &board), SUBPIX_HALF_WINDOW_MIN);
+        assert_eq!(subpix_half_window(&grid(200.0), &board), SUBPIX_HALF_WINDOW_MAX);
+        // The smallest square decides (a foreshortened board).
+        let mut g = grid(20.0);
+        g[1].0 = 10.0;
+        assert_eq!(subpix_half_window(&g, &board), 4);
     }
 }

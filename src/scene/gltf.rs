@@ -50,6 +50,14 @@ fn texture_from_image(img: &gltf::image::Data) -> Option<Texture> {
 /// Loads `path`, applying `placement` after each node's own transform. `extra_diffuse` names
 /// nodes to mark diffuse in addition to the file's extras.
 pub fn load_gltf(path: &Path, placement: Mat4, extra_diffuse: &[String]) -> Result<(Mesh, LoadNotes), SceneError> {
+    load_gltf_marked(path, placement, extra_diffuse, &[])
+}
+
+/// [`load_gltf`] with `not_diffuse`: nodes that are *not* diffuse even though the file's extras
+/// (their own or an ancestor's) or `extra_diffuse` mark them (the manifest's
+/// `proxy.not_diffuse_nodes`, which overrides the extras without editing the glTF). A node left
+/// unmarked this way passes no mark on to its children.
+pub fn load_gltf_marked(path: &Path, placement: Mat4, extra_diffuse: &[String], not_diffuse: &[String]) -> Result<(Mesh, LoadNotes), SceneError> {
     let gerr = |message: String| SceneError::Gltf { path: path.to_owned(), message };
     if !path.exists() {
         return Err(SceneError::Missing { path: path.to_owned() });
@@ -84,7 +92,7 @@ pub fn load_gltf(path: &Path, placement: Mat4, extra_diffuse: &[String]) -> Resu
     while let Some((node, parent, parent_diffuse)) = stack.pop() {
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
         let name = node.name().map(str::to_owned).unwrap_or_else(|| format!("node{}", node.index()));
-        let diffuse = parent_diffuse || node_marked_diffuse(&node) || extra_diffuse.iter().any(|n| *n == name);
+        let diffuse = (parent_diffuse || node_marked_diffuse(&node) || extra_diffuse.contains(&name)) && !not_diffuse.contains(&name);
         for child in node.children() {
             stack.push((child, world, diffuse));
         }
@@ -146,6 +154,11 @@ pub fn load_gltf(path: &Path, placement: Mat4, extra_diffuse: &[String]) -> Resu
     for name in extra_diffuse {
         if !mesh.nodes.iter().any(|n| n.name == *name) {
             return Err(gerr(format!("node '{name}' (named in the manifest's diffuse_nodes) is not in the file")));
+        }
+    }
+    for name in not_diffuse {
+        if !mesh.nodes.iter().any(|n| n.name == *name) {
+            return Err(gerr(format!("node '{name}' (named in the manifest's not_diffuse_nodes) is not in the file")));
         }
     }
     Ok((mesh, notes))

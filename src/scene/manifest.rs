@@ -99,6 +99,10 @@ pub struct ProxySpec {
     /// Node names to mark as diffuse estimation surfaces, besides those marked in the glTF extras.
     #[serde(default)]
     pub diffuse_nodes: Vec<String>,
+    /// Node names that are *not* diffuse estimation surfaces although the glTF extras mark them
+    /// (how `heliar-calib mark --unmark` overrides the extras without editing the proxy).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub not_diffuse_nodes: Vec<String>,
 }
 
 /// `[camera]`.

@@ -332,7 +332,10 @@ impl Scene {
         if !proxy_path.exists() {
             return Err(invalid(m, "proxy.file", format!("{} does not exist", proxy_path.display())));
         }
-        let (proxy, proxy_notes) = gltf::load_gltf(&proxy_path, Mat4::IDENTITY, &manifest.proxy.diffuse_nodes)?;
+        if let Some(n) = manifest.proxy.not_diffuse_nodes.iter().find(|n| manifest.proxy.diffuse_nodes.contains(n)) {
+            return Err(invalid(m, "proxy.not_diffuse_nodes", format!("'{n}' is also in proxy.diffuse_nodes; a node is either marked or not")));
+        }
+        let (proxy, proxy_notes) = gltf::load_gltf_marked(&proxy_path, Mat4::IDENTITY, &manifest.proxy.diffuse_nodes, &manifest.proxy.not_diffuse_nodes)?;
         if !proxy.nodes.iter().any(|n| n.diffuse) {
             return Err(invalid(
                 &proxy_path,

@@ -188,10 +188,14 @@ pub fn cache_key(scene: &Scene) -> Result<String, BakeError> {
         hash_file(&mut h, &scene.root.join(f))?;
     }
     hash_file(&mut h, &scene.root.join(&scene.manifest.proxy.file))?;
-    let settings = serde_json::json!({
+    let mut settings = serde_json::json!({
         "env": env, "bake": scene.bake, "place": scene.manifest.place,
         "diffuse": scene.manifest.proxy.diffuse_nodes, "estimator": scene.estimator,
     });
+    // Only when set, so the keys of scenes without the override stay what they were.
+    if !scene.manifest.proxy.not_diffuse_nodes.is_empty() {
+        settings["not_diffuse"] = serde_json::json!(scene.manifest.proxy.not_diffuse_nodes);
+    }
     h.update(settings.to_string().as_bytes());
     Ok(h.finalize().to_hex().to_string())
 }
