@@ -12,6 +12,13 @@
 //! value carries on with growing uncertainty. With `q = 0` the filter is a running inverse-variance
 //! mean; with `q → ∞` it passes measurements through.
 //!
+//! **Clocks that do not move.** `Δt` is the time since the previous frame. When that is zero or
+//! negative (frames stamped with the same time, a clock that steps back), the real interval is
+//! unknown but not zero: the filter uses the last positive interval it saw, or
+//! [`FALLBACK_INTERVAL_S`] before it has seen one. A `Δt` of 0 would stop the filter from
+//! following the light at all (issue 13: a passing cloud was smoothed away). The run's clock
+//! check names such frames in a warning.
+//!
 //! # Change detection
 //! [`ChangeDetector`] compares the smoothed lighting with the lighting that the last relight used.
 //! It reports a change when, in any channel, `Pd` or `Pa` moved by more than `relight_threshold`
@@ -26,7 +33,14 @@ pub struct Smoother {
     x: Option<[f64; 6]>,
     var: [f64; 6],
     last_time_s: f64,
+    /// The last positive frame interval, s.
+    last_interval_s: Option<f64>,
 }
+
+/// The frame interval assumed when the clock has not moved and no earlier interval is known, s
+/// (a frame per second: slow enough that a still camera is not over-smoothed, fast enough for a
+/// time-lapse to still average its noise).
+pub const FALLBACK_INTERVAL_S: f64 = 1.0;
 
 /// Variance floor relative to the squared value, so a zero standard error cannot freeze the filter.
 const REL_VAR_FLOOR: f64 = 1e-8;
@@ -36,7 +50,15 @@ impl Smoother {
     /// observed parameters (order `Pd r,g,b, Pa r,g,b`). Returns the smoothed values, or `None`
     /// until something has been observed.
     pub fn update(&mut self, time_s: f64, rate_per_sqrt_s: f64, meas: [Option<(f64, f64)>; 6]) -> Option<[f64; 6]> {
-        let dt = (time_s - self.last_time_s).abs();
+        let raw = time_s - self.last_time_s;
+        let dt = if self.x.is_none() {
+            0.0 // the first observation initialises; no interval is used
+        } else if raw > 0.0 {
+            self.last_interval_s = Some(raw);
+            raw
+        } else {
+            self.last_interval_s.unwrap_or(FALLBACK_INTERVAL_S)
+        };
         self.last_time_s = time_s;
         let Some(x) = self.x.as_mut() else {
             // Initialise from the first observation of each parameter.
@@ -152,6 +174,33 @@ mod tests {
             out = s.update(i as f64 * 0.1, 0.01, [Some((0.2, 0.002)); 6]).unwrap();
         }
         assert!((out[0] - 0.2).abs() < 0.01, "{out:?}");
+    }
+
+    /// Issue 13: frames stamped with one time follow a change as frames one interval apart do
+    /// (the last positive interval, else `FALLBACK_INTERVAL_S`), not as a frozen filter.
+    #[test]
+    fn a_clock_that_does_not_move_does_not_freeze_the_filter() {
+        let run = |times: &dyn Fn(usize) -> f64| {
+            let mut s = Smoother::default();
+            let mut out = [0.0; 6];
+            for i in 0..40 {
+                out = s.update(times(i), 0.1, [Some((1.0, 0.05)); 6]).unwrap();
+            }
+            for i in 40..43 {
+                out = s.update(times(i), 0.1, [Some((0.2, 0.05)); 6]).unwrap();
+            }
+            out[0]
+        };
+        let stamped_once = run(&|_| 5.0);
+        let one_second = run(&|i| i as f64);
+        let ten_then_stuck = run(&|i| if i < 2 { 10.0 * i as f64 } else { 10.0 });
+        let ten_seconds = run(&|i| 10.0 * i as f64);
+        assert_eq!(stamped_once, one_second, "no interval known: one second");
+        assert_eq!(ten_then_stuck, ten_seconds, "the last interval carries on");
+        assert!(stamped_once < 0.6, "the step is followed: {stamped_once}");
+        // Time going back is not a negative interval either.
+        let back = run(&|i| 100.0 - i as f64);
+        assert_eq!(back, one_second);
     }
 
     #[test]
