@@ -167,23 +167,9 @@ fn load_camera(scene_dir: &Path, manifest_path: &Path, file: &str) -> Result<(Ca
     }
     let cf: CameraFile = read_toml(&path)?;
     let p = path.as_path();
-    if cf.width == 0 || cf.height == 0 {
-        return Err(invalid(p, "width/height", "must be positive"));
-    }
-    for (name, v) in [("fx", cf.fx), ("fy", cf.fy)] {
-        if !(v.is_finite() && v > 0.0) {
-            return Err(invalid(p, name, format!("focal length {v} must be a positive number of pixels")));
-        }
-    }
-    for (name, v) in [("cx", cf.cx), ("cy", cf.cy)] {
-        if !v.is_finite() {
-            return Err(invalid(p, name, "must be finite"));
-        }
-    }
-    if cf.distortion.iter().any(|k| !k.is_finite()) {
-        return Err(invalid(p, "distortion", "coefficients must be finite"));
-    }
+    // Sizes, focal lengths, principal point, and a distortion that is a lens over the whole image.
     let intrinsics = Intrinsics::brown_conrady(cf.width, cf.height, cf.fx, cf.fy, cf.cx, cf.cy, cf.distortion);
+    intrinsics.validate().map_err(|(field, message)| invalid(p, field, message))?;
     let pose = match &cf.pose {
         PoseSpec::LookAt { position, look_at, up } => {
             let (pos, tgt, up) = (finite3(p, "pose.position", *position)?, finite3(p, "pose.look_at", *look_at)?, finite3(p, "pose.up", *up)?);

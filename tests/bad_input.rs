@@ -1,0 +1,86 @@
+//! Bad input to scene loading, the camera models and the command line (issue 12). Each case
+//! asserts an error (or a non-zero exit), a message that names the file or option and the field,
+//! and that no file of the scene or of the inputs changed (hashed before and after).
+
+use heliar::scene::Scene;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bundled() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/courtyard")
+}
+
+/// A fresh folder holding a copy of the courtyard's small files at `courtyard/` (frames are empty
+/// stand-ins: the loader lists them, it does not decode them). Returns (folder, scene).
+fn scratch(name: &str) -> (PathBuf, PathBuf) {
+    let d = std::env::temp_dir().join(format!("heliar-badin-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    let dst = d.join("courtyard");
+    for sub in ["calib", "frames/hdr", "frames/ldr", "objects"] {
+        std::fs::create_dir_all(dst.join(sub)).unwrap();
+    }
+    for f in ["scene.toml", "proxy.glb", "calib/camera.toml", "env.exr", "truth.csv", "objects/statue.glb"] {
+        std::fs::copy(bundled().join(f), dst.join(f)).unwrap();
+    }
+    for i in 0..12 {
+        std::fs::write(dst.join(format!("frames/hdr/frame_{i:03}.exr")), b"").unwrap();
+        std::fs::write(dst.join(format!("frames/ldr/frame_{i:03}.png")), b"").unwrap();
+    }
+    (d, dst)
+}
+
+fn edit(path: &Path, from: &str, to: &str) {
+    let s = std::fs::read_to_string(path).unwrap();
+    assert!(s.contains(from), "{} has no '{from}'", path.display());
+    std::fs::write(path, s.replacen(from, to, 1)).unwrap();
+}
+
+/// Hashes of every file under `dir`.
+fn hashes(dir: &Path) -> BTreeMap<PathBuf, blake3::Hash> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![dir.to_owned()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.insert(p.clone(), blake3::hash(&std::fs::read(&p).unwrap()));
+            }
+        }
+    }
+    out
+}
+
+/// `heliar ARGS`: (success, stderr).
+fn heliar(args: &[&str]) -> (bool, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_heliar")).args(args).output().unwrap();
+    (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Loads `scene` expecting an error; checks that nothing under `root` changed.
+fn load_err(root: &Path, scene: &Path) -> String {
+    let before = hashes(root);
+    let e = Scene::load(scene).expect_err("must be rejected").to_string();
+    assert_eq!(hashes(root), before, "loading changed a file");
+    e
+}
+
+#[test]
+fn folding_distortion_is_refused_naming_the_camera_file() {
+    let (d, scene) = scratch("distortion");
+    edit(&scene.join("calib/camera.toml"), "distortion = [-0.08,", "distortion = [-50.0,");
+    let e = load_err(&d, &scene);
+    assert!(e.contains("camera.toml") && e.contains("distortion") && e.contains("folds"), "{e}");
+    // The command line says the same and exits non-zero.
+    let before = hashes(&d);
+    let (ok, err) = heliar(&["estimate", s(&scene)]);
+    assert!(!ok && err.contains("camera.toml") && err.contains("distortion"), "{err}");
+    assert_eq!(hashes(&d), before);
+    std::fs::remove_dir_all(&d).ok();
+}
