@@ -84,3 +84,35 @@ fn folding_distortion_is_refused_naming_the_camera_file() {
     assert_eq!(hashes(&d), before);
     std::fs::remove_dir_all(&d).ok();
 }
+
+#[test]
+fn sun_options_have_the_limits_of_the_manifest() {
+    for (args, option) in [
+        (&["--lat", "10", "--lon", "10", "--elevation", "1e12"][..], "--elevation"),
+        (&["--lat", "95", "--lon", "10"][..], "--lat"),
+        (&["--lat", "10", "--lon", "NaN"][..], "--lon"),
+        (&["--lat", "10", "--lon", "10", "--pressure", "-3"][..], "--pressure"),
+        (&["--lat", "10", "--lon", "10", "--temperature", "-300"][..], "--temperature"),
+        (&["--lat", "10", "--lon", "10", "--delta-t", "inf"][..], "--delta-t"),
+    ] {
+        let mut a = vec!["sun", "--time", "2024-06-21T12:00:00+02:00"];
+        a.extend_from_slice(args);
+        let (ok, err) = heliar(&a);
+        assert!(!ok && err.contains(option) && err.contains("place."), "{args:?}: {err}");
+    }
+    // A CSV row with an impossible elevation names the file, the row and the column; the CSV is
+    // left alone.
+    let (d, _) = scratch("sun-csv");
+    let csv = d.join("in.csv");
+    std::fs::write(&csv, "lat,lon,time,elevation_m\n57.0,9.9,2024-06-21T12:00:00+02:00,1e12\n").unwrap();
+    let before = hashes(&d);
+    let (ok, err) = heliar(&["sun", "--csv", s(&csv)]);
+    assert!(!ok && err.contains("in.csv") && err.contains("row 2") && err.contains("elevation_m"), "{err}");
+    assert_eq!(hashes(&d), before);
+    // The manifest says the same through the same check.
+    let scene = d.join("courtyard");
+    edit(&scene.join("scene.toml"), "elevation_m = 8", "elevation_m = 1e12");
+    let e = load_err(&d, &scene);
+    assert!(e.contains("scene.toml") && e.contains("place.elevation_m"), "{e}");
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -273,23 +273,6 @@ impl Scene {
 
         // Place.
         let pl = &manifest.place;
-        if !(pl.latitude_deg.is_finite() && pl.latitude_deg.abs() <= 90.0) {
-            return Err(invalid(m, "place.latitude_deg", format!("{} is not in [-90, 90]", pl.latitude_deg)));
-        }
-        if !(pl.longitude_deg.is_finite() && pl.longitude_deg.abs() <= 180.0) {
-            return Err(invalid(m, "place.longitude_deg", format!("{} is not in [-180, 180]", pl.longitude_deg)));
-        }
-        if !(pl.elevation_m.is_finite() && pl.elevation_m > -500.0 && pl.elevation_m < 9000.0) {
-            return Err(invalid(m, "place.elevation_m", format!("{} m is not a place on Earth", pl.elevation_m)));
-        }
-        if !(pl.pressure_mbar.is_finite() && pl.pressure_mbar > 0.0 && pl.pressure_mbar <= 2000.0) {
-            return Err(invalid(m, "place.pressure_mbar", "must be in (0, 2000]"));
-        }
-        if !(pl.temperature_c.is_finite() && pl.temperature_c > -273.0 && pl.temperature_c <= 100.0) {
-            return Err(invalid(m, "place.temperature_c", "must be in (-273, 100]"));
-        }
-        let geo = GeoFrame::from_north(finite3(m, "place.north", pl.north)?)
-            .ok_or_else(|| invalid(m, "place.north", "must have a horizontal (x/z) component"))?;
         let observer = Observer {
             latitude_deg: pl.latitude_deg,
             longitude_deg: pl.longitude_deg,
@@ -298,6 +281,9 @@ impl Scene {
             temperature_c: pl.temperature_c,
             delta_t_s: pl.delta_t_s,
         };
+        observer.validate().map_err(|(f, msg)| invalid(m, &format!("place.{f}"), msg))?;
+        let geo = GeoFrame::from_north(finite3(m, "place.north", pl.north)?)
+            .ok_or_else(|| invalid(m, "place.north", "must have a horizontal (x/z) component"))?;
 
         // Camera.
         let (camera, camera_file, camera_path) = load_camera(root, m, &manifest.camera.file)?;

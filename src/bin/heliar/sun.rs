@@ -42,19 +42,33 @@ pub struct SunArgs {
     output: Option<PathBuf>,
 }
 
+/// The command-line option (or, for values from a CSV row, the column) of an [`Observer`] field.
+fn option_of(field: &str, csv_row: bool) -> String {
+    let (option, column) = match field {
+        "latitude_deg" => ("--lat", Some("lat")),
+        "longitude_deg" => ("--lon", Some("lon")),
+        "elevation_m" => ("--elevation", Some("elevation_m")),
+        "pressure_mbar" => ("--pressure", None),
+        "temperature_c" => ("--temperature", None),
+        "delta_t_s" => ("--delta-t", None),
+        other => (other, None),
+    };
+    match column {
+        Some(c) if csv_row => format!("column {c} (or {option})"),
+        _ => option.to_owned(),
+    }
+}
+
 pub fn run(a: SunArgs) -> Result<()> {
     let scene = match &a.scene {
         Some(dir) => Some(Scene::load(dir).with_context(|| format!("loading scene {}", dir.display()))?),
         None => None,
     };
     let geo: Option<GeoFrame> = scene.as_ref().map(|s| s.geo);
-    let base = |lat: Option<f64>, lon: Option<f64>, elev: Option<f64>| -> Result<Observer> {
+    let base = |lat: Option<f64>, lon: Option<f64>, elev: Option<f64>, csv_row: bool| -> Result<Observer> {
         let s = scene.as_ref().map(|s| s.observer);
         let lat = lat.or(s.map(|o| o.latitude_deg)).context("--lat is required (or --scene)")?;
         let lon = lon.or(s.map(|o| o.longitude_deg)).context("--lon is required (or --scene)")?;
-        if !(lat.abs() <= 90.0) || !(lon.abs() <= 180.0) {
-            bail!("latitude {lat} / longitude {lon} out of range");
-        }
         let mut o = s.unwrap_or_else(|| Observer::new(lat, lon, 0.0));
         o.latitude_deg = lat;
         o.longitude_deg = lon;
@@ -70,6 +84,8 @@ pub fn run(a: SunArgs) -> Result<()> {
         if a.delta_t.is_some() {
             o.delta_t_s = a.delta_t;
         }
+        // The limits of scene.toml's [place], from the same check.
+        o.validate().map_err(|(field, msg)| anyhow::anyhow!("{}: {msg} (the limits of scene.toml's place.{field})", option_of(field, csv_row)))?;
         Ok(o)
     };
 
@@ -104,7 +120,7 @@ pub fn run(a: SunArgs) -> Result<()> {
                 Some(s) if !s.is_empty() => Some(s.parse::<f64>().with_context(|| format!("{}: elevation '{s}' is not a number", row()))?),
                 _ => None,
             };
-            let obs = base(Some(lat), Some(lon), elev).with_context(row)?;
+            let obs = base(Some(lat), Some(lon), elev, true).with_context(row)?;
             let p = sun_position(&obs, &t).with_context(row)?;
             let mut line = format!(
                 "{lat},{lon},{},{},{:.6},{:.6},{:.6},{}",
@@ -126,7 +142,7 @@ pub fn run(a: SunArgs) -> Result<()> {
 
     let time = a.time.as_deref().context("--time is required (or --csv FILE)")?;
     let t = DateTime::parse_from_rfc3339(time).with_context(|| format!("--time '{time}' is not RFC 3339 with offset"))?;
-    let obs = base(a.lat, a.lon, None)?;
+    let obs = base(a.lat, a.lon, None, false)?;
     let p = sun_position(&obs, &t)?;
     let mut v = serde_json::json!({
         "time": t.to_rfc3339(),
