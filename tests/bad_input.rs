@@ -116,3 +116,20 @@ fn sun_options_have_the_limits_of_the_manifest() {
     assert!(e.contains("scene.toml") && e.contains("place.elevation_m"), "{e}");
     std::fs::remove_dir_all(&d).ok();
 }
+
+#[test]
+fn negative_or_nan_intensities_are_refused_naming_the_option() {
+    let (d, scene) = scratch("relight-neg");
+    let out = d.join("relit.exr");
+    let before = hashes(&d);
+    for (pd, pa, option) in [("-1,-1,-1", "-1,-1,-1", "--pd"), ("1,1,1", "0.5,NaN,0.5", "--pa"), ("1,-0.1,1", "1,1,1", "--pd")] {
+        let (ok, err) = heliar(&["relight", s(&scene), &format!("--pd={pd}"), &format!("--pa={pa}"), "-o", s(&out)]);
+        assert!(!ok && err.contains(option), "{pd} {pa}: {err}");
+        let (ok, err) = heliar(&["irradiance", s(&scene), "--at", "0,1,0", "--normal", "0,1,0", &format!("--pd={pd}"), &format!("--pa={pa}")]);
+        assert!(!ok && err.contains(option), "{pd} {pa}: {err}");
+    }
+    // Refused before the bake: no map written, nothing baked into the scene.
+    assert!(!out.exists());
+    assert_eq!(hashes(&d), before);
+    std::fs::remove_dir_all(&d).ok();
+}

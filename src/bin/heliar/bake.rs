@@ -89,6 +89,15 @@ fn parse3(s: &str, what: &str) -> Result<Vec3> {
     Ok(Vec3::new(v[0], v[1], v[2]))
 }
 
+/// An irradiance `R,G,B` given on the command line: three finite, non-negative numbers.
+fn parse_intensity(s: &str, what: &str) -> Result<Vec3> {
+    let v = parse3(s, what)?;
+    if v.cmplt(Vec3::ZERO).any() {
+        bail!("{what} '{s}': an irradiance cannot be negative (three finite numbers ≥ 0)");
+    }
+    Ok(v)
+}
+
 /// Lighting from explicit values, or from the estimator on one frame, or the capture's.
 #[derive(Args)]
 pub struct LightingArgs {
@@ -107,6 +116,20 @@ pub struct LightingArgs {
     /// Time for the sun direction (RFC 3339; default: the capture time).
     #[arg(long)]
     time: Option<String>,
+}
+
+impl LightingArgs {
+    /// Checks the explicit values before anything is loaded or baked.
+    fn check(&self) -> Result<()> {
+        if let (Some(pd), Some(pa)) = (&self.pd, &self.pa) {
+            parse_intensity(pd, "--pd")?;
+            parse_intensity(pa, "--pa")?;
+        }
+        if let Some(t) = &self.time {
+            chrono::DateTime::parse_from_rfc3339(t).with_context(|| format!("--time '{t}' is not RFC 3339"))?;
+        }
+        Ok(())
+    }
 }
 
 fn resolve_lighting(scene: &Scene, ray: Arc<RayScene>, baked: &Baked, a: &LightingArgs) -> Result<(Lighting, String)> {
@@ -138,7 +161,7 @@ fn resolve_lighting(scene: &Scene, ray: Arc<RayScene>, baked: &Baked, a: &Lighti
     };
     let (dir, up) = sun_at(&time)?;
     match (&a.pd, &a.pa) {
-        (Some(pd), Some(pa)) => Ok((Lighting { sun_dir: dir, above_horizon: up, pd: parse3(pd, "--pd")?, pa: parse3(pa, "--pa")? }, "given".into())),
+        (Some(pd), Some(pa)) => Ok((Lighting { sun_dir: dir, above_horizon: up, pd: parse_intensity(pd, "--pd")?, pa: parse_intensity(pa, "--pa")? }, "given".into())),
         _ => {
             let i = &baked.info;
             if i.albedo_source == heliar::scene::AlbedoSource::Gltf {
@@ -162,6 +185,7 @@ pub struct RelightArgs {
 }
 
 pub fn run_relight(a: RelightArgs) -> Result<()> {
+    a.lighting.check()?;
     let (scene, ray) = load_scene(&a.scene)?;
     let baked = bake_with_progress(&scene, ray.clone(), false)?;
     let (lighting, source) = resolve_lighting(&scene, ray.clone(), &baked, &a.lighting)?;
@@ -204,6 +228,7 @@ pub struct IrradianceArgs {
 }
 
 pub fn run_irradiance(a: IrradianceArgs) -> Result<()> {
+    a.lighting.check()?;
     let (scene, ray) = load_scene(&a.scene)?;
     let grid = scene.manifest.irradiance.as_ref().context("the scene has no [irradiance] grid")?;
     let p = parse3(&a.at, "--at")?;
