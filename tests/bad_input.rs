@@ -133,3 +133,21 @@ fn negative_or_nan_intensities_are_refused_naming_the_option() {
     assert_eq!(hashes(&d), before);
     std::fs::remove_dir_all(&d).ok();
 }
+
+#[test]
+fn estimate_samples_follow_the_manifest_rule() {
+    let (d, scene) = scratch("samples");
+    let out = d.join("est.jsonl");
+    let before = hashes(&d);
+    for n in ["0", "2"] {
+        let (ok, err) = heliar(&["estimate", s(&scene), "--samples", n, "-o", s(&out)]);
+        assert!(!ok && err.contains("--samples") && err.contains("at least 3"), "{err}");
+    }
+    assert!(!out.exists());
+    assert_eq!(hashes(&d), before);
+    // The manifest refuses the same value under its own name.
+    edit(&scene.join("scene.toml"), "[envmap]", "[estimator]\nsamples = 2\n\n[envmap]");
+    let e = load_err(&d, &scene);
+    assert!(e.contains("scene.toml") && e.contains("estimator.samples"), "{e}");
+    std::fs::remove_dir_all(&d).ok();
+}

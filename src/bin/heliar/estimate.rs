@@ -54,6 +54,11 @@ pub fn run(a: EstimateArgs) -> Result<()> {
     if let Some(n) = a.samples {
         scene.estimator.samples = n;
         scene.estimator.pool_size = scene.estimator.pool_size.max(n);
+        // The manifest's rule for `estimator.samples`, from the same check.
+        if let Err((field, msg)) = scene.estimator.validate() {
+            let option = if field == "samples" { "--samples" } else { field };
+            anyhow::bail!("{option} {n}: {msg} (the rule of scene.toml's estimator.{field})");
+        }
     }
     if a.no_sun_bounce {
         scene.estimator.sun_bounce = false;
