@@ -23,7 +23,7 @@ pub struct SunArgs {
     #[arg(long, allow_hyphen_values = true)]
     elevation: Option<f64>,
     /// Air pressure for refraction, mbar.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pressure: Option<f64>,
     /// Air temperature for refraction, °C.
     #[arg(long, allow_hyphen_values = true)]
@@ -40,6 +40,9 @@ pub struct SunArgs {
     /// Where batch output goes (default: stdout).
     #[arg(long, requires = "csv")]
     output: Option<PathBuf>,
+    /// Write the output even over the input CSV or a file of the scene.
+    #[arg(long)]
+    force: bool,
 }
 
 /// The command-line option (or, for values from a CSV row, the column) of an [`Observer`] field.
@@ -90,9 +93,14 @@ pub fn run(a: SunArgs) -> Result<()> {
     };
 
     if let Some(csv) = &a.csv {
+        if let Some(p) = &a.output {
+            crate::common::guard_files(a.scene.as_deref(), &[csv.as_path()], &[p.as_path()], a.force)?;
+        }
         let text = std::fs::read_to_string(csv).with_context(|| format!("reading {}", csv.display()))?;
-        let mut out: Box<dyn Write> = match &a.output {
-            Some(p) => Box::new(std::io::BufWriter::new(std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?)),
+        // To a file: the whole table, then one write through a temporary file and a rename.
+        let mut buf: Vec<u8> = Vec::new();
+        let mut out: Box<dyn Write + '_> = match &a.output {
+            Some(_) => Box::new(&mut buf),
             None => Box::new(std::io::stdout()),
         };
         let mut header = "lat,lon,time,elevation_m,zenith_deg,apparent_zenith_deg,azimuth_deg,above_horizon".to_string();
@@ -136,6 +144,10 @@ pub fn run(a: SunArgs) -> Result<()> {
                 line += &format!(",{:.7},{:.7},{:.7}", d.x, d.y, d.z);
             }
             writeln!(out, "{line}")?;
+        }
+        drop(out);
+        if let Some(p) = &a.output {
+            crate::common::write_output(p, |tmp| Ok(std::fs::write(tmp, &buf)?))?;
         }
         return Ok(());
     }
