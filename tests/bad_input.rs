@@ -91,7 +91,7 @@ fn sun_options_have_the_limits_of_the_manifest() {
         (&["--lat", "10", "--lon", "10", "--elevation", "1e12"][..], "--elevation"),
         (&["--lat", "95", "--lon", "10"][..], "--lat"),
         (&["--lat", "10", "--lon", "NaN"][..], "--lon"),
-        (&["--lat", "10", "--lon", "10", "--pressure", "-3"][..], "--pressure"),
+        (&["--lat", "10", "--lon", "10", "--pressure=-3"][..], "--pressure"),
         (&["--lat", "10", "--lon", "10", "--temperature", "-300"][..], "--temperature"),
         (&["--lat", "10", "--lon", "10", "--delta-t", "inf"][..], "--delta-t"),
     ] {
@@ -149,5 +149,38 @@ fn estimate_samples_follow_the_manifest_rule() {
     edit(&scene.join("scene.toml"), "[envmap]", "[estimator]\nsamples = 2\n\n[envmap]");
     let e = load_err(&d, &scene);
     assert!(e.contains("scene.toml") && e.contains("estimator.samples"), "{e}");
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn outputs_over_inputs_or_scene_files_are_refused() {
+    let (d, scene) = scratch("outputs");
+    let csv = d.join("in.csv");
+    std::fs::write(&csv, "lat,lon,time\n57.0,9.9,2024-06-21T12:00:00+02:00\n").unwrap();
+    let before = hashes(&d);
+    let frame = scene.join("frames/hdr/frame_000.exr");
+    for (args, named) in [
+        (vec!["estimate", s(&scene), "-o", &format!("{}/scene.toml", s(&scene))], "scene.toml"),
+        (vec!["estimate", s(&scene), "--plot", &format!("{}/truth.csv", s(&scene))], "truth.csv"),
+        (vec!["relight", s(&scene), "--pd", "1,1,1", "--pa", "1,1,1", "-o", &format!("{}/env.exr", s(&scene))], "env.exr"),
+        (vec!["sun", "--csv", s(&csv), "--output", s(&csv)], "in.csv"),
+        (vec!["sun", "--csv", s(&csv), "--output", &format!("{}/../in.csv", s(&scene))], "in.csv"),
+        (vec!["vem", "--input", s(&frame), "-o", s(&frame)], "frame_000.exr"),
+        (vec!["bench", "estimate", s(&scene), "--csv", &format!("{}/truth.csv", s(&scene))], "truth.csv"),
+    ] {
+        let (ok, err) = heliar(&args);
+        assert!(!ok && err.contains(named) && err.contains("--force"), "{args:?}: {err}");
+        assert_eq!(hashes(&d), before, "{args:?} changed a file");
+    }
+    // A new output is written whole, with no temporary file left beside it.
+    let out = d.join("out/sun.csv");
+    let (ok, err) = heliar(&["sun", "--csv", s(&csv), "--output", s(&out)]);
+    assert!(ok, "{err}");
+    assert!(std::fs::read_to_string(&out).unwrap().lines().count() == 2);
+    assert_eq!(std::fs::read_dir(d.join("out")).unwrap().count(), 1);
+    // --force lets the user overwrite on purpose.
+    let (ok, err) = heliar(&["sun", "--csv", s(&csv), "--output", s(&csv), "--force"]);
+    assert!(ok, "{err}");
+    assert!(std::fs::read_to_string(&csv).unwrap().contains("zenith_deg"));
     std::fs::remove_dir_all(&d).ok();
 }

@@ -238,7 +238,10 @@ impl VemScene {
         let (w, h) = (bg.width, bg.height);
         let rgb: Vec<u8> = out.srgb.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
         let png = self.out_dir.join(format!("frame_{i:04}.png"));
-        image::save_buffer(&png, &rgb, w, h, image::ExtendedColorType::Rgb8).with_context(|| format!("writing {}", png.display()))?;
+        crate::io::write_via_temp(&png, |tmp| {
+            image::save_buffer(tmp, &rgb, w, h, image::ExtendedColorType::Rgb8).map_err(|source| crate::io::IoError::Png { path: png.clone(), source })
+        })
+        .with_context(|| format!("writing {}", png.display()))?;
         if self.sheet.wants(i) {
             self.sheet.push(i, &Rgb8 { width: w, height: h, data: rgb });
         }

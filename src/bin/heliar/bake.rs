@@ -182,11 +182,17 @@ pub struct RelightArgs {
     /// Output EXR (a PNG preview is written beside it).
     #[arg(long, short, default_value = "out/relit.exr")]
     output: PathBuf,
+    /// Write the outputs even over an input or a file of the scene.
+    #[arg(long)]
+    force: bool,
 }
 
 pub fn run_relight(a: RelightArgs) -> Result<()> {
     a.lighting.check()?;
     let (scene, ray) = load_scene(&a.scene)?;
+    let png = a.output.with_extension("png");
+    // Before the bake: the map and its preview may not overwrite the scene's files (env.exr).
+    crate::common::guard_files(Some(&scene.root), &[], &[a.output.as_path(), png.as_path()], a.force)?;
     let baked = bake_with_progress(&scene, ray.clone(), false)?;
     let (lighting, source) = resolve_lighting(&scene, ray.clone(), &baked, &a.lighting)?;
     let mut relighter = Relighter::new(&baked, ray, scene.bake.relight.clone());
@@ -194,13 +200,9 @@ pub fn run_relight(a: RelightArgs) -> Result<()> {
     let t = std::time::Instant::now();
     let relit = relighter.relight(&lighting);
     let relight_ms = t.elapsed().as_secs_f64() * 1e3;
-    if let Some(parent) = a.output.parent() {
-        std::fs::create_dir_all(parent).with_context(|| format!("creating {}", parent.display()))?;
-    }
     let img = relit.to_image();
-    img.write_exr(&a.output, ExrPrecision::Float)?;
-    let png = a.output.with_extension("png");
-    img.write_png_srgb(&png, 1.0)?;
+    crate::common::write_output(&a.output, |tmp| Ok(img.write_exr(tmp, ExrPrecision::Float)?))?;
+    crate::common::write_output(&png, |tmp| Ok(img.write_png_srgb(tmp, 1.0)?))?;
     let v = serde_json::json!({
         "output": a.output, "preview": png, "lighting_source": source,
         "sun_dir": lighting.sun_dir.to_array(), "sun_up": lighting.above_horizon, "pd": lighting.pd.to_array(), "pa": lighting.pa.to_array(),

@@ -110,3 +110,22 @@ pub fn build_estimator(scene: &Scene, ray: Arc<RayScene>) -> Result<Estimator> {
     );
     Ok(est)
 }
+
+/// Refuses `outputs` (files) that would overwrite one of `inputs` or an existing file of the
+/// scene folder `scene`, unless `force` (`heliar::io::guard`); call before anything is written.
+pub fn guard_files(scene: Option<&Path>, inputs: &[&Path], outputs: &[&Path], force: bool) -> Result<()> {
+    let guard = heliar::io::guard::OutputGuard::new(scene, inputs, force);
+    for out in outputs {
+        guard.check_file(out)?;
+    }
+    Ok(())
+}
+
+/// Writes `path` through a temporary file beside it and a rename (`heliar::io::write_via_temp`):
+/// an interrupted or failed write leaves the old file whole. Parent folders are created.
+pub fn write_output(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).with_context(|| format!("creating {}", parent.display()))?;
+    }
+    heliar::io::write_via_temp(path, write).with_context(|| format!("writing {}", path.display()))
+}
