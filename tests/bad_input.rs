@@ -184,3 +184,97 @@ fn outputs_over_inputs_or_scene_files_are_refused() {
     assert!(std::fs::read_to_string(&csv).unwrap().contains("zenith_deg"));
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// A one-triangle glTF whose buffer is at `uri`, and the buffer's bytes.
+fn triangle_gltf(uri: &str) -> (String, Vec<u8>) {
+    let bin: Vec<u8> = [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0].iter().flat_map(|f| f.to_le_bytes()).collect();
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
+        "accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}}],
+        "bufferViews":[{{"buffer":0,"byteLength":36}}],"buffers":[{{"byteLength":36,"uri":"{uri}"}}]}}"#
+    );
+    (json, bin)
+}
+
+fn base64(bytes: &[u8]) -> String {
+    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for c in bytes.chunks(3) {
+        let n = (c[0] as u32) << 16 | (*c.get(1).unwrap_or(&0) as u32) << 8 | *c.get(2).unwrap_or(&0) as u32;
+        for k in 0..4 {
+            out.push(if k <= c.len() { A[(n >> (18 - 6 * k) & 63) as usize] as char } else { '=' });
+        }
+    }
+    out
+}
+
+#[test]
+fn manifest_paths_outside_the_scene_are_refused() {
+    let (d, scene) = scratch("outside");
+    std::fs::create_dir_all(d.join("outside")).unwrap();
+    std::fs::copy(scene.join("proxy.glb"), d.join("outside/proxy.glb")).unwrap();
+    std::fs::copy(scene.join("objects/statue.glb"), d.join("outside/statue.glb")).unwrap();
+    let manifest = scene.join("scene.toml");
+    let original = std::fs::read_to_string(&manifest).unwrap();
+    let abs = d.join("outside/proxy.glb");
+    for (from, to, field) in [
+        ("file = \"proxy.glb\"", format!("file = \"{}\"", s(&abs)), "proxy.file"),
+        ("file = \"objects/statue.glb\"", "file = \"../../../x.glb\"".to_string(), "virtual_objects[0].file"),
+        ("file = \"objects/statue.glb\"", "file = \"../outside/statue.glb\"".to_string(), "virtual_objects[0].file"),
+        ("file = \"env.exr\"", "file = \"/etc/passwd\"".to_string(), "envmap.file"),
+        ("truth = \"truth.csv\"", "truth = \"../in.csv\"".to_string(), "sequences[0].truth"),
+        ("dir = \"frames/hdr\"", "dir = \"..\"".to_string(), "sequences[0].dir"),
+    ] {
+        std::fs::write(&manifest, original.replacen(from, &to, 1)).unwrap();
+        let e = load_err(&d, &scene);
+        assert!(e.contains("scene.toml") && e.contains(field) && e.contains("outside the scene folder"), "{to}: {e}");
+    }
+    // The explicit option reads it; so does the command line's flag.
+    std::fs::write(&manifest, original.replacen("file = \"proxy.glb\"", &format!("file = \"{}\"", s(&abs)), 1)).unwrap();
+    let before = hashes(&d);
+    assert!(Scene::load_with(&scene, &heliar::scene::LoadOptions { allow_outside_scene: true }).is_ok());
+    let (ok, err) = heliar(&["sun", "--scene", s(&scene), "--time", "2024-06-21T12:00:00+02:00"]);
+    assert!(!ok && err.contains("proxy.file") && err.contains("--allow-outside-scene"), "{err}");
+    let (ok, err) = heliar(&["sun", "--scene", s(&scene), "--time", "2024-06-21T12:00:00+02:00", "--allow-outside-scene"]);
+    assert!(ok, "{err}");
+    assert_eq!(hashes(&d), before);
+    // A symlink out of the scene is outside too.
+    std::fs::write(&manifest, &original).unwrap();
+    #[cfg(unix)]
+    {
+        std::fs::remove_file(scene.join("objects/statue.glb")).unwrap();
+        std::os::unix::fs::symlink(d.join("outside/statue.glb"), scene.join("objects/statue.glb")).unwrap();
+        let e = load_err(&d, &scene);
+        assert!(e.contains("virtual_objects[0].file") && e.contains("outside"), "{e}");
+    }
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn gltf_uris_must_stay_in_the_scene() {
+    let (d, scene) = scratch("gltf-uri");
+    let deep = scene.join("objects/deep");
+    std::fs::create_dir_all(&deep).unwrap();
+    edit(&scene.join("scene.toml"), "file = \"objects/statue.glb\"", "file = \"objects/deep/tri.gltf\"");
+    let (_, bin) = triangle_gltf("");
+    std::fs::write(d.join("x.bin"), &bin).unwrap();
+    std::fs::write(deep.join("tri.bin"), &bin).unwrap();
+    for (uri, named) in [
+        ("../../../x.bin".to_string(), "buffers[0].uri"),
+        ("..%2F..%2F..%2Fx.bin".to_string(), "buffers[0].uri"),
+        (format!("file://{}", s(&d.join("x.bin"))), "file://"),
+        (s(&d.join("x.bin")).to_string(), "absolute"),
+    ] {
+        std::fs::write(deep.join("tri.gltf"), triangle_gltf(&uri).0).unwrap();
+        let e = load_err(&d, &scene);
+        assert!(e.contains("tri.gltf") && e.contains(named), "{uri}: {e}");
+    }
+    // Inside the scene, as a file or a data: URI, it loads.
+    for uri in ["tri.bin".to_string(), format!("data:application/octet-stream;base64,{}", base64(&bin))] {
+        std::fs::write(deep.join("tri.gltf"), triangle_gltf(&uri).0).unwrap();
+        let s = Scene::load(&scene).unwrap_or_else(|e| panic!("{uri}: {e}"));
+        assert_eq!(s.virtual_objects[0].mesh.triangles.len(), 1);
+    }
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -192,6 +192,11 @@ impl VemScene {
     /// the capture rate (the tone mapper's smoothing).
     pub fn new(scene_dir: &Path, out_dir: &Path, cfg: VemRenderConfig, rate_hz: f64) -> Result<Self> {
         let scene = Scene::load(scene_dir).with_context(|| format!("loading scene {}", scene_dir.display()))?;
+        Self::from_scene(scene, out_dir, cfg, rate_hz)
+    }
+
+    /// [`VemScene::new`] for a scene already loaded.
+    pub fn from_scene(scene: Scene, out_dir: &Path, cfg: VemRenderConfig, rate_hz: f64) -> Result<Self> {
         std::fs::create_dir_all(out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
         let gpu = Arc::new(Gpu::new(GpuOptions { samples: 1 })?);
         let adapter = gpu.describe();

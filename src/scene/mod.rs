@@ -6,8 +6,11 @@
 
 pub mod gltf;
 mod manifest;
+mod paths;
 pub mod settings;
 
+pub use paths::LoadOptions;
+use paths::Within;
 pub use manifest::{AlbedoSource, CameraFile, EnvMapSpec, GridSpec, Manifest, PoseSpec, ResponseSpec, SequenceSpec, TimeSpec, VirtualObjectSpec};
 
 use settings::{BakeConfig, EstimatorConfig};
@@ -160,8 +163,8 @@ pub fn parse_time(path: &Path, field: &str, s: &str) -> Result<DateTime<FixedOff
         .map_err(|e| invalid(path, field, format!("'{s}' is not an RFC 3339 time with offset ({e})")))
 }
 
-fn load_camera(scene_dir: &Path, manifest_path: &Path, file: &str) -> Result<(Camera, CameraFile, PathBuf), SceneError> {
-    let path = scene_dir.join(file);
+fn load_camera(within: &Within, manifest_path: &Path, file: &str) -> Result<(Camera, CameraFile, PathBuf), SceneError> {
+    let path = within.join(manifest_path, "camera.file", file)?;
     if !path.exists() {
         return Err(invalid(manifest_path, "camera.file", format!("{} does not exist", path.display())));
     }
@@ -184,7 +187,7 @@ fn load_camera(scene_dir: &Path, manifest_path: &Path, file: &str) -> Result<(Ca
     Ok((Camera { intrinsics, pose }, cf, path))
 }
 
-fn load_response(scene_dir: &Path, camera_path: &Path, spec: &ResponseSpec) -> Result<Response, SceneError> {
+fn load_response(within: &Within, camera_path: &Path, spec: &ResponseSpec) -> Result<Response, SceneError> {
     Ok(match spec.kind.as_str() {
         "srgb" => Response::Srgb,
         "linear" => Response::Linear,
@@ -197,7 +200,7 @@ fn load_response(scene_dir: &Path, camera_path: &Path, spec: &ResponseSpec) -> R
         }
         "table" => {
             let file = spec.table.as_deref().ok_or_else(|| invalid(camera_path, "response.table", "kind = \"table\" needs a table file"))?;
-            let path = scene_dir.join(file);
+            let path = within.join(camera_path, "response.table", file)?;
             let text = std::fs::read_to_string(&path).map_err(|source| match source.kind() {
                 std::io::ErrorKind::NotFound => SceneError::Missing { path: path.clone() },
                 _ => SceneError::Read { path: path.clone(), source },
@@ -264,6 +267,12 @@ fn load_truth(path: &Path, n: usize) -> Result<Vec<Truth>, SceneError> {
 impl Scene {
     /// Loads and validates the scene folder `root` (which holds `scene.toml`).
     pub fn load(root: &Path) -> Result<Scene, SceneError> {
+        Self::load_with(root, &LoadOptions::default())
+    }
+
+    /// [`Scene::load`] with options (files outside the scene folder).
+    pub fn load_with(root: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
+        let within = Within::new(root, options);
         let mpath = root.join(MANIFEST_FILE);
         if !root.is_dir() {
             return Err(SceneError::Missing { path: root.to_owned() });
@@ -286,8 +295,8 @@ impl Scene {
             .ok_or_else(|| invalid(m, "place.north", "must have a horizontal (x/z) component"))?;
 
         // Camera.
-        let (camera, camera_file, camera_path) = load_camera(root, m, &manifest.camera.file)?;
-        let response = load_response(root, &camera_path, &camera_file.response)?;
+        let (camera, camera_file, camera_path) = load_camera(&within, m, &manifest.camera.file)?;
+        let response = load_response(&within, &camera_path, &camera_file.response)?;
         let rs = &camera_file.response;
         if !(rs.exposure.is_finite() && rs.exposure > 0.0) {
             return Err(invalid(&camera_path, "response.exposure", "must be positive"));
@@ -300,11 +309,11 @@ impl Scene {
         }
 
         // Proxy.
-        let proxy_path = root.join(&manifest.proxy.file);
+        let proxy_path = within.join(m, "proxy.file", &manifest.proxy.file)?;
         if !proxy_path.exists() {
             return Err(invalid(m, "proxy.file", format!("{} does not exist", proxy_path.display())));
         }
-        let (proxy, proxy_notes) = gltf::load_gltf(&proxy_path, Mat4::IDENTITY, &manifest.proxy.diffuse_nodes)?;
+        let (proxy, proxy_notes) = gltf::load_gltf_within(&proxy_path, Mat4::IDENTITY, &manifest.proxy.diffuse_nodes, within.confine())?;
         if !proxy.nodes.iter().any(|n| n.diffuse) {
             return Err(invalid(
                 &proxy_path,
@@ -317,7 +326,7 @@ impl Scene {
         let mut virtual_objects = Vec::new();
         for (i, v) in manifest.virtual_objects.iter().enumerate() {
             let field = |f: &str| format!("virtual_objects[{i}].{f}");
-            let path = root.join(&v.file);
+            let path = within.join(m, &field("file"), &v.file)?;
             if !path.exists() {
                 return Err(invalid(m, &field("file"), format!("{} does not exist", path.display())));
             }
@@ -330,7 +339,7 @@ impl Scene {
                 Quat::from_rotation_y((v.rotation_y_deg as f32).to_radians()),
                 t,
             );
-            let (mesh, _) = gltf::load_gltf(&path, placement, &[])?;
+            let (mesh, _) = gltf::load_gltf_within(&path, placement, &[], within.confine())?;
             virtual_objects.push(VirtualObject { path, mesh });
         }
 
@@ -338,7 +347,7 @@ impl Scene {
         if let Some(env) = &manifest.envmap {
             match (&env.file, env.albedo) {
                 (Some(f), _) => {
-                    let p = root.join(f);
+                    let p = within.join(m, "envmap.file", f)?;
                     if !p.exists() {
                         return Err(invalid(m, "envmap.file", format!("{} does not exist", p.display())));
                     }
@@ -381,11 +390,14 @@ impl Scene {
         let mut sequences = Vec::new();
         for (i, s) in manifest.sequences.iter().enumerate() {
             let field = |f: &str| format!("sequences[{i}].{f}");
-            let dir = root.join(&s.dir);
+            let dir = within.join(m, &field("dir"), &s.dir)?;
             if !dir.is_dir() {
                 return Err(invalid(m, &field("dir"), format!("{} is not a folder", dir.display())));
             }
             let files = list_frame_files(&dir)?;
+            for f in &files {
+                within.check(m, &field("dir"), f)?;
+            }
             if files.is_empty() {
                 return Err(invalid(m, &field("dir"), format!("{} holds no .exr or .png frames", dir.display())));
             }
@@ -395,7 +407,7 @@ impl Scene {
                 return Err(invalid(m, &field("exposure"), "must be positive"));
             }
             let truth = match &s.truth {
-                Some(t) => Some(load_truth(&root.join(t), files.len())?),
+                Some(t) => Some(load_truth(&within.join(m, &field("truth"), t)?, files.len())?),
                 None => None,
             };
             sequences.push(Sequence {

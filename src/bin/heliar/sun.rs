@@ -3,7 +3,6 @@
 use anyhow::{Context, Result, bail};
 use chrono::DateTime;
 use clap::Args;
-use heliar::scene::Scene;
 use heliar::sun::{GeoFrame, Observer, sun_position};
 use std::io::Write;
 use std::path::PathBuf;
@@ -64,7 +63,7 @@ fn option_of(field: &str, csv_row: bool) -> String {
 
 pub fn run(a: SunArgs) -> Result<()> {
     let scene = match &a.scene {
-        Some(dir) => Some(Scene::load(dir).with_context(|| format!("loading scene {}", dir.display()))?),
+        Some(dir) => Some(crate::common::read_scene(dir)?),
         None => None,
     };
     let geo: Option<GeoFrame> = scene.as_ref().map(|s| s.geo);

@@ -161,7 +161,7 @@ pub fn run(a: VemArgs) -> Result<()> {
     let mut scene = match (&a.scene, &a.output) {
         (Some(scene), Some(dir)) => {
             let rcfg = VemRenderConfig { shadow_slots: a.shadow_maps, tile: a.shadow_tile, culling: !a.no_culling, shadows: !a.no_shadows, ..Default::default() };
-            let s = VemScene::new(scene, dir, rcfg, a.rate_hz)?;
+            let s = VemScene::from_scene(crate::common::read_scene(scene)?, dir, rcfg, a.rate_hz)?;
             eprintln!("GPU: {}", s.adapter());
             Some(s)
         }
