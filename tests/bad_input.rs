@@ -278,3 +278,23 @@ fn gltf_uris_must_stay_in_the_scene() {
     }
     std::fs::remove_dir_all(&d).ok();
 }
+
+#[test]
+fn probe_grids_over_the_cap_are_refused_before_allocation() {
+    let (d, scene) = scratch("grid");
+    edit(&scene.join("scene.toml"), "spacing_m = 1.0", "spacing_m = 0.001");
+    let e = load_err(&d, &scene);
+    assert!(e.contains("scene.toml") && e.contains("irradiance.spacing_m") && e.contains("12001×2901×12001") && e.contains("MAX_PROBES"), "{e}");
+    // Within the probe cap but not the transfer's: 0.1 m over the courtyard's region at 65536
+    // directions.
+    edit(&scene.join("scene.toml"), "spacing_m = 0.001", "spacing_m = 0.1");
+    edit(&scene.join("scene.toml"), "[envmap]", "[bake]\nprobe_directions = 65536\n\n[envmap]");
+    let e = load_err(&d, &scene);
+    assert!(e.contains("irradiance.spacing_m") && e.contains("GiB") && e.contains("MAX_TRANSFER_BYTES"), "{e}");
+    // The command line stops at load, before any bake.
+    let before = hashes(&d);
+    let (ok, err) = heliar(&["bake", s(&scene)]);
+    assert!(!ok && err.contains("irradiance.spacing_m"), "{err}");
+    assert_eq!(hashes(&d), before);
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -5,6 +5,7 @@
 //! everything it reads and names the file and field of the first problem it finds.
 
 pub mod gltf;
+pub mod limits;
 mod manifest;
 mod paths;
 pub mod settings;
@@ -422,6 +423,18 @@ impl Scene {
         estimator.validate().map_err(|(f, msg)| invalid(m, &format!("estimator.{f}"), msg))?;
         let bake = manifest.bake.clone().unwrap_or_default();
         bake.validate().map_err(|(f, msg)| invalid(m, &format!("bake.{f}"), msg))?;
+        // The probe grid's size, before the bake or a probe source allocates it: the manifest's
+        // grid, or the default one around the virtual objects (`irradiance::sources`).
+        match &manifest.irradiance {
+            Some(g) => limits::check_probe_grid(m, "irradiance.spacing_m", g.min.into(), g.max.into(), g.spacing_m, bake.probe_directions)?,
+            None => {
+                let b = virtual_objects.iter().filter_map(|o| o.mesh.bounds()).reduce(|(a, b), (c, d)| (a.min(c), b.max(d)));
+                if let Some((lo, hi)) = b {
+                    let (lo, hi) = (lo.as_dvec3() - DVec3::ONE, hi.as_dvec3() + DVec3::ONE);
+                    limits::check_probe_grid(m, "virtual_objects (the default probe grid around them, at 1 m)", lo, hi, 1.0, bake.probe_directions)?;
+                }
+            }
+        }
 
         Ok(Scene {
             root: root.to_owned(),
