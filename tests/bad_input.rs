@@ -298,3 +298,23 @@ fn probe_grids_over_the_cap_are_refused_before_allocation() {
     assert_eq!(hashes(&d), before);
     std::fs::remove_dir_all(&d).ok();
 }
+
+#[test]
+fn messages_name_what_failed() {
+    // A failed EXR write says it was the write, with the path and the OS's reason.
+    let (d, _) = scratch("messages");
+    let before = hashes(&d);
+    let p = d.join("no/such/folder/out.exr");
+    let e = heliar::io::image::LinearImage::new(4, 2).write_exr(&p, heliar::io::image::ExrPrecision::Float).unwrap_err().to_string();
+    assert!(e.contains("out.exr") && e.contains("writing the OpenEXR image failed") && e.contains("No such file"), "{e}");
+    assert!(!e.contains("not a readable"), "{e}");
+    // A zero optical axis is named as the optical axis, not as image_up.
+    let lens = d.join("fisheye.toml");
+    std::fs::write(&lens, "width = 64\nheight = 64\nfx = 20.0\nfy = 20.0\ncx = 31.5\ncy = 31.5\n[orientation]\noptical_axis = [0.0, 0.0, 0.0]\nimage_up = [0.0, 0.0, -1.0]\n").unwrap();
+    let before_lens = hashes(&d);
+    let e = heliar::vem::capture::lens_file::FisheyeCalib::load(&lens).unwrap_err().to_string();
+    assert!(e.contains("fisheye.toml") && e.contains("orientation.optical_axis") && !e.contains("image_up"), "{e}");
+    assert_eq!(hashes(&d), before_lens);
+    assert_eq!(before.len() + 1, before_lens.len());
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -33,6 +33,14 @@ pub enum IoError {
         /// What the EXR decoder said.
         message: String,
     },
+    /// An OpenEXR file could not be written.
+    #[error("{path}: writing the OpenEXR image failed: {reason}")]
+    ExrWrite {
+        /// The file.
+        path: PathBuf,
+        /// The OS error (or the encoder's message).
+        reason: String,
+    },
     /// The PNG file is corrupt or could not be encoded.
     #[error("{path}: {source}")]
     Png {
