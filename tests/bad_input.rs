@@ -318,3 +318,32 @@ fn messages_name_what_failed() {
     assert_eq!(before.len() + 1, before_lens.len());
     std::fs::remove_dir_all(&d).ok();
 }
+
+#[test]
+fn image_headers_are_checked_before_decoding() {
+    use heliar::io::frames::Frame;
+    use heliar::io::image::{ExrPrecision, LinearImage};
+    let (d, scene) = scratch("headers");
+    // A 1×1 frame where the camera says 320×240.
+    LinearImage::new(1, 1).write_exr(&scene.join("frames/hdr/frame_000.exr"), ExrPrecision::Half).unwrap();
+    // Headers wider than the cap, PNG and EXR.
+    let wide_png = scene.join("frames/ldr/frame_000.png");
+    image::save_buffer(&wide_png, &vec![0u8; 16385 * 3], 16385, 1, image::ExtendedColorType::Rgb8).unwrap();
+    let wide_exr = d.join("wide.exr");
+    LinearImage::new(16385, 1).write_exr(&wide_exr, ExrPrecision::Half).unwrap();
+    let before = hashes(&d);
+    let (ok, err) = heliar(&["estimate", s(&scene), "--sequence", "hdr"]);
+    assert!(!ok && err.contains("frame_000.exr") && err.contains("1×1") && err.contains("320×240"), "{err}");
+    let (ok, err) = heliar(&["estimate", s(&scene), "--sequence", "ldr"]);
+    assert!(!ok && err.contains("frame_000.png") && err.contains("16385×1") && err.contains("cap"), "{err}");
+    for p in [&wide_png, &wide_exr] {
+        let e = Frame::load(p).unwrap_err().to_string();
+        assert!(e.contains(p.file_name().unwrap().to_str().unwrap()) && e.contains("16385×1") && e.contains("not decoded"), "{e}");
+    }
+    let e = LinearImage::read_exr(&wide_exr).unwrap_err().to_string();
+    assert!(e.contains("wide.exr") && e.contains("cap"), "{e}");
+    let e = Frame::load_sized(&scene.join("frames/hdr/frame_000.exr"), 320, 240).unwrap_err().to_string();
+    assert!(e.contains("frame_000.exr") && e.contains("1×1"), "{e}");
+    assert_eq!(hashes(&d), before);
+    std::fs::remove_dir_all(&d).ok();
+}

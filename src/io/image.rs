@@ -64,6 +64,8 @@ impl LinearImage {
                 source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
             });
         }
+        // The header's size against the caps before the pixels are allocated.
+        super::checked_header_size(path)?;
         let image = read_first_rgba_layer_from_file(
             path,
             |res, _| LinearImage::new(res.width() as u32, res.height() as u32),

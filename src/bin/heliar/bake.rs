@@ -141,7 +141,8 @@ fn resolve_lighting(scene: &Scene, ray: Arc<RayScene>, baked: &Baked, a: &Lighti
         let seq = pick_sequence(scene, a.sequence.as_deref())?;
         let path = seq.files.get(i).with_context(|| format!("frame {i}: the sequence '{}' has {} frames", seq.name, seq.files.len()))?;
         let mut est = build_estimator(scene, ray)?;
-        let frame = Frame::load(path)?;
+        let k = &scene.camera.intrinsics;
+        let frame = Frame::load_sized(path, k.width, k.height)?;
         let e = est.estimate(i, &seq.times[i], &frame, &seq.photometry.linearizer())?;
         let (Some(pd), Some(pa)) = (e.pd, e.pa) else {
             bail!("{}: the estimator gave no Pd/Pa (status {:?}); give --pd and --pa instead", path.display(), e.status);

@@ -124,7 +124,8 @@ pub fn run(a: BenchArgs) -> Result<()> {
     if seq.truth.is_none() {
         bail!("sequence '{}' of {} has no truth file: nothing to measure error against", seq.name, s.scene.display());
     }
-    let frames: Vec<Frame> = seq.files.iter().map(|p| Frame::load(p)).collect::<Result<_, _>>()?;
+    let k = &scene.camera.intrinsics;
+    let frames: Vec<Frame> = seq.files.iter().map(|p| Frame::load_sized(p, k.width, k.height)).collect::<Result<_, _>>()?;
     let base = scene.estimator.clone();
     let configs: Vec<(String, EstimatorConfig)> = match s.knob {
         Knob::Samples => [50, 100, 200, 500, 1000, 2000, 5000]

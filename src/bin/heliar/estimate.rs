@@ -59,8 +59,7 @@ fn estimate_frames(scene: &Scene, seq: &Sequence, est: &mut Estimator, out: &mut
     let luma = |v: &[f64; 3]| v[0] * LUMA[0] + v[1] * LUMA[1] + v[2] * LUMA[2];
     for (i, path) in seq.files.iter().enumerate() {
         let clock = std::time::Instant::now();
-        let frame = Frame::load(path)?;
-        frame.check_size(path, k.width, k.height)?;
+        let frame = Frame::load_sized(path, k.width, k.height)?;
         let decode_ms = clock.elapsed().as_secs_f64() * 1e3;
         let e = est.estimate(i, &seq.times[i], &frame, &lin).with_context(|| format!("{}", path.display()))?;
         let truth = seq.truth.as_ref().map(|t| t[i]);
