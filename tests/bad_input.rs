@@ -347,3 +347,114 @@ fn image_headers_are_checked_before_decoding() {
     assert_eq!(hashes(&d), before);
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// Property tests: the manifest parser and the frame linearisation never panic; bad values are
+/// errors (or invalid pixels), good ones are not.
+mod props {
+    use super::*;
+    use heliar::io::frames::{Frame, FrameData, Linearizer, PixelState, Response};
+    use heliar::io::image::{ExrPrecision, LinearImage};
+    use proptest::prelude::*;
+
+    const NASTY: &[&str] = &[
+        "-1", "0", "1e308", "-1e308", "nan", "inf", "-inf", "\"\"", "[]", "[1.0, 2.0]", "[nan, 0.0, 0.0]", "\"../x\"", "\"/etc/passwd\"",
+        "{}", "true", "18446744073709551616", "-0.0", "1e-300", "\"2024-13-45T99:00:00+02:00\"",
+    ];
+
+    /// `text` with the value of its `line`-th `key = value` line replaced by `value`.
+    fn replace_value(text: &str, line: usize, value: &str) -> String {
+        let assignments: Vec<usize> = text.lines().enumerate().filter(|(_, l)| l.contains(" = ") && !l.trim_start().starts_with('#')).map(|(i, _)| i).collect();
+        let target = assignments[line % assignments.len()];
+        text.lines()
+            .enumerate()
+            .map(|(i, l)| if i == target { format!("{} = {value}\n", l.split(" = ").next().unwrap_or("")) } else { format!("{l}\n") })
+            .collect()
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 48, failure_persistence: None, ..ProptestConfig::default() })]
+
+        #[test]
+        fn manifest_and_camera_values_never_panic(file in 0usize..2, line in 0usize..64, nasty in 0usize..NASTY.len(), junk in "[ -~]{0,12}") {
+            let (d, scene) = scratch("prop-manifest");
+            let name = ["scene.toml", "calib/camera.toml"][file];
+            let p = scene.join(name);
+            let text = std::fs::read_to_string(&p).unwrap();
+            let value = if line % 5 == 4 { junk.as_str() } else { NASTY[nasty] };
+            std::fs::write(&p, replace_value(&text, line, value)).unwrap();
+            let before = hashes(&d);
+            // Either it loads or the error names a file.
+            if let Err(e) = Scene::load(&scene) {
+                let e = e.to_string();
+                prop_assert!(e.contains(".toml") || e.contains(".glb") || e.contains(".csv") || e.contains(".exr") || e.contains("courtyard"), "{e}");
+            }
+            prop_assert_eq!(hashes(&d), before);
+            std::fs::remove_dir_all(&d).ok();
+        }
+
+        #[test]
+        fn random_bytes_as_a_manifest_are_an_error(bytes in proptest::collection::vec(any::<u8>(), 0..256)) {
+            let (d, scene) = scratch("prop-bytes");
+            std::fs::write(scene.join("scene.toml"), &bytes).unwrap();
+            let e = Scene::load(&scene).expect_err("random bytes are not a manifest").to_string();
+            prop_assert!(e.contains("scene.toml"), "{e}");
+            std::fs::remove_dir_all(&d).ok();
+        }
+
+        #[test]
+        fn hdr_frames_with_nan_inf_masks_linearise_without_panics(
+            pixels in proptest::collection::vec((0u8..6, -6.0f32..6.0, -6.0f32..6.0, -6.0f32..6.0), 1..48),
+            exposure_exp in -6.0f32..6.0,
+            clip in proptest::option::of(1e-6f32..1e6),
+        ) {
+            // Scale 1e-6 … 1e6, with NaN, ±Inf and negative values masked in.
+            let data: Vec<[f32; 3]> = pixels.iter().map(|&(mask, r, g, b)| {
+                let v = [r, g, b].map(|e| 10f32.powf(e));
+                match mask {
+                    0 => [f32::NAN, v[1], v[2]],
+                    1 => [v[0], f32::INFINITY, v[2]],
+                    2 => [v[0], v[1], -v[2]],
+                    3 => [v[0], f32::NEG_INFINITY, v[2]],
+                    _ => v,
+                }
+            }).collect();
+            let n = data.len() as u32;
+            let img = LinearImage { width: n, height: 1, data: data.clone() };
+            let lin = Linearizer::new(&Response::Linear, 10f32.powf(exposure_exp), 0.98, clip);
+            // In memory and through an EXR file: the same states.
+            let dir = std::env::temp_dir().join(format!("heliar-prop-frames-{}", std::process::id()));
+            std::fs::create_dir_all(&dir).unwrap();
+            let path = dir.join("f.exr");
+            img.write_exr(&path, ExrPrecision::Float).unwrap();
+            let loaded = Frame::load_sized(&path, n, 1).unwrap();
+            for frame in [Frame { width: n, height: 1, data: FrameData::Hdr(img) }, loaded] {
+                for (i, p) in data.iter().enumerate() {
+                    let (v, state) = lin.radiance(&frame, i);
+                    let bad = p.iter().any(|c| !c.is_finite() || *c < 0.0);
+                    prop_assert_eq!(state == PixelState::Invalid, bad, "{:?} -> {:?}", p, state);
+                    if state == PixelState::Ok {
+                        prop_assert!(v.iter().all(|c| c.is_finite() && *c >= 0.0), "{:?} -> {:?}", p, v);
+                    }
+                }
+                prop_assert!(lin.linear_image(&frame).data.iter().all(|p| p.iter().all(|c| !c.is_nan())));
+            }
+            std::fs::remove_dir_all(&dir).ok();
+        }
+
+        #[test]
+        fn ldr_codes_linearise_without_panics(codes in proptest::collection::vec(any::<u16>(), 3..96), sixteen in any::<bool>(), gamma in 0.1f32..5.0, exposure_exp in -6.0f32..6.0) {
+            let bits = if sixteen { 16 } else { 8 };
+            let codes: Vec<u16> = codes.iter().map(|&c| if sixteen { c } else { c % 256 }).take(codes.len() / 3 * 3).collect();
+            let n = (codes.len() / 3) as u32;
+            let frame = Frame { width: n, height: 1, data: FrameData::Ldr { bits, codes: codes.clone() } };
+            for response in [Response::Srgb, Response::Linear, Response::Gamma(gamma), Response::Table(vec![[0.0; 3], [0.2, 0.3, 0.4], [1.0; 3]])] {
+                let lin = Linearizer::new(&response, 10f32.powf(exposure_exp), 0.98, None);
+                for i in 0..n as usize {
+                    let (v, state) = lin.radiance(&frame, i);
+                    prop_assert!(state != PixelState::Invalid);
+                    prop_assert!(v.iter().all(|c| c.is_finite() && *c >= 0.0), "{:?}", v);
+                }
+            }
+        }
+    }
+}
