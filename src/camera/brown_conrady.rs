@@ -110,7 +110,8 @@ impl BrownConrady {
             if self.radial(r) >= corner_radius {
                 return Ok(());
             }
-            if !(self.radial_slope(r) > 0.0) {
+            let slope = self.radial_slope(r);
+            if slope.is_nan() || slope <= 0.0 {
                 return Err((
                     "distortion",
                     format!(

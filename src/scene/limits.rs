@@ -30,10 +30,10 @@ pub(crate) fn check_probe_grid(manifest: &Path, field: &str, min: DVec3, max: DV
     let probes = d.x * d.y * d.z;
     let bytes = probes * directions as f64 * ENTRY_BYTES as f64;
     let size = format!("{}×{}×{} = {probes:.3e} probes", d.x, d.y, d.z);
-    if !(probes <= MAX_PROBES as f64) {
+    if probes.is_nan() || probes > MAX_PROBES as f64 {
         return Err(invalid(manifest, field, format!("the probe grid would be {size}, over the cap of {MAX_PROBES} (MAX_PROBES); use a larger spacing or a smaller region")));
     }
-    if !(bytes <= MAX_TRANSFER_BYTES as f64) {
+    if bytes.is_nan() || bytes > MAX_TRANSFER_BYTES as f64 {
         return Err(invalid(
             manifest,
             field,
