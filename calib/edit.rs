@@ -69,7 +69,8 @@ fn validate_edit(dir: &Path, changes: &[(PathBuf, Vec<u8>)]) -> Result<()> {
             }
             std::fs::write(&p, bytes).with_context(|| format!("writing {}", p.display()))?;
         }
-        Scene::load(&tmp).context("the edited scene does not load; nothing was changed")
+        // The copy links the scene's frame folders (outside the copy): allowed here.
+        Scene::load_with(&tmp, &heliar::scene::LoadOptions { allow_outside_scene: true }).context("the edited scene does not load; nothing was changed")
     })();
     let _ = std::fs::remove_dir_all(&tmp);
     result.map(|_| ())

@@ -61,6 +61,33 @@ impl Observer {
     }
 }
 
+impl Observer {
+    /// Checks that this is a place on Earth with an atmosphere SPA can refract through:
+    /// `Err((field, message))` with the field named as in `scene.toml`'s `[place]`. The scene loader
+    /// and the command line (`heliar sun`) both check with this.
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        if !(self.latitude_deg.is_finite() && self.latitude_deg.abs() <= 90.0) {
+            return Err(("latitude_deg", format!("{} is not in [-90, 90]", self.latitude_deg)));
+        }
+        if !(self.longitude_deg.is_finite() && self.longitude_deg.abs() <= 180.0) {
+            return Err(("longitude_deg", format!("{} is not in [-180, 180]", self.longitude_deg)));
+        }
+        if !(self.elevation_m.is_finite() && self.elevation_m > -500.0 && self.elevation_m < 9000.0) {
+            return Err(("elevation_m", format!("{} m is not a place on Earth", self.elevation_m)));
+        }
+        if !(self.pressure_mbar.is_finite() && self.pressure_mbar > 0.0 && self.pressure_mbar <= 2000.0) {
+            return Err(("pressure_mbar", "must be in (0, 2000]".into()));
+        }
+        if !(self.temperature_c.is_finite() && self.temperature_c > -273.0 && self.temperature_c <= 100.0) {
+            return Err(("temperature_c", "must be in (-273, 100]".into()));
+        }
+        if self.delta_t_s.is_some_and(|d| !d.is_finite()) {
+            return Err(("delta_t_s", "must be a finite number of seconds".into()));
+        }
+        Ok(())
+    }
+}
+
 /// Topocentric solar position.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct SunPosition {

@@ -12,6 +12,13 @@
 //!
 //! Undistortion inverts this by Newton's method with the analytic Jacobian; a point whose inverse
 //! does not converge (outside the region where the model is invertible) has no ray.
+//!
+//! # Validity over the image
+//! The radial part `r_d(r) = r·(1 + k1·r² + k2·r⁴ + k3·r⁶)` must be increasing from the centre
+//! out to the image corner (`r_d′(r) = 1 + 3k1·r² + 5k2·r⁴ + 7k3·r⁶ > 0` until `r_d` reaches the
+//! corner's normalised radius); otherwise two directions land on one pixel, undistortion picks
+//! one of them, and every ray past the fold is wrong (`k1 = −50` folds at `r ≈ 0.08`).
+//! [`BrownConrady::validate`] checks this.
 
 use glam::DVec2;
 
@@ -19,6 +26,11 @@ use glam::DVec2;
 const UNDISTORT_TOL: f64 = 1e-10;
 /// Newton iterations allowed for undistortion.
 const UNDISTORT_MAX_ITERS: usize = 30;
+/// Steps of the monotonicity walk from the centre to the image corner.
+const MONOTONE_STEPS: usize = 4096;
+/// How far past the corner's distorted radius (as a multiple of it) the walk looks for the
+/// undistorted radius that reaches the corner.
+const MONOTONE_REACH: f64 = 8.0;
 
 /// `[k1, k2, p1, p2, k3]` in OpenCV's order; all zero is an undistorted pinhole.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -68,12 +80,49 @@ impl BrownConrady {
         ((f - pd).length() < 1e-7).then_some(p)
     }
 
-    /// Checks the coefficients; `Err((field, message))`.
-    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+    /// `r_d(r)`: the radial mapping of an undistorted normalised radius.
+    pub fn radial(&self, r: f64) -> f64 {
+        let [k1, k2, _, _, k3] = self.0;
+        let r2 = r * r;
+        r * (1.0 + r2 * (k1 + r2 * (k2 + r2 * k3)))
+    }
+
+    /// `dr_d/dr`.
+    pub fn radial_slope(&self, r: f64) -> f64 {
+        let [k1, k2, _, _, k3] = self.0;
+        let r2 = r * r;
+        1.0 + r2 * (3.0 * k1 + r2 * (5.0 * k2 + r2 * 7.0 * k3))
+    }
+
+    /// Checks the coefficients: finite, and the radial mapping increasing from the centre to
+    /// `corner_radius`, the distorted normalised radius of the image corner farthest from the
+    /// principal point (module docs); `Err((field, message))`.
+    pub fn validate(&self, corner_radius: f64) -> Result<(), (&'static str, String)> {
         if self.0.iter().any(|k| !k.is_finite()) {
             return Err(("distortion", "coefficients must be finite".into()));
         }
-        Ok(())
+        if !(corner_radius.is_finite() && corner_radius > 0.0) {
+            return Ok(());
+        }
+        let step = MONOTONE_REACH * corner_radius / MONOTONE_STEPS as f64;
+        for i in 0..=MONOTONE_STEPS {
+            let r = i as f64 * step;
+            if self.radial(r) >= corner_radius {
+                return Ok(());
+            }
+            let slope = self.radial_slope(r);
+            if slope.is_nan() || slope <= 0.0 {
+                return Err((
+                    "distortion",
+                    format!(
+                        "the radial mapping folds back at normalised radius {r:.4} (r_d = {:.4}), inside the image (corner at {corner_radius:.4}): \
+                         the coefficients are not a lens over this image",
+                        self.radial(r)
+                    ),
+                ));
+            }
+        }
+        Err(("distortion", format!("no ray within {MONOTONE_REACH}× the corner radius reaches the image corner ({corner_radius:.4})")))
     }
 }
 
@@ -100,6 +149,17 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn folding_coefficients_are_refused_and_real_lenses_pass() {
+        let corner = 0.77;
+        assert!(BrownConrady([-50.0, 0.0, 0.0, 0.0, 0.0]).validate(corner).is_err());
+        assert!(BrownConrady([-0.6, 0.0, 0.0, 0.0, 0.0]).validate(corner).is_err());
+        for d in [[0.0; 5], [-0.08, 0.012, 0.0005, -0.0003, 0.0], [-0.3, 0.12, 0.001, -0.002, -0.02], [0.15, -0.05, -0.001, 0.0005, 0.01]] {
+            assert!(BrownConrady(d).validate(corner).is_ok(), "{d:?}");
+        }
+        assert!(BrownConrady([f64::NAN, 0.0, 0.0, 0.0, 0.0]).validate(corner).is_err());
     }
 
     #[test]

@@ -126,6 +126,16 @@ impl Intrinsics {
         }
     }
 
+    /// The largest normalised (distorted) radius of the image's corners, from the principal
+    /// point: how far out the lens must be valid.
+    pub fn corner_radius(&self) -> f64 {
+        let (w, h) = (self.width as f64 - 0.5, self.height as f64 - 0.5);
+        [(-0.5, -0.5), (w, -0.5), (-0.5, h), (w, h)]
+            .into_iter()
+            .map(|(u, v)| self.distorted_from_pixel(DVec2::new(u, v)).length())
+            .fold(0.0, f64::max)
+    }
+
     /// Checks sizes, focal lengths, principal point and the lens; `Err((field, message))` with the
     /// field named as in the camera files.
     pub fn validate(&self) -> Result<(), (&'static str, String)> {
@@ -147,7 +157,7 @@ impl Intrinsics {
             }
         }
         match &self.lens {
-            Lens::BrownConrady(b) => b.validate(),
+            Lens::BrownConrady(b) => b.validate(self.corner_radius()),
             Lens::KannalaBrandt(kb) => kb.validate(),
         }
     }

@@ -165,6 +165,7 @@ impl Frame {
                 Ok(Frame { width: img.width, height: img.height, data: FrameData::Hdr(img) })
             }
             Some("png") => {
+                super::checked_header_size(path)?;
                 let img = ::image::open(path).map_err(|source| match source {
                     ::image::ImageError::IoError(e) => IoError::File { path: path.to_owned(), source: e },
                     source => IoError::Png { path: path.to_owned(), source },
@@ -183,6 +184,18 @@ impl Frame {
             }
             _ => Err(IoError::UnsupportedFormat { path: path.to_owned() }),
         }
+    }
+
+    /// [`Frame::load`] for a frame that must be `want_w × want_h` (the camera's size): the
+    /// header's size is checked before the pixels are decoded.
+    pub fn load_sized(path: &Path, want_w: u32, want_h: u32) -> Result<Frame, IoError> {
+        let (w, h) = super::checked_header_size(path)?;
+        if (w, h) != (want_w, want_h) {
+            return Err(IoError::Size { path: path.to_owned(), got_w: w, got_h: h, want_w, want_h });
+        }
+        let frame = Frame::load(path)?;
+        frame.check_size(path, want_w, want_h)?;
+        Ok(frame)
     }
 
     /// Checks the frame against the calibrated size.

@@ -64,6 +64,8 @@ impl LinearImage {
                 source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
             });
         }
+        // The header's size against the caps before the pixels are allocated.
+        super::checked_header_size(path)?;
         let image = read_first_rgba_layer_from_file(
             path,
             |res, _| LinearImage::new(res.width() as u32, res.height() as u32),
@@ -79,7 +81,7 @@ impl LinearImage {
     pub fn write_exr(&self, path: &Path, precision: ExrPrecision) -> Result<(), IoError> {
         use exr::prelude::*;
         let (w, h) = (self.width as usize, self.height as usize);
-        let err = |e: exr::error::Error| IoError::Exr { path: path.to_owned(), message: e.to_string() };
+        let err = |e: exr::error::Error| exr_write_error(path, e);
         let encoding = Encoding {
             compression: Compression::PIZ,
             blocks: Blocks::ScanLines,
@@ -120,7 +122,7 @@ impl LinearImage {
         Image::from_layer(layer)
             .write()
             .to_file(path)
-            .map_err(|e| IoError::Exr { path: path.to_owned(), message: e.to_string() })
+            .map_err(|e| exr_write_error(path, e))
     }
 
     /// Reads an RGBA EXR written by [`LinearImage::write_exr_with_alpha`]: the image and its alpha.
@@ -192,6 +194,15 @@ impl LinearImage {
         }
         n
     }
+}
+
+/// A failed EXR write, with the OS's reason when it was the file that failed.
+fn exr_write_error(path: &Path, e: exr::error::Error) -> IoError {
+    let reason = match e {
+        exr::error::Error::Io(io) => io.to_string(),
+        other => other.to_string(),
+    };
+    IoError::ExrWrite { path: path.to_owned(), reason }
 }
 
 /// The sRGB encoding (IEC 61966-2-1) of a linear value in `[0, 1]`.
@@ -307,6 +318,14 @@ mod tests {
             }
         }
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn failed_exr_write_says_so_with_the_os_reason() {
+        let p = std::env::temp_dir().join(format!("heliar-no-such-dir-{}", std::process::id())).join("out.exr");
+        let e = LinearImage::new(2, 2).write_exr(&p, ExrPrecision::Half).unwrap_err().to_string();
+        assert!(e.contains("out.exr") && e.contains("writing the OpenEXR image failed") && e.contains("No such file"), "{e}");
+        assert!(!e.contains("readable"), "{e}");
     }
 
     #[test]

@@ -14,6 +14,12 @@ pub mod video;
 
 use std::path::PathBuf;
 
+/// Widest or tallest image read (pixels): the largest environment map heliar bakes is
+/// 16384 × 8192.
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+/// Most pixels in an image read (16384 × 8192, 1.5 GiB as linear RGB floats).
+pub const MAX_IMAGE_PIXELS: u64 = 16384 * 8192;
+
 /// Errors reading or writing image and frame files.
 #[derive(Debug, thiserror::Error)]
 pub enum IoError {
@@ -32,6 +38,14 @@ pub enum IoError {
         path: PathBuf,
         /// What the EXR decoder said.
         message: String,
+    },
+    /// An OpenEXR file could not be written.
+    #[error("{path}: writing the OpenEXR image failed: {reason}")]
+    ExrWrite {
+        /// The file.
+        path: PathBuf,
+        /// The OS error (or the encoder's message).
+        reason: String,
     },
     /// The PNG file is corrupt or could not be encoded.
     #[error("{path}: {source}")]
@@ -55,8 +69,18 @@ pub enum IoError {
         /// What went wrong.
         message: String,
     },
+    /// The file's header claims an image over [`MAX_IMAGE_SIDE`] or [`MAX_IMAGE_PIXELS`].
+    #[error("{path}: the header claims a {width}×{height} image, over the cap of {MAX_IMAGE_SIDE} pixels a side and {MAX_IMAGE_PIXELS} pixels (not decoded)")]
+    TooLarge {
+        /// The file.
+        path: PathBuf,
+        /// Width in the header.
+        width: u64,
+        /// Height in the header.
+        height: u64,
+    },
     /// The image does not have the size the camera calibration says.
-    #[error("{path}: image is {got_w}×{got_h} but the camera calibration says {want_w}×{want_h}")]
+    #[error("{path}: image is {got_w}×{got_h} but the camera calibration says {want_w}×{want_h} (a frame of this scene must have the camera's size)")]
     Size {
         /// The file.
         path: PathBuf,
@@ -69,6 +93,41 @@ pub enum IoError {
         /// Height the calibration expects.
         want_h: u32,
     },
+}
+
+/// The size an `.exr` or `.png` file's header gives, read without decoding the pixels.
+pub fn image_header_size(path: &std::path::Path) -> Result<(u64, u64), IoError> {
+    let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
+    let (w, h) = match ext.as_deref() {
+        Some("exr") => {
+            let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| match e {
+                exr::error::Error::Io(source) => IoError::File { path: path.to_owned(), source },
+                e => IoError::Exr { path: path.to_owned(), message: e.to_string() },
+            })?;
+            let header = meta.headers.first().ok_or_else(|| IoError::Exr { path: path.to_owned(), message: "no layer".into() })?;
+            (header.layer_size.width() as u64, header.layer_size.height() as u64)
+        }
+        Some("png") => {
+            let reader = ::image::ImageReader::open(path).map_err(|source| IoError::File { path: path.to_owned(), source })?;
+            let (w, h) = reader.with_guessed_format().map_err(|source| IoError::File { path: path.to_owned(), source })?.into_dimensions().map_err(|source| match source {
+                ::image::ImageError::IoError(e) => IoError::File { path: path.to_owned(), source: e },
+                source => IoError::Png { path: path.to_owned(), source },
+            })?;
+            (w as u64, h as u64)
+        }
+        _ => return Err(IoError::UnsupportedFormat { path: path.to_owned() }),
+    };
+    Ok((w, h))
+}
+
+/// [`image_header_size`], refused over [`MAX_IMAGE_SIDE`] or [`MAX_IMAGE_PIXELS`].
+pub fn checked_header_size(path: &std::path::Path) -> Result<(u32, u32), IoError> {
+    let (w, h) = image_header_size(path)?;
+    let side = MAX_IMAGE_SIDE as u64;
+    if w > side || h > side || w * h > MAX_IMAGE_PIXELS {
+        return Err(IoError::TooLarge { path: path.to_owned(), width: w, height: h });
+    }
+    Ok((w as u32, h as u32))
 }
 
 /// A temporary path beside `path` for writing it atomically: same folder (so a rename replaces

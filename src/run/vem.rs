@@ -192,6 +192,11 @@ impl VemScene {
     /// the capture rate (the tone mapper's smoothing).
     pub fn new(scene_dir: &Path, out_dir: &Path, cfg: VemRenderConfig, rate_hz: f64) -> Result<Self> {
         let scene = Scene::load(scene_dir).with_context(|| format!("loading scene {}", scene_dir.display()))?;
+        Self::from_scene(scene, out_dir, cfg, rate_hz)
+    }
+
+    /// [`VemScene::new`] for a scene already loaded.
+    pub fn from_scene(scene: Scene, out_dir: &Path, cfg: VemRenderConfig, rate_hz: f64) -> Result<Self> {
         std::fs::create_dir_all(out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
         let gpu = Arc::new(Gpu::new(GpuOptions { samples: 1 })?);
         let adapter = gpu.describe();
@@ -238,7 +243,10 @@ impl VemScene {
         let (w, h) = (bg.width, bg.height);
         let rgb: Vec<u8> = out.srgb.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
         let png = self.out_dir.join(format!("frame_{i:04}.png"));
-        image::save_buffer(&png, &rgb, w, h, image::ExtendedColorType::Rgb8).with_context(|| format!("writing {}", png.display()))?;
+        crate::io::write_via_temp(&png, |tmp| {
+            image::save_buffer(tmp, &rgb, w, h, image::ExtendedColorType::Rgb8).map_err(|source| crate::io::IoError::Png { path: png.clone(), source })
+        })
+        .with_context(|| format!("writing {}", png.display()))?;
         if self.sheet.wants(i) {
             self.sheet.push(i, &Rgb8 { width: w, height: h, data: rgb });
         }

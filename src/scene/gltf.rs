@@ -5,12 +5,20 @@
 //! objects). A node is a diffuse estimation surface when its `extras` hold
 //! `{"heliar": {"diffuse": true}}` (or an ancestor's do), or when the manifest names it.
 //! Base-colour textures are sRGB-encoded per the glTF spec and decoded to linear here.
+//!
+//! Buffer and image URIs are checked before anything is read: relative paths that stay inside
+//! the folder they are confined to (the scene folder, or the glTF file's own folder), and
+//! `data:` URIs of at most [`MAX_DATA_URI_BYTES`]; `file://`, other schemes and absolute paths
+//! are refused.
 
 use super::SceneError;
 use crate::geometry::{Material, Mesh, NodeInfo, Texture};
 use crate::io::image::linear_from_srgb;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use std::path::Path;
+
+/// Largest `data:` URI (its text, base64) read from a glTF buffer or image.
+pub const MAX_DATA_URI_BYTES: usize = 64 << 20;
 
 /// What was loaded, besides the mesh.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -47,10 +55,60 @@ fn texture_from_image(img: &gltf::image::Data) -> Option<Texture> {
     (data.len() == n).then_some(Texture { width: w, height: h, data })
 }
 
+/// `%XX` escapes decoded (as the glTF importer decodes relative URIs).
+fn percent_decoded(uri: &str) -> String {
+    let b = uri.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        let hex = b.get(i + 1..i + 3).and_then(|h| std::str::from_utf8(h).ok()).and_then(|h| u8::from_str_radix(h, 16).ok());
+        match (b[i], hex) {
+            (b'%', Some(v)) => {
+                out.push(v);
+                i += 3;
+            }
+            (c, _) => {
+                out.push(c);
+                i += 1;
+            }
+        }
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+/// Checks one buffer or image URI (`field`) of the glTF file `path`; `confine` is the resolved
+/// folder relative URIs must stay in (`None`: anywhere).
+fn check_uri(path: &Path, field: &str, uri: &str, confine: Option<&Path>) -> Result<(), SceneError> {
+    let gerr = |message: String| SceneError::Gltf { path: path.to_owned(), message };
+    if let Some(data) = uri.strip_prefix("data:") {
+        if data.len() > MAX_DATA_URI_BYTES {
+            return Err(gerr(format!("{field}: a data: URI of {} bytes is over the {MAX_DATA_URI_BYTES}-byte cap", data.len())));
+        }
+        return Ok(());
+    }
+    let scheme = uri.split_once(':').is_some_and(|(s, _)| !s.is_empty() && !s.contains('/'));
+    let rel = percent_decoded(uri);
+    if scheme || Path::new(&rel).is_absolute() {
+        return Err(gerr(format!("{field}: '{uri}' is not a relative path or a data: URI (file://, other schemes and absolute paths are not read)")));
+    }
+    let Some(root) = confine else { return Ok(()) };
+    let target = crate::io::guard::resolve(&path.parent().unwrap_or(Path::new(".")).join(&rel));
+    if !target.starts_with(root) {
+        return Err(gerr(format!(
+            "{field}: '{uri}' resolves to {}, outside {} (--allow-outside-scene to read it anyway)",
+            target.display(),
+            root.display()
+        )));
+    }
+    Ok(())
+}
+
 /// Loads `path`, applying `placement` after each node's own transform. `extra_diffuse` names
-/// nodes to mark diffuse in addition to the file's extras.
+/// nodes to mark diffuse in addition to the file's extras. Buffers and images must lie in the
+/// file's own folder (module docs).
 pub fn load_gltf(path: &Path, placement: Mat4, extra_diffuse: &[String]) -> Result<(Mesh, LoadNotes), SceneError> {
-    load_gltf_marked(path, placement, extra_diffuse, &[])
+    let own = crate::io::guard::resolve(path.parent().unwrap_or(Path::new(".")));
+    load_gltf_with(path, placement, extra_diffuse, &[], Some(&own))
 }
 
 /// [`load_gltf`] with `not_diffuse`: nodes that are *not* diffuse even though the file's extras
@@ -58,11 +116,44 @@ pub fn load_gltf(path: &Path, placement: Mat4, extra_diffuse: &[String]) -> Resu
 /// `proxy.not_diffuse_nodes`, which overrides the extras without editing the glTF). A node left
 /// unmarked this way passes no mark on to its children.
 pub fn load_gltf_marked(path: &Path, placement: Mat4, extra_diffuse: &[String], not_diffuse: &[String]) -> Result<(Mesh, LoadNotes), SceneError> {
+    let own = crate::io::guard::resolve(path.parent().unwrap_or(Path::new(".")));
+    load_gltf_with(path, placement, extra_diffuse, not_diffuse, Some(&own))
+}
+
+/// [`load_gltf`] with buffers and images confined to the resolved folder `confine` (a scene
+/// folder), or anywhere with `None`.
+pub fn load_gltf_within(path: &Path, placement: Mat4, extra_diffuse: &[String], confine: Option<&Path>) -> Result<(Mesh, LoadNotes), SceneError> {
+    load_gltf_with(path, placement, extra_diffuse, &[], confine)
+}
+
+/// The loader behind the others: diffuse marks from the extras plus `extra_diffuse` minus
+/// `not_diffuse`, buffers and images confined to `confine`.
+pub fn load_gltf_with(
+    path: &Path,
+    placement: Mat4,
+    extra_diffuse: &[String],
+    not_diffuse: &[String],
+    confine: Option<&Path>,
+) -> Result<(Mesh, LoadNotes), SceneError> {
     let gerr = |message: String| SceneError::Gltf { path: path.to_owned(), message };
     if !path.exists() {
         return Err(SceneError::Missing { path: path.to_owned() });
     }
-    let (doc, buffers, images) = gltf::import(path).map_err(|e| gerr(e.to_string()))?;
+    // What `gltf::import` does, with the URIs checked before any is read.
+    let gltf::Gltf { document: doc, blob } = gltf::Gltf::open(path).map_err(|e| gerr(e.to_string()))?;
+    for b in doc.buffers() {
+        if let gltf::buffer::Source::Uri(uri) = b.source() {
+            check_uri(path, &format!("buffers[{}].uri", b.index()), uri, confine)?;
+        }
+    }
+    for img in doc.images() {
+        if let gltf::image::Source::Uri { uri, .. } = img.source() {
+            check_uri(path, &format!("images[{}].uri", img.index()), uri, confine)?;
+        }
+    }
+    let base = path.parent();
+    let buffers = gltf::import_buffers(&doc, base, blob).map_err(|e| gerr(e.to_string()))?;
+    let images = gltf::import_images(&doc, base, &buffers).map_err(|e| gerr(e.to_string()))?;
     let mut mesh = Mesh::default();
     let mut notes = LoadNotes::default();
 

@@ -5,9 +5,13 @@
 //! everything it reads and names the file and field of the first problem it finds.
 
 pub mod gltf;
+pub mod limits;
 mod manifest;
+mod paths;
 pub mod settings;
 
+pub use paths::LoadOptions;
+use paths::Within;
 pub use manifest::{AlbedoSource, CameraFile, EnvMapSpec, GridSpec, Manifest, PoseSpec, ResponseSpec, SequenceSpec, TimeSpec, VirtualObjectSpec};
 
 use settings::{BakeConfig, EstimatorConfig};
@@ -160,30 +164,16 @@ pub fn parse_time(path: &Path, field: &str, s: &str) -> Result<DateTime<FixedOff
         .map_err(|e| invalid(path, field, format!("'{s}' is not an RFC 3339 time with offset ({e})")))
 }
 
-fn load_camera(scene_dir: &Path, manifest_path: &Path, file: &str) -> Result<(Camera, CameraFile, PathBuf), SceneError> {
-    let path = scene_dir.join(file);
+fn load_camera(within: &Within, manifest_path: &Path, file: &str) -> Result<(Camera, CameraFile, PathBuf), SceneError> {
+    let path = within.join(manifest_path, "camera.file", file)?;
     if !path.exists() {
         return Err(invalid(manifest_path, "camera.file", format!("{} does not exist", path.display())));
     }
     let cf: CameraFile = read_toml(&path)?;
     let p = path.as_path();
-    if cf.width == 0 || cf.height == 0 {
-        return Err(invalid(p, "width/height", "must be positive"));
-    }
-    for (name, v) in [("fx", cf.fx), ("fy", cf.fy)] {
-        if !(v.is_finite() && v > 0.0) {
-            return Err(invalid(p, name, format!("focal length {v} must be a positive number of pixels")));
-        }
-    }
-    for (name, v) in [("cx", cf.cx), ("cy", cf.cy)] {
-        if !v.is_finite() {
-            return Err(invalid(p, name, "must be finite"));
-        }
-    }
-    if cf.distortion.iter().any(|k| !k.is_finite()) {
-        return Err(invalid(p, "distortion", "coefficients must be finite"));
-    }
+    // Sizes, focal lengths, principal point, and a distortion that is a lens over the whole image.
     let intrinsics = Intrinsics::brown_conrady(cf.width, cf.height, cf.fx, cf.fy, cf.cx, cf.cy, cf.distortion);
+    intrinsics.validate().map_err(|(field, message)| invalid(p, field, message))?;
     let pose = match &cf.pose {
         PoseSpec::LookAt { position, look_at, up } => {
             let (pos, tgt, up) = (finite3(p, "pose.position", *position)?, finite3(p, "pose.look_at", *look_at)?, finite3(p, "pose.up", *up)?);
@@ -198,7 +188,7 @@ fn load_camera(scene_dir: &Path, manifest_path: &Path, file: &str) -> Result<(Ca
     Ok((Camera { intrinsics, pose }, cf, path))
 }
 
-fn load_response(scene_dir: &Path, camera_path: &Path, spec: &ResponseSpec) -> Result<Response, SceneError> {
+fn load_response(within: &Within, camera_path: &Path, spec: &ResponseSpec) -> Result<Response, SceneError> {
     Ok(match spec.kind.as_str() {
         "srgb" => Response::Srgb,
         "linear" => Response::Linear,
@@ -211,7 +201,7 @@ fn load_response(scene_dir: &Path, camera_path: &Path, spec: &ResponseSpec) -> R
         }
         "table" => {
             let file = spec.table.as_deref().ok_or_else(|| invalid(camera_path, "response.table", "kind = \"table\" needs a table file"))?;
-            let path = scene_dir.join(file);
+            let path = within.join(camera_path, "response.table", file)?;
             let text = std::fs::read_to_string(&path).map_err(|source| match source.kind() {
                 std::io::ErrorKind::NotFound => SceneError::Missing { path: path.clone() },
                 _ => SceneError::Read { path: path.clone(), source },
@@ -278,6 +268,12 @@ fn load_truth(path: &Path, n: usize) -> Result<Vec<Truth>, SceneError> {
 impl Scene {
     /// Loads and validates the scene folder `root` (which holds `scene.toml`).
     pub fn load(root: &Path) -> Result<Scene, SceneError> {
+        Self::load_with(root, &LoadOptions::default())
+    }
+
+    /// [`Scene::load`] with options (files outside the scene folder).
+    pub fn load_with(root: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
+        let within = Within::new(root, options);
         let mpath = root.join(MANIFEST_FILE);
         if !root.is_dir() {
             return Err(SceneError::Missing { path: root.to_owned() });
@@ -287,23 +283,6 @@ impl Scene {
 
         // Place.
         let pl = &manifest.place;
-        if !(pl.latitude_deg.is_finite() && pl.latitude_deg.abs() <= 90.0) {
-            return Err(invalid(m, "place.latitude_deg", format!("{} is not in [-90, 90]", pl.latitude_deg)));
-        }
-        if !(pl.longitude_deg.is_finite() && pl.longitude_deg.abs() <= 180.0) {
-            return Err(invalid(m, "place.longitude_deg", format!("{} is not in [-180, 180]", pl.longitude_deg)));
-        }
-        if !(pl.elevation_m.is_finite() && pl.elevation_m > -500.0 && pl.elevation_m < 9000.0) {
-            return Err(invalid(m, "place.elevation_m", format!("{} m is not a place on Earth", pl.elevation_m)));
-        }
-        if !(pl.pressure_mbar.is_finite() && pl.pressure_mbar > 0.0 && pl.pressure_mbar <= 2000.0) {
-            return Err(invalid(m, "place.pressure_mbar", "must be in (0, 2000]"));
-        }
-        if !(pl.temperature_c.is_finite() && pl.temperature_c > -273.0 && pl.temperature_c <= 100.0) {
-            return Err(invalid(m, "place.temperature_c", "must be in (-273, 100]"));
-        }
-        let geo = GeoFrame::from_north(finite3(m, "place.north", pl.north)?)
-            .ok_or_else(|| invalid(m, "place.north", "must have a horizontal (x/z) component"))?;
         let observer = Observer {
             latitude_deg: pl.latitude_deg,
             longitude_deg: pl.longitude_deg,
@@ -312,10 +291,13 @@ impl Scene {
             temperature_c: pl.temperature_c,
             delta_t_s: pl.delta_t_s,
         };
+        observer.validate().map_err(|(f, msg)| invalid(m, &format!("place.{f}"), msg))?;
+        let geo = GeoFrame::from_north(finite3(m, "place.north", pl.north)?)
+            .ok_or_else(|| invalid(m, "place.north", "must have a horizontal (x/z) component"))?;
 
         // Camera.
-        let (camera, camera_file, camera_path) = load_camera(root, m, &manifest.camera.file)?;
-        let response = load_response(root, &camera_path, &camera_file.response)?;
+        let (camera, camera_file, camera_path) = load_camera(&within, m, &manifest.camera.file)?;
+        let response = load_response(&within, &camera_path, &camera_file.response)?;
         let rs = &camera_file.response;
         if !(rs.exposure.is_finite() && rs.exposure > 0.0) {
             return Err(invalid(&camera_path, "response.exposure", "must be positive"));
@@ -328,14 +310,15 @@ impl Scene {
         }
 
         // Proxy.
-        let proxy_path = root.join(&manifest.proxy.file);
+        let proxy_path = within.join(m, "proxy.file", &manifest.proxy.file)?;
         if !proxy_path.exists() {
             return Err(invalid(m, "proxy.file", format!("{} does not exist", proxy_path.display())));
         }
         if let Some(n) = manifest.proxy.not_diffuse_nodes.iter().find(|n| manifest.proxy.diffuse_nodes.contains(n)) {
             return Err(invalid(m, "proxy.not_diffuse_nodes", format!("'{n}' is also in proxy.diffuse_nodes; a node is either marked or not")));
         }
-        let (proxy, proxy_notes) = gltf::load_gltf_marked(&proxy_path, Mat4::IDENTITY, &manifest.proxy.diffuse_nodes, &manifest.proxy.not_diffuse_nodes)?;
+        let (proxy, proxy_notes) =
+            gltf::load_gltf_with(&proxy_path, Mat4::IDENTITY, &manifest.proxy.diffuse_nodes, &manifest.proxy.not_diffuse_nodes, within.confine())?;
         if !proxy.nodes.iter().any(|n| n.diffuse) {
             return Err(invalid(
                 &proxy_path,
@@ -348,7 +331,7 @@ impl Scene {
         let mut virtual_objects = Vec::new();
         for (i, v) in manifest.virtual_objects.iter().enumerate() {
             let field = |f: &str| format!("virtual_objects[{i}].{f}");
-            let path = root.join(&v.file);
+            let path = within.join(m, &field("file"), &v.file)?;
             if !path.exists() {
                 return Err(invalid(m, &field("file"), format!("{} does not exist", path.display())));
             }
@@ -361,7 +344,7 @@ impl Scene {
                 Quat::from_rotation_y((v.rotation_y_deg as f32).to_radians()),
                 t,
             );
-            let (mesh, _) = gltf::load_gltf(&path, placement, &[])?;
+            let (mesh, _) = gltf::load_gltf_within(&path, placement, &[], within.confine())?;
             virtual_objects.push(VirtualObject { path, mesh });
         }
 
@@ -369,7 +352,7 @@ impl Scene {
         if let Some(env) = &manifest.envmap {
             match (&env.file, env.albedo) {
                 (Some(f), _) => {
-                    let p = root.join(f);
+                    let p = within.join(m, "envmap.file", f)?;
                     if !p.exists() {
                         return Err(invalid(m, "envmap.file", format!("{} does not exist", p.display())));
                     }
@@ -412,11 +395,14 @@ impl Scene {
         let mut sequences = Vec::new();
         for (i, s) in manifest.sequences.iter().enumerate() {
             let field = |f: &str| format!("sequences[{i}].{f}");
-            let dir = root.join(&s.dir);
+            let dir = within.join(m, &field("dir"), &s.dir)?;
             if !dir.is_dir() {
                 return Err(invalid(m, &field("dir"), format!("{} is not a folder", dir.display())));
             }
             let files = list_frame_files(&dir)?;
+            for f in &files {
+                within.check(m, &field("dir"), f)?;
+            }
             if files.is_empty() {
                 return Err(invalid(m, &field("dir"), format!("{} holds no .exr or .png frames", dir.display())));
             }
@@ -426,7 +412,7 @@ impl Scene {
                 return Err(invalid(m, &field("exposure"), "must be positive"));
             }
             let truth = match &s.truth {
-                Some(t) => Some(load_truth(&root.join(t), files.len())?),
+                Some(t) => Some(load_truth(&within.join(m, &field("truth"), t)?, files.len())?),
                 None => None,
             };
             sequences.push(Sequence {
@@ -441,6 +427,18 @@ impl Scene {
         estimator.validate().map_err(|(f, msg)| invalid(m, &format!("estimator.{f}"), msg))?;
         let bake = manifest.bake.clone().unwrap_or_default();
         bake.validate().map_err(|(f, msg)| invalid(m, &format!("bake.{f}"), msg))?;
+        // The probe grid's size, before the bake or a probe source allocates it: the manifest's
+        // grid, or the default one around the virtual objects (`irradiance::sources`).
+        match &manifest.irradiance {
+            Some(g) => limits::check_probe_grid(m, "irradiance.spacing_m", g.min.into(), g.max.into(), g.spacing_m, bake.probe_directions)?,
+            None => {
+                let b = virtual_objects.iter().filter_map(|o| o.mesh.bounds()).reduce(|(a, b), (c, d)| (a.min(c), b.max(d)));
+                if let Some((lo, hi)) = b {
+                    let (lo, hi) = (lo.as_dvec3() - DVec3::ONE, hi.as_dvec3() + DVec3::ONE);
+                    limits::check_probe_grid(m, "virtual_objects (the default probe grid around them, at 1 m)", lo, hi, 1.0, bake.probe_directions)?;
+                }
+            }
+        }
 
         Ok(Scene {
             root: root.to_owned(),

@@ -89,6 +89,15 @@ fn parse3(s: &str, what: &str) -> Result<Vec3> {
     Ok(Vec3::new(v[0], v[1], v[2]))
 }
 
+/// An irradiance `R,G,B` given on the command line: three finite, non-negative numbers.
+fn parse_intensity(s: &str, what: &str) -> Result<Vec3> {
+    let v = parse3(s, what)?;
+    if v.cmplt(Vec3::ZERO).any() {
+        bail!("{what} '{s}': an irradiance cannot be negative (three finite numbers ≥ 0)");
+    }
+    Ok(v)
+}
+
 /// Lighting from explicit values, or from the estimator on one frame, or the capture's.
 #[derive(Args)]
 pub struct LightingArgs {
@@ -109,6 +118,20 @@ pub struct LightingArgs {
     time: Option<String>,
 }
 
+impl LightingArgs {
+    /// Checks the explicit values before anything is loaded or baked.
+    fn check(&self) -> Result<()> {
+        if let (Some(pd), Some(pa)) = (&self.pd, &self.pa) {
+            parse_intensity(pd, "--pd")?;
+            parse_intensity(pa, "--pa")?;
+        }
+        if let Some(t) = &self.time {
+            chrono::DateTime::parse_from_rfc3339(t).with_context(|| format!("--time '{t}' is not RFC 3339"))?;
+        }
+        Ok(())
+    }
+}
+
 fn resolve_lighting(scene: &Scene, ray: Arc<RayScene>, baked: &Baked, a: &LightingArgs) -> Result<(Lighting, String)> {
     let sun_at = |t: &chrono::DateTime<chrono::FixedOffset>| -> Result<(Vec3, bool)> {
         let pos = heliar::sun::sun_position(&scene.observer, t)?;
@@ -118,7 +141,8 @@ fn resolve_lighting(scene: &Scene, ray: Arc<RayScene>, baked: &Baked, a: &Lighti
         let seq = pick_sequence(scene, a.sequence.as_deref())?;
         let path = seq.files.get(i).with_context(|| format!("frame {i}: the sequence '{}' has {} frames", seq.name, seq.files.len()))?;
         let mut est = build_estimator(scene, ray)?;
-        let frame = Frame::load(path)?;
+        let k = &scene.camera.intrinsics;
+        let frame = Frame::load_sized(path, k.width, k.height)?;
         let e = est.estimate(i, &seq.times[i], &frame, &seq.photometry.linearizer())?;
         let (Some(pd), Some(pa)) = (e.pd, e.pa) else {
             bail!("{}: the estimator gave no Pd/Pa (status {:?}); give --pd and --pa instead", path.display(), e.status);
@@ -138,7 +162,7 @@ fn resolve_lighting(scene: &Scene, ray: Arc<RayScene>, baked: &Baked, a: &Lighti
     };
     let (dir, up) = sun_at(&time)?;
     match (&a.pd, &a.pa) {
-        (Some(pd), Some(pa)) => Ok((Lighting { sun_dir: dir, above_horizon: up, pd: parse3(pd, "--pd")?, pa: parse3(pa, "--pa")? }, "given".into())),
+        (Some(pd), Some(pa)) => Ok((Lighting { sun_dir: dir, above_horizon: up, pd: parse_intensity(pd, "--pd")?, pa: parse_intensity(pa, "--pa")? }, "given".into())),
         _ => {
             let i = &baked.info;
             if i.albedo_source == heliar::scene::AlbedoSource::Gltf {
@@ -159,10 +183,17 @@ pub struct RelightArgs {
     /// Output EXR (a PNG preview is written beside it).
     #[arg(long, short, default_value = "out/relit.exr")]
     output: PathBuf,
+    /// Write the outputs even over an input or a file of the scene.
+    #[arg(long)]
+    force: bool,
 }
 
 pub fn run_relight(a: RelightArgs) -> Result<()> {
+    a.lighting.check()?;
     let (scene, ray) = load_scene(&a.scene)?;
+    let png = a.output.with_extension("png");
+    // Before the bake: the map and its preview may not overwrite the scene's files (env.exr).
+    crate::common::guard_files(Some(&scene.root), &[], &[a.output.as_path(), png.as_path()], a.force)?;
     let baked = bake_with_progress(&scene, ray.clone(), false)?;
     let (lighting, source) = resolve_lighting(&scene, ray.clone(), &baked, &a.lighting)?;
     let mut relighter = Relighter::new(&baked, ray, scene.bake.relight.clone());
@@ -170,13 +201,9 @@ pub fn run_relight(a: RelightArgs) -> Result<()> {
     let t = std::time::Instant::now();
     let relit = relighter.relight(&lighting);
     let relight_ms = t.elapsed().as_secs_f64() * 1e3;
-    if let Some(parent) = a.output.parent() {
-        std::fs::create_dir_all(parent).with_context(|| format!("creating {}", parent.display()))?;
-    }
     let img = relit.to_image();
-    img.write_exr(&a.output, ExrPrecision::Float)?;
-    let png = a.output.with_extension("png");
-    img.write_png_srgb(&png, 1.0)?;
+    crate::common::write_output(&a.output, |tmp| Ok(img.write_exr(tmp, ExrPrecision::Float)?))?;
+    crate::common::write_output(&png, |tmp| Ok(img.write_png_srgb(tmp, 1.0)?))?;
     let v = serde_json::json!({
         "output": a.output, "preview": png, "lighting_source": source,
         "sun_dir": lighting.sun_dir.to_array(), "sun_up": lighting.above_horizon, "pd": lighting.pd.to_array(), "pa": lighting.pa.to_array(),
@@ -204,6 +231,7 @@ pub struct IrradianceArgs {
 }
 
 pub fn run_irradiance(a: IrradianceArgs) -> Result<()> {
+    a.lighting.check()?;
     let (scene, ray) = load_scene(&a.scene)?;
     let grid = scene.manifest.irradiance.as_ref().context("the scene has no [irradiance] grid")?;
     let p = parse3(&a.at, "--at")?;

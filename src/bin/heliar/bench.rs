@@ -60,6 +60,9 @@ struct EstimateSweep {
     /// SVG plot of error against time per frame (log–log).
     #[arg(long)]
     plot: Option<PathBuf>,
+    /// Write the outputs even over a file of the scene.
+    #[arg(long)]
+    force: bool,
 }
 
 struct Row {
@@ -146,11 +149,14 @@ pub fn run(a: BenchArgs) -> Result<()> {
         BenchWhat::Render(s) => return crate::bench_render::run(s),
     };
     let (scene, ray) = load_scene(&s.scene)?;
+    let outputs: Vec<&std::path::Path> = std::iter::once(&s.csv).chain(&s.plot).map(PathBuf::as_path).collect();
+    crate::common::guard_files(Some(&scene.root), &[], &outputs, s.force)?;
     let seq = pick_sequence(&scene, s.sequence.as_deref())?.clone();
     if seq.truth.is_none() {
         bail!("sequence '{}' of {} has no truth file: nothing to measure error against", seq.name, s.scene.display());
     }
-    let frames: Vec<Frame> = seq.files.iter().map(|p| Frame::load(p)).collect::<Result<_, _>>()?;
+    let k = &scene.camera.intrinsics;
+    let frames: Vec<Frame> = seq.files.iter().map(|p| Frame::load_sized(p, k.width, k.height)).collect::<Result<_, _>>()?;
     let configs = knob_configs(s.knob, &scene.estimator);
     let knob_name = match s.knob {
         Knob::Samples => "samples",
@@ -198,7 +204,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
     pb.finish_and_clear();
     println!("estimator sweep over '{}' of {} ({} frames × {} draws per value)", seq.name, s.scene.display(), frames.len(), s.repeats);
     print!("{table}");
-    table.write_csv(&s.csv).with_context(|| format!("writing {}", s.csv.display()))?;
+    crate::common::write_output(&s.csv, |tmp| Ok(table.write_csv(tmp)?))?;
     println!("wrote {}", s.csv.display());
     if let Some(path) = &s.plot {
         let x_label = match s.knob {
@@ -210,8 +216,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
             Series { name: "Pd mean error".into(), points: pd_pts, reference: false },
             Series { name: "Pa mean error".into(), points: pa_pts, reference: false },
         ];
-        line_plot_svg(path, &format!("estimator error against run time ({knob_name})"), x_label, "mean relative error (%)", &series, true, true)
-            .with_context(|| format!("writing {}", path.display()))?;
+        crate::common::write_output(path, |tmp| Ok(line_plot_svg(tmp, &format!("estimator error against run time ({knob_name})"), x_label, "mean relative error (%)", &series, true, true)?))?;
         println!("wrote {}", path.display());
     }
     Ok(())

@@ -50,6 +50,9 @@ pub struct IrradianceSweep {
     /// SVG plot of error against time.
     #[arg(long)]
     plot: Option<PathBuf>,
+    /// Write the outputs even over a file of the scene.
+    #[arg(long)]
+    force: bool,
 }
 
 fn v3(a: [f64; 3]) -> Vec3 {
@@ -143,6 +146,8 @@ fn measure(s: &Setup, baked: &Baked, spacing: f32, directions: usize, reference:
 
 pub fn run(a: IrradianceSweep) -> Result<()> {
     let (scene, ray) = load_scene(&a.scene)?;
+    let outputs: Vec<&std::path::Path> = std::iter::once(&a.csv).chain(&a.plot).map(PathBuf::as_path).collect();
+    crate::common::guard_files(Some(&scene.root), &[], &outputs, a.force)?;
     let g = scene.manifest.irradiance.clone().context("the scene has no [irradiance] grid")?;
     let env_file = scene.manifest.envmap.as_ref().and_then(|e| e.file.clone()).context("the scene has no environment map file")?;
     let env = LinearImage::read_exr(&scene.root.join(&env_file))?;
@@ -277,14 +282,14 @@ fn report(a: &IrradianceSweep, name: &str, rows: &[(String, Measure)], points: u
         a.rays
     );
     print!("{table}");
-    table.write_csv(&a.csv).with_context(|| format!("writing {}", a.csv.display()))?;
+    crate::common::write_output(&a.csv, |tmp| Ok(table.write_csv(tmp)?))?;
     println!("wrote {}", a.csv.display());
     if let Some(path) = &a.plot {
         let x = match a.knob {
             Knob::ProbeSpacing | Knob::Directions => "transfer build time (ms)",
             _ => "bake time (ms)",
         };
-        line_plot_svg(path, &format!("irradiance error against run time ({name})"), x, "mean relative error (%)", &[Series { name: "mean error".into(), points: pts, reference: false }], true, true)?;
+        crate::common::write_output(path, |tmp| Ok(line_plot_svg(tmp, &format!("irradiance error against run time ({name})"), x, "mean relative error (%)", &[Series { name: "mean error".into(), points: pts, reference: false }], true, true)?))?;
         println!("wrote {}", path.display());
     }
     Ok(())

@@ -43,6 +43,9 @@ pub struct RenderSweep {
     /// SVG plot of error against time.
     #[arg(long)]
     plot: Option<PathBuf>,
+    /// Write the outputs even over a file of the scene.
+    #[arg(long)]
+    force: bool,
 }
 
 /// One reference frame: its footage, lighting, reference image and pixel classes.
@@ -71,6 +74,8 @@ fn ms(t: std::time::Instant) -> f64 {
 
 pub fn run(a: RenderSweep) -> Result<()> {
     let (scene, ray) = load_scene(&a.scene)?;
+    let outputs: Vec<&std::path::Path> = std::iter::once(&a.csv).chain(&a.plot).map(PathBuf::as_path).collect();
+    crate::common::guard_files(Some(&scene.root), &[], &outputs, a.force)?;
     let Some(refs) = References::load(&scene)? else {
         bail!("{}: no reference/reference.toml (frames rendered with the virtual objects present; see scenes/README.md)", scene.root.display());
     };
@@ -209,14 +214,14 @@ fn report(a: &RenderSweep, rows: &[Row], frames: &[RefFrame]) -> Result<()> {
         frame_list.join(", ")
     );
     print!("{table}");
-    table.write_csv(&a.csv).with_context(|| format!("writing {}", a.csv.display()))?;
+    crate::common::write_output(&a.csv, |tmp| Ok(table.write_csv(tmp)?))?;
     println!("wrote {}", a.csv.display());
     if let Some(path) = &a.plot {
         let x = match a.knob {
             Knob::TransferPaths | Knob::TransferStride => "transfer trace time (ms)",
             _ => "frame time (ms)",
         };
-        line_plot_svg(path, &format!("end-to-end error against run time ({name})"), x, "relative RMSE, objects and shadow (%)", &[Series { name: "mean over reference frames".into(), points: pts, reference: false }], true, false)?;
+        crate::common::write_output(path, |tmp| Ok(line_plot_svg(tmp, &format!("end-to-end error against run time ({name})"), x, "relative RMSE, objects and shadow (%)", &[Series { name: "mean over reference frames".into(), points: pts, reference: false }], true, false)?))?;
         println!("wrote {}", path.display());
     }
     Ok(())

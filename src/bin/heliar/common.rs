@@ -4,7 +4,7 @@
 use anyhow::{Context, Result};
 use heliar::estimate::Estimator;
 use heliar::geometry::raycast::RayScene;
-use heliar::scene::Scene;
+use heliar::scene::{LoadOptions, Scene};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::Path;
 use std::sync::Arc;
@@ -88,9 +88,27 @@ pub fn interrupt_counter() -> Arc<AtomicUsize> {
     stop
 }
 
+/// How every subcommand loads scenes (`--allow-outside-scene`), set once from the command line.
+static LOAD_OPTIONS: std::sync::OnceLock<LoadOptions> = std::sync::OnceLock::new();
+
+/// Sets the scene loading options of this run.
+pub fn set_load_options(options: LoadOptions) {
+    let _ = LOAD_OPTIONS.set(options);
+}
+
+/// The scene loading options of this run.
+pub fn load_options() -> LoadOptions {
+    LOAD_OPTIONS.get().cloned().unwrap_or_default()
+}
+
+/// Loads a scene with this run's options.
+pub fn read_scene(dir: &Path) -> Result<Scene> {
+    Scene::load_with(dir, &load_options()).with_context(|| format!("loading scene {}", dir.display()))
+}
+
 /// Loads a scene and builds the proxy's BVH.
 pub fn load_scene(dir: &Path) -> Result<(Scene, Arc<RayScene>)> {
-    let scene = Scene::load(dir).with_context(|| format!("loading scene {}", dir.display()))?;
+    let scene = read_scene(dir)?;
     let ray = Arc::new(RayScene::new(scene.proxy.clone()));
     if ray.skipped_degenerate() > 0 {
         eprintln!("note: {} degenerate proxy triangles left out of ray casts", ray.skipped_degenerate());
@@ -109,4 +127,23 @@ pub fn build_estimator(scene: &Scene, ray: Arc<RayScene>) -> Result<Estimator> {
         s.diffuse_pixels, s.candidate_pixels, s.pool_entries, s.pixel_map_ms, s.pool_ms
     );
     Ok(est)
+}
+
+/// Refuses `outputs` (files) that would overwrite one of `inputs` or an existing file of the
+/// scene folder `scene`, unless `force` (`heliar::io::guard`); call before anything is written.
+pub fn guard_files(scene: Option<&Path>, inputs: &[&Path], outputs: &[&Path], force: bool) -> Result<()> {
+    let guard = heliar::io::guard::OutputGuard::new(scene, inputs, force);
+    for out in outputs {
+        guard.check_file(out)?;
+    }
+    Ok(())
+}
+
+/// Writes `path` through a temporary file beside it and a rename (`heliar::io::write_via_temp`):
+/// an interrupted or failed write leaves the old file whole. Parent folders are created.
+pub fn write_output(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).with_context(|| format!("creating {}", parent.display()))?;
+    }
+    heliar::io::write_via_temp(path, write).with_context(|| format!("writing {}", path.display()))
 }

@@ -8,10 +8,11 @@ use heliar::estimate::{FrameEstimate, Status};
 use heliar::io::frames::Frame;
 use heliar::estimate::LUMA;
 use heliar::report::{JsonLines, Series, Table, line_plot_svg, lighting_error, median};
-use heliar::scene::Truth;
+use heliar::estimate::Estimator;
+use heliar::scene::{Scene, Sequence, Truth};
 use serde::Serialize;
 use std::collections::BTreeMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(Args)]
 pub struct EstimateArgs {
@@ -32,6 +33,66 @@ pub struct EstimateArgs {
     /// Also write an SVG plot of Pd and Pa (luminance) over time, with the truth when known.
     #[arg(long)]
     plot: Option<PathBuf>,
+    /// Write the outputs even over an input or a file of the scene.
+    #[arg(long)]
+    force: bool,
+}
+
+/// What the frame loop gathers for the summary and the plot.
+#[derive(Default)]
+struct Tally {
+    statuses: BTreeMap<Status, usize>,
+    errs_pd: Vec<f64>,
+    errs_pa: Vec<f64>,
+    ms: Vec<f64>,
+    decode: Vec<f64>,
+    /// pd, pa, pd smoothed, pa smoothed, pd true, pa true
+    plot: [Vec<(f64, f64)>; 6],
+}
+
+/// Estimates every frame of `seq`, one JSON line each into `out`.
+fn estimate_frames(scene: &Scene, seq: &Sequence, est: &mut Estimator, out: &mut JsonLines) -> Result<Tally> {
+    let lin = seq.photometry.linearizer();
+    let pb = frame_bar(seq.files.len(), &format!("estimate {}", seq.name));
+    let mut t = Tally::default();
+    let k = &scene.camera.intrinsics;
+    let luma = |v: &[f64; 3]| v[0] * LUMA[0] + v[1] * LUMA[1] + v[2] * LUMA[2];
+    for (i, path) in seq.files.iter().enumerate() {
+        let clock = std::time::Instant::now();
+        let frame = Frame::load_sized(path, k.width, k.height)?;
+        let decode_ms = clock.elapsed().as_secs_f64() * 1e3;
+        let e = est.estimate(i, &seq.times[i], &frame, &lin).with_context(|| format!("{}", path.display()))?;
+        let truth = seq.truth.as_ref().map(|t| t[i]);
+        let error = match (truth, e.pd, e.pa) {
+            (Some(tr), Some(pd), Some(pa)) => {
+                let (ed, ea) = lighting_error(&pd, &pa, &tr.pd, &tr.pa);
+                t.errs_pd.push(ed);
+                t.errs_pa.push(ea);
+                Some(ErrorPair { pd: ed, pa: ea })
+            }
+            _ => None,
+        };
+        *t.statuses.entry(e.status).or_default() += 1;
+        let ts = (seq.times[i] - seq.times[0]).num_milliseconds() as f64 / 1e3;
+        if let (Some(pd), Some(pa)) = (e.pd, e.pa) {
+            t.plot[0].push((ts, luma(&pd)));
+            t.plot[1].push((ts, luma(&pa)));
+        }
+        if let Some(s) = e.smoothed {
+            t.plot[2].push((ts, luma(&s.pd)));
+            t.plot[3].push((ts, luma(&s.pa)));
+        }
+        if let Some(tr) = truth {
+            t.plot[4].push((ts, luma(&tr.pd)));
+            t.plot[5].push((ts, luma(&tr.pa)));
+        }
+        t.ms.push(e.estimate_ms);
+        t.decode.push(decode_ms);
+        out.write(&Record { estimate: &e, decode_ms, truth, error })?;
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    Ok(t)
 }
 
 #[derive(Serialize)]
@@ -49,65 +110,43 @@ struct ErrorPair {
     pa: f64,
 }
 
+/// The folder of `seq`'s frames (an input the outputs must not overwrite).
+fn seq_dir(scene: &Scene, seq: &Sequence) -> PathBuf {
+    let dir = scene.manifest.sequences.iter().find(|s| s.name == seq.name).map(|s| s.dir.as_str()).unwrap_or(".");
+    scene.root.join(dir)
+}
+
 pub fn run(a: EstimateArgs) -> Result<()> {
     let (mut scene, ray) = load_scene(&a.scene)?;
     if let Some(n) = a.samples {
         scene.estimator.samples = n;
         scene.estimator.pool_size = scene.estimator.pool_size.max(n);
+        // The manifest's rule for `estimator.samples`, from the same check.
+        if let Err((field, msg)) = scene.estimator.validate() {
+            let option = if field == "samples" { "--samples" } else { field };
+            anyhow::bail!("{option} {n}: {msg} (the rule of scene.toml's estimator.{field})");
+        }
     }
     if a.no_sun_bounce {
         scene.estimator.sun_bounce = false;
     }
     let seq = pick_sequence(&scene, a.sequence.as_deref())?.clone();
+    let outputs: Vec<&Path> = a.output.iter().chain(&a.plot).map(PathBuf::as_path).collect();
+    crate::common::guard_files(Some(&scene.root), &[seq_dir(&scene, &seq).as_path()], &outputs, a.force)?;
     let mut est = build_estimator(&scene, ray)?;
-    let lin = seq.photometry.linearizer();
-    let mut out = match &a.output {
-        Some(p) => JsonLines::create(p).with_context(|| format!("creating {}", p.display()))?,
-        None => JsonLines::stdout(),
+    let tally = match &a.output {
+        Some(p) => {
+            let mut tally = None;
+            crate::common::write_output(p, |tmp| {
+                let mut out = JsonLines::create(tmp).with_context(|| format!("creating {}", tmp.display()))?;
+                tally = Some(estimate_frames(&scene, &seq, &mut est, &mut out)?);
+                Ok(())
+            })?;
+            tally.unwrap_or_default()
+        }
+        None => estimate_frames(&scene, &seq, &mut est, &mut JsonLines::stdout())?,
     };
-    let pb = frame_bar(seq.files.len(), &format!("estimate {}", seq.name));
-    let mut statuses: BTreeMap<Status, usize> = BTreeMap::new();
-    let (mut errs_pd, mut errs_pa, mut ms, mut decode) = (vec![], vec![], vec![], vec![]);
-    let k = &scene.camera.intrinsics;
-    let luma = |v: &[f64; 3]| v[0] * LUMA[0] + v[1] * LUMA[1] + v[2] * LUMA[2];
-    let mut plot: [Vec<(f64, f64)>; 6] = Default::default(); // pd, pa, pd smoothed, pa smoothed, pd true, pa true
-    for (i, path) in seq.files.iter().enumerate() {
-        let t = std::time::Instant::now();
-        let frame = Frame::load(path)?;
-        frame.check_size(path, k.width, k.height)?;
-        let decode_ms = t.elapsed().as_secs_f64() * 1e3;
-        let e = est.estimate(i, &seq.times[i], &frame, &lin).with_context(|| format!("{}", path.display()))?;
-        let truth = seq.truth.as_ref().map(|t| t[i]);
-        let error = match (truth, e.pd, e.pa) {
-            (Some(t), Some(pd), Some(pa)) => {
-                let (ed, ea) = lighting_error(&pd, &pa, &t.pd, &t.pa);
-                errs_pd.push(ed);
-                errs_pa.push(ea);
-                Some(ErrorPair { pd: ed, pa: ea })
-            }
-            _ => None,
-        };
-        *statuses.entry(e.status).or_default() += 1;
-        let ts = (seq.times[i] - seq.times[0]).num_milliseconds() as f64 / 1e3;
-        if let (Some(pd), Some(pa)) = (e.pd, e.pa) {
-            plot[0].push((ts, luma(&pd)));
-            plot[1].push((ts, luma(&pa)));
-        }
-        if let Some(s) = e.smoothed {
-            plot[2].push((ts, luma(&s.pd)));
-            plot[3].push((ts, luma(&s.pa)));
-        }
-        if let Some(t) = truth {
-            plot[4].push((ts, luma(&t.pd)));
-            plot[5].push((ts, luma(&t.pa)));
-        }
-        ms.push(e.estimate_ms);
-        decode.push(decode_ms);
-        out.write(&Record { estimate: &e, decode_ms, truth, error })?;
-        pb.inc(1);
-    }
-    pb.finish_and_clear();
-
+    let Tally { statuses, errs_pd, errs_pa, ms, decode, plot } = tally;
     let mut t = Table::new(&["quantity", "value"]);
     t.push(vec!["frames".into(), seq.files.len().to_string()]);
     for (s, n) in &statuses {
@@ -122,7 +161,7 @@ pub fn run(a: EstimateArgs) -> Result<()> {
     t.push(vec!["median estimate time per frame".into(), format!("{:.3} ms", median(&ms))]);
     t.push(vec!["median decode time per frame".into(), format!("{:.3} ms", median(&decode))]);
     eprint!("{t}");
-    if let Some(p) = out.path() {
+    if let Some(p) = &a.output {
         eprintln!("wrote {}", p.display());
     }
     if let Some(path) = &a.plot {
@@ -135,8 +174,9 @@ pub fn run(a: EstimateArgs) -> Result<()> {
             .map(|(k, (points, name))| Series { name: name.into(), points, reference: k >= 4 })
             .collect();
         let title = format!("{} / {}: sun and sky irradiance (luminance)", scene.manifest.name, seq.name);
-        line_plot_svg(path, &title, "time since first frame (s)", "irradiance (scaled radiance units)", &series, false, false)
-            .with_context(|| format!("writing {}", path.display()))?;
+        crate::common::write_output(path, |tmp| {
+            Ok(line_plot_svg(tmp, &title, "time since first frame (s)", "irradiance (scaled radiance units)", &series, false, false)?)
+        })?;
         eprintln!("wrote {}", path.display());
     }
     Ok(())

@@ -19,6 +19,10 @@ use clap::{Parser, Subcommand};
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Read files a scene names outside its folder (absolute paths, `..`, symlinks out, glTF
+    /// buffers and images); refused by default.
+    #[arg(long, global = true)]
+    allow_outside_scene: bool,
 }
 
 #[derive(Subcommand)]
@@ -46,6 +50,7 @@ enum Command {
 
 fn main() {
     let cli = Cli::parse();
+    common::set_load_options(heliar::scene::LoadOptions { allow_outside_scene: cli.allow_outside_scene });
     let result = match cli.command {
         Command::Sun(a) => sun::run(a),
         Command::Estimate(a) => estimate::run(a),

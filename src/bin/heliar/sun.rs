@@ -3,7 +3,6 @@
 use anyhow::{Context, Result, bail};
 use chrono::DateTime;
 use clap::Args;
-use heliar::scene::Scene;
 use heliar::sun::{GeoFrame, Observer, sun_position};
 use std::io::Write;
 use std::path::PathBuf;
@@ -23,7 +22,7 @@ pub struct SunArgs {
     #[arg(long, allow_hyphen_values = true)]
     elevation: Option<f64>,
     /// Air pressure for refraction, mbar.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pressure: Option<f64>,
     /// Air temperature for refraction, °C.
     #[arg(long, allow_hyphen_values = true)]
@@ -40,21 +39,38 @@ pub struct SunArgs {
     /// Where batch output goes (default: stdout).
     #[arg(long, requires = "csv")]
     output: Option<PathBuf>,
+    /// Write the output even over the input CSV or a file of the scene.
+    #[arg(long)]
+    force: bool,
+}
+
+/// The command-line option (or, for values from a CSV row, the column) of an [`Observer`] field.
+fn option_of(field: &str, csv_row: bool) -> String {
+    let (option, column) = match field {
+        "latitude_deg" => ("--lat", Some("lat")),
+        "longitude_deg" => ("--lon", Some("lon")),
+        "elevation_m" => ("--elevation", Some("elevation_m")),
+        "pressure_mbar" => ("--pressure", None),
+        "temperature_c" => ("--temperature", None),
+        "delta_t_s" => ("--delta-t", None),
+        other => (other, None),
+    };
+    match column {
+        Some(c) if csv_row => format!("column {c} (or {option})"),
+        _ => option.to_owned(),
+    }
 }
 
 pub fn run(a: SunArgs) -> Result<()> {
     let scene = match &a.scene {
-        Some(dir) => Some(Scene::load(dir).with_context(|| format!("loading scene {}", dir.display()))?),
+        Some(dir) => Some(crate::common::read_scene(dir)?),
         None => None,
     };
     let geo: Option<GeoFrame> = scene.as_ref().map(|s| s.geo);
-    let base = |lat: Option<f64>, lon: Option<f64>, elev: Option<f64>| -> Result<Observer> {
+    let base = |lat: Option<f64>, lon: Option<f64>, elev: Option<f64>, csv_row: bool| -> Result<Observer> {
         let s = scene.as_ref().map(|s| s.observer);
         let lat = lat.or(s.map(|o| o.latitude_deg)).context("--lat is required (or --scene)")?;
         let lon = lon.or(s.map(|o| o.longitude_deg)).context("--lon is required (or --scene)")?;
-        if !(lat.abs() <= 90.0) || !(lon.abs() <= 180.0) {
-            bail!("latitude {lat} / longitude {lon} out of range");
-        }
         let mut o = s.unwrap_or_else(|| Observer::new(lat, lon, 0.0));
         o.latitude_deg = lat;
         o.longitude_deg = lon;
@@ -70,13 +86,20 @@ pub fn run(a: SunArgs) -> Result<()> {
         if a.delta_t.is_some() {
             o.delta_t_s = a.delta_t;
         }
+        // The limits of scene.toml's [place], from the same check.
+        o.validate().map_err(|(field, msg)| anyhow::anyhow!("{}: {msg} (the limits of scene.toml's place.{field})", option_of(field, csv_row)))?;
         Ok(o)
     };
 
     if let Some(csv) = &a.csv {
+        if let Some(p) = &a.output {
+            crate::common::guard_files(a.scene.as_deref(), &[csv.as_path()], &[p.as_path()], a.force)?;
+        }
         let text = std::fs::read_to_string(csv).with_context(|| format!("reading {}", csv.display()))?;
-        let mut out: Box<dyn Write> = match &a.output {
-            Some(p) => Box::new(std::io::BufWriter::new(std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?)),
+        // To a file: the whole table, then one write through a temporary file and a rename.
+        let mut buf: Vec<u8> = Vec::new();
+        let mut out: Box<dyn Write + '_> = match &a.output {
+            Some(_) => Box::new(&mut buf),
             None => Box::new(std::io::stdout()),
         };
         let mut header = "lat,lon,time,elevation_m,zenith_deg,apparent_zenith_deg,azimuth_deg,above_horizon".to_string();
@@ -104,7 +127,7 @@ pub fn run(a: SunArgs) -> Result<()> {
                 Some(s) if !s.is_empty() => Some(s.parse::<f64>().with_context(|| format!("{}: elevation '{s}' is not a number", row()))?),
                 _ => None,
             };
-            let obs = base(Some(lat), Some(lon), elev).with_context(row)?;
+            let obs = base(Some(lat), Some(lon), elev, true).with_context(row)?;
             let p = sun_position(&obs, &t).with_context(row)?;
             let mut line = format!(
                 "{lat},{lon},{},{},{:.6},{:.6},{:.6},{}",
@@ -121,12 +144,16 @@ pub fn run(a: SunArgs) -> Result<()> {
             }
             writeln!(out, "{line}")?;
         }
+        drop(out);
+        if let Some(p) = &a.output {
+            crate::common::write_output(p, |tmp| Ok(std::fs::write(tmp, &buf)?))?;
+        }
         return Ok(());
     }
 
     let time = a.time.as_deref().context("--time is required (or --csv FILE)")?;
     let t = DateTime::parse_from_rfc3339(time).with_context(|| format!("--time '{time}' is not RFC 3339 with offset"))?;
-    let obs = base(a.lat, a.lon, None)?;
+    let obs = base(a.lat, a.lon, None, false)?;
     let p = sun_position(&obs, &t)?;
     let mut v = serde_json::json!({
         "time": t.to_rfc3339(),

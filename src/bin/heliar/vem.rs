@@ -89,6 +89,30 @@ pub struct VemArgs {
     /// Also write an SVG plot of the frame power, raw and filtered.
     #[arg(long)]
     plot: Option<PathBuf>,
+    /// Write the outputs even over an input or a file of the scene.
+    #[arg(long)]
+    force: bool,
+}
+
+/// Refuses outputs over the input frames, the calibration or the scene (unless `--force`).
+fn check_outputs(a: &VemArgs) -> Result<()> {
+    let mut inputs: Vec<&std::path::Path> = vec![a.input.as_path()];
+    inputs.extend(a.calib.as_deref());
+    let guard = heliar::io::guard::OutputGuard::new(a.scene.as_deref(), &inputs, a.force);
+    match (&a.scene, &a.output) {
+        (Some(_), Some(dir)) => {
+            guard.check_dir(dir)?;
+            for f in ["frames.jsonl", "report.json", "contact_sheet.png"] {
+                guard.check_file(&dir.join(f))?;
+            }
+        }
+        (None, Some(file)) => guard.check_file(file)?,
+        _ => {}
+    }
+    if let Some(p) = &a.plot {
+        guard.check_file(p)?;
+    }
+    Ok(())
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32)> {
@@ -118,6 +142,7 @@ pub fn run(a: VemArgs) -> Result<()> {
     if !(0.0..=1.0).contains(&a.max_invalid_fraction) {
         bail!("--max-invalid-fraction {} must be in [0, 1]", a.max_invalid_fraction);
     }
+    check_outputs(&a)?;
     let mut stage = VemStage::open(&a.input, a.calib.as_deref(), cfg)?;
     stage.input.max_invalid_fraction = a.max_invalid_fraction;
     if let Some(c) = &stage.input.calib
@@ -136,7 +161,7 @@ pub fn run(a: VemArgs) -> Result<()> {
     let mut scene = match (&a.scene, &a.output) {
         (Some(scene), Some(dir)) => {
             let rcfg = VemRenderConfig { shadow_slots: a.shadow_maps, tile: a.shadow_tile, culling: !a.no_culling, shadows: !a.no_shadows, ..Default::default() };
-            let s = VemScene::new(scene, dir, rcfg, a.rate_hz)?;
+            let s = VemScene::from_scene(crate::common::read_scene(scene)?, dir, rcfg, a.rate_hz)?;
             eprintln!("GPU: {}", s.adapter());
             Some(s)
         }
@@ -147,11 +172,19 @@ pub fn run(a: VemArgs) -> Result<()> {
         (None, p) => p.clone(),
         _ => None,
     };
-    let mut out = match &jsonl {
-        Some(p) => JsonLines::create(p).with_context(|| format!("creating {}", p.display()))?,
-        None => JsonLines::stdout(),
+    let (clustered, rate_hz) = (a.clusters.is_some(), a.rate_hz);
+    let stats = match &jsonl {
+        Some(p) => {
+            let mut stats = None;
+            crate::common::write_output(p, |tmp| {
+                let mut out = JsonLines::create(tmp).with_context(|| format!("creating {}", tmp.display()))?;
+                stats = Some(run_vem(&mut stage, scene.as_mut(), &mut out, rate_hz, clustered, &mut BarObserver::default())?);
+                Ok(())
+            })?;
+            stats.context("the frame loop gave no statistics")?
+        }
+        None => run_vem(&mut stage, scene.as_mut(), &mut JsonLines::stdout(), rate_hz, clustered, &mut BarObserver::default())?,
     };
-    let stats = run_vem(&mut stage, scene.as_mut(), &mut out, a.rate_hz, a.clusters.is_some(), &mut BarObserver::default())?;
     let mut t = Table::new(&["quantity", "value"]);
     t.push(vec!["frames".into(), stage.len().to_string()]);
     for (s, n) in &stats.statuses {
@@ -162,7 +195,7 @@ pub fn run(a: VemArgs) -> Result<()> {
     t.push(vec!["median decode + resample per frame".into(), format!("{:.3} ms", median(&stats.decode_ms))]);
     t.push(vec!["median decomposition per frame".into(), format!("{:.3} ms", median(&stats.decompose_ms))]);
     eprint!("{t}");
-    if let Some(p) = out.path() {
+    if let Some(p) = &jsonl {
         eprintln!("wrote {}", p.display());
     }
     if let Some(s) = scene {
@@ -173,8 +206,9 @@ pub fn run(a: VemArgs) -> Result<()> {
             Series { name: "frame power".into(), points: stats.power.iter().map(|p| (p.0, p.1)).collect(), reference: true },
             Series { name: format!("filtered ({delay}-frame delay)"), points: stats.power.iter().map(|p| (p.0, p.2)).collect(), reference: false },
         ];
-        line_plot_svg(path, "VEM power (luminance), raw and FIR-filtered", "time (s)", "power (scaled radiance × sr)", &series, false, false)
-            .with_context(|| format!("writing {}", path.display()))?;
+        crate::common::write_output(path, |tmp| {
+            Ok(line_plot_svg(tmp, "VEM power (luminance), raw and FIR-filtered", "time (s)", "power (scaled radiance × sr)", &series, false, false)?)
+        })?;
         eprintln!("wrote {}", path.display());
     }
     Ok(())

@@ -196,6 +196,9 @@ impl FisheyeCalib {
         let world_from_camera = match (o.optical_axis, o.image_up, o.rvec_camera_from_world) {
             (Some(axis), Some(up), None) => {
                 let (axis, up) = (finite3(path, "orientation.optical_axis", axis)?, finite3(path, "orientation.image_up", up)?);
+                if axis.try_normalize().is_none() {
+                    return Err(invalid(path, "orientation.optical_axis", "is zero (give the direction the lens looks along)"));
+                }
                 Pose::look_at(DVec3::ZERO, axis, up)
                     .ok_or_else(|| invalid(path, "orientation.image_up", "is zero or parallel to the optical axis"))?
                     .rotation
@@ -382,6 +385,7 @@ mod tests {
         let cases: &[(&str, &str)] = &[
             ("[orientation]\noptical_axis = [0.0, 1.0, 0.0]\n", "orientation"),
             ("[orientation]\noptical_axis = [0.0, 1.0, 0.0]\nimage_up = [0.0, 2.0, 0.0]\n", "orientation.image_up"),
+            ("[orientation]\noptical_axis = [0.0, 0.0, 0.0]\nimage_up = [0.0, 0.0, -1.0]\n", "orientation.optical_axis"),
             ("k = [-0.5, 0.0, 0.0, 0.0]\n[orientation]\nrvec_camera_from_world = [0.0, 0.0, 0.0]\n", "`k`"),
             ("[orientation]\nrvec_camera_from_world = [0.0, 0.0, 0.0]\n[response]\nkind = \"log\"\n", "response.patches"),
             ("[orientation]\nrvec_camera_from_world = [0.0, 0.0, 0.0]\n[response]\nkind = \"magic\"\n", "response.kind"),
