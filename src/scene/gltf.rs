@@ -139,44 +139,11 @@ pub fn load_gltf_with(
     if !path.exists() {
         return Err(SceneError::Missing { path: path.to_owned() });
     }
-    // What `gltf::import` does, with the URIs checked before any is read.
-    let gltf::Gltf { document: doc, blob } = gltf::Gltf::open(path).map_err(|e| gerr(e.to_string()))?;
-    for b in doc.buffers() {
-        if let gltf::buffer::Source::Uri(uri) = b.source() {
-            check_uri(path, &format!("buffers[{}].uri", b.index()), uri, confine)?;
-        }
-    }
-    for img in doc.images() {
-        if let gltf::image::Source::Uri { uri, .. } = img.source() {
-            check_uri(path, &format!("images[{}].uri", img.index()), uri, confine)?;
-        }
-    }
-    let base = path.parent();
-    let buffers = gltf::import_buffers(&doc, base, blob).map_err(|e| gerr(e.to_string()))?;
-    let images = gltf::import_images(&doc, base, &buffers).map_err(|e| gerr(e.to_string()))?;
+    let (doc, buffers, images) = import_checked(path, confine)?;
     let mut mesh = Mesh::default();
     let mut notes = LoadNotes::default();
 
-    for img in &images {
-        // Unsupported pixel formats become a white texture so indices stay aligned.
-        mesh.textures.push(texture_from_image(img).unwrap_or(Texture { width: 1, height: 1, data: vec![[1.0; 3]] }));
-    }
-    for m in doc.materials() {
-        let pbr = m.pbr_metallic_roughness();
-        let tex = pbr.base_color_texture();
-        if tex.as_ref().is_some_and(|t| t.tex_coord() != 0) {
-            notes.other_texcoord_sets += 1;
-        }
-        mesh.materials.push(Material {
-            name: m.name().unwrap_or_default().to_owned(),
-            base_color: pbr.base_color_factor(),
-            base_color_texture: tex.map(|t| t.texture().source().index() as u32),
-            metallic: pbr.metallic_factor(),
-            roughness: pbr.roughness_factor(),
-        });
-    }
-    let default_material = mesh.materials.len() as u32;
-    mesh.materials.push(Material::default());
+    let default_material = push_materials(&doc, &images, &mut mesh, &mut notes);
 
     let scene = doc.default_scene().or_else(|| doc.scenes().next()).ok_or_else(|| gerr("the file has no scene".into()))?;
     let mut stack: Vec<(gltf::Node, Mat4, bool)> = scene.nodes().map(|n| (n, placement, false)).collect();
@@ -196,47 +163,8 @@ pub fn load_gltf_with(
         let node_index = mesh.nodes.len() as u32;
         mesh.nodes.push(NodeInfo { name: name.clone(), diffuse });
         for prim in gmesh.primitives() {
-            if prim.mode() != gltf::mesh::Mode::Triangles {
-                notes.skipped_primitives += 1;
-                continue;
-            }
-            let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
-            let positions: Vec<Vec3> = reader
-                .read_positions()
-                .ok_or_else(|| gerr(format!("node '{name}': a primitive has no POSITION attribute")))?
-                .map(|p| world.transform_point3(Vec3::from(p)))
-                .collect();
-            if positions.iter().any(|p| !p.is_finite()) {
-                return Err(gerr(format!("node '{name}': non-finite vertex positions")));
-            }
-            let v0 = mesh.positions.len() as u32;
-            let nv = positions.len() as u32;
-            let normals: Option<Vec<Vec3>> =
-                reader.read_normals().map(|it| it.map(|n| (normal_matrix * Vec3::from(n)).normalize_or_zero()).collect());
-            let uvs: Vec<Vec2> = match reader.read_tex_coords(0) {
-                Some(t) => t.into_f32().map(Vec2::from).collect(),
-                None => vec![Vec2::ZERO; positions.len()],
-            };
-            let indices: Vec<u32> = match reader.read_indices() {
-                Some(i) => i.into_u32().collect(),
-                None => (0..nv).collect(),
-            };
-            if indices.len() % 3 != 0 || indices.iter().any(|&i| i >= nv) || uvs.len() != positions.len() {
-                return Err(gerr(format!("node '{name}': malformed index or attribute data")));
-            }
-            match normals {
-                Some(n) if n.len() == positions.len() && (mesh.normals.len() == mesh.positions.len()) => mesh.normals.extend(n),
-                _ => mesh.normals.clear(),
-            }
-            mesh.positions.extend(positions);
-            mesh.uvs.extend(uvs);
-            let material = prim.material().index().map(|i| i as u32).unwrap_or(default_material);
-            for t in indices.chunks_exact(3) {
-                let tri = if flip { [t[0], t[2], t[1]] } else { [t[0], t[1], t[2]] };
-                mesh.triangles.push(tri.map(|i| i + v0));
-                mesh.tri_node.push(node_index);
-                mesh.tri_material.push(material);
-            }
+            let at = Placed { world, normal_matrix, flip, node_index, default_material };
+            push_primitive(path, &name, &prim, &buffers, &at, &mut mesh, &mut notes)?;
         }
     }
     if mesh.triangles.is_empty() {
@@ -253,6 +181,110 @@ pub fn load_gltf_with(
         }
     }
     Ok((mesh, notes))
+}
+
+/// What `gltf::import` does, with every buffer and image URI checked ([`check_uri`]) before any
+/// is read.
+#[allow(clippy::type_complexity)]
+fn import_checked(path: &Path, confine: Option<&Path>) -> Result<(gltf::Document, Vec<gltf::buffer::Data>, Vec<gltf::image::Data>), SceneError> {
+    let gerr = |message: String| SceneError::Gltf { path: path.to_owned(), message };
+    let gltf::Gltf { document: doc, blob } = gltf::Gltf::open(path).map_err(|e| gerr(e.to_string()))?;
+    for b in doc.buffers() {
+        if let gltf::buffer::Source::Uri(uri) = b.source() {
+            check_uri(path, &format!("buffers[{}].uri", b.index()), uri, confine)?;
+        }
+    }
+    for img in doc.images() {
+        if let gltf::image::Source::Uri { uri, .. } = img.source() {
+            check_uri(path, &format!("images[{}].uri", img.index()), uri, confine)?;
+        }
+    }
+    let base = path.parent();
+    let buffers = gltf::import_buffers(&doc, base, blob).map_err(|e| gerr(e.to_string()))?;
+    let images = gltf::import_images(&doc, base, &buffers).map_err(|e| gerr(e.to_string()))?;
+    Ok((doc, buffers, images))
+}
+
+/// The file's textures and materials (and a default material, whose index is returned).
+fn push_materials(doc: &gltf::Document, images: &[gltf::image::Data], mesh: &mut Mesh, notes: &mut LoadNotes) -> u32 {
+    for img in images {
+        // Unsupported pixel formats become a white texture so indices stay aligned.
+        mesh.textures.push(texture_from_image(img).unwrap_or(Texture { width: 1, height: 1, data: vec![[1.0; 3]] }));
+    }
+    for m in doc.materials() {
+        let pbr = m.pbr_metallic_roughness();
+        let tex = pbr.base_color_texture();
+        if tex.as_ref().is_some_and(|t| t.tex_coord() != 0) {
+            notes.other_texcoord_sets += 1;
+        }
+        mesh.materials.push(Material {
+            name: m.name().unwrap_or_default().to_owned(),
+            base_color: pbr.base_color_factor(),
+            base_color_texture: tex.map(|t| t.texture().source().index() as u32),
+            metallic: pbr.metallic_factor(),
+            roughness: pbr.roughness_factor(),
+        });
+    }
+    let default_material = mesh.materials.len() as u32;
+    mesh.materials.push(Material::default());
+    default_material
+}
+
+/// Where a node's primitives go: its world transform (and the normals' matrix, and whether it
+/// mirrors), its node index and the material of primitives without one.
+struct Placed {
+    world: Mat4,
+    normal_matrix: Mat3,
+    flip: bool,
+    node_index: u32,
+    default_material: u32,
+}
+
+/// Appends one primitive of node `name` (triangles only; others are counted and skipped).
+fn push_primitive(path: &Path, name: &str, prim: &gltf::Primitive, buffers: &[gltf::buffer::Data], at: &Placed, mesh: &mut Mesh, notes: &mut LoadNotes) -> Result<(), SceneError> {
+    let gerr = |message: String| SceneError::Gltf { path: path.to_owned(), message };
+    if prim.mode() != gltf::mesh::Mode::Triangles {
+        notes.skipped_primitives += 1;
+        return Ok(());
+    }
+    let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+    let positions: Vec<Vec3> = reader
+        .read_positions()
+        .ok_or_else(|| gerr(format!("node '{name}': a primitive has no POSITION attribute")))?
+        .map(|p| at.world.transform_point3(Vec3::from(p)))
+        .collect();
+    if positions.iter().any(|p| !p.is_finite()) {
+        return Err(gerr(format!("node '{name}': non-finite vertex positions")));
+    }
+    let v0 = mesh.positions.len() as u32;
+    let nv = positions.len() as u32;
+    let normals: Option<Vec<Vec3>> =
+        reader.read_normals().map(|it| it.map(|n| (at.normal_matrix * Vec3::from(n)).normalize_or_zero()).collect());
+    let uvs: Vec<Vec2> = match reader.read_tex_coords(0) {
+        Some(t) => t.into_f32().map(Vec2::from).collect(),
+        None => vec![Vec2::ZERO; positions.len()],
+    };
+    let indices: Vec<u32> = match reader.read_indices() {
+        Some(i) => i.into_u32().collect(),
+        None => (0..nv).collect(),
+    };
+    if indices.len() % 3 != 0 || indices.iter().any(|&i| i >= nv) || uvs.len() != positions.len() {
+        return Err(gerr(format!("node '{name}': malformed index or attribute data")));
+    }
+    match normals {
+        Some(n) if n.len() == positions.len() && (mesh.normals.len() == mesh.positions.len()) => mesh.normals.extend(n),
+        _ => mesh.normals.clear(),
+    }
+    mesh.positions.extend(positions);
+    mesh.uvs.extend(uvs);
+    let material = prim.material().index().map(|i| i as u32).unwrap_or(at.default_material);
+    for t in indices.chunks_exact(3) {
+        let tri = if at.flip { [t[0], t[2], t[1]] } else { [t[0], t[1], t[2]] };
+        mesh.triangles.push(tri.map(|i| i + v0));
+        mesh.tri_node.push(at.node_index);
+        mesh.tri_material.push(material);
+    }
+    Ok(())
 }
 
 /// Writes `mesh` as a binary glTF: one node per [`NodeInfo`] (named, with

@@ -133,30 +133,10 @@ pub fn run(a: VemArgs) -> Result<()> {
         glossy_lights: a.glossy_lights,
         ..VemConfig::default()
     };
-    if a.scene.is_some() && a.output.is_none() {
-        bail!("--scene needs --output OUT_DIR (the folder for frames, report and contact sheet)");
-    }
-    if a.shadow_maps == 0 || a.shadow_tile == 0 {
-        bail!("--shadow-maps and --shadow-tile must be positive");
-    }
-    if !(0.0..=1.0).contains(&a.max_invalid_fraction) {
-        bail!("--max-invalid-fraction {} must be in [0, 1]", a.max_invalid_fraction);
-    }
-    check_outputs(&a)?;
+    check_options(&a)?;
     let mut stage = VemStage::open(&a.input, a.calib.as_deref(), cfg)?;
     stage.input.max_invalid_fraction = a.max_invalid_fraction;
-    if let Some(c) = &stage.input.calib
-        && let Some((lr, Some(rep))) = &c.log_response
-    {
-        eprintln!(
-            "log response c = {:.4} + {:.4}·ln Y from {} patches: max error {:.1}% (check patches: {})",
-            lr.a,
-            lr.b,
-            rep.fit_patches,
-            100.0 * rep.fit_max_rel_error,
-            rep.check_max_rel_error.map_or("none".into(), |e| format!("{:.1}%", 100.0 * e))
-        );
-    }
+    print_response(&stage);
     let delay = stage.dec.filter_design().delay_frames();
     let mut scene = match (&a.scene, &a.output) {
         (Some(scene), Some(dir)) => {
@@ -212,4 +192,34 @@ pub fn run(a: VemArgs) -> Result<()> {
         eprintln!("wrote {}", path.display());
     }
     Ok(())
+}
+
+/// The options' own consistency and the outputs' guards, before anything is read.
+fn check_options(a: &VemArgs) -> Result<()> {
+    if a.scene.is_some() && a.output.is_none() {
+        bail!("--scene needs --output OUT_DIR (the folder for frames, report and contact sheet)");
+    }
+    if a.shadow_maps == 0 || a.shadow_tile == 0 {
+        bail!("--shadow-maps and --shadow-tile must be positive");
+    }
+    if !(0.0..=1.0).contains(&a.max_invalid_fraction) {
+        bail!("--max-invalid-fraction {} must be in [0, 1]", a.max_invalid_fraction);
+    }
+    check_outputs(a)
+}
+
+/// Prints the calibrated log response and its errors, when the lens file has one.
+fn print_response(stage: &VemStage) {
+    if let Some(c) = &stage.input.calib
+        && let Some((lr, Some(rep))) = &c.log_response
+    {
+        eprintln!(
+            "log response c = {:.4} + {:.4}·ln Y from {} patches: max error {:.1}% (check patches: {})",
+            lr.a,
+            lr.b,
+            rep.fit_patches,
+            100.0 * rep.fit_max_rel_error,
+            rep.check_max_rel_error.map_or("none".into(), |e| format!("{:.1}%", 100.0 * e))
+        );
+    }
 }
