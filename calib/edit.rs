@@ -55,8 +55,9 @@ pub fn rel_inside(dir: &Path, rel: &Path) -> Option<PathBuf> {
 
 /// Checks that the scene at `dir` still loads with `changes` (path relative to the scene → new
 /// contents) applied, on a temporary copy; `dir` itself is not touched.
-fn validate_edit(dir: &Path, changes: &[(PathBuf, Vec<u8>)]) -> Result<()> {
-    let scene = Scene::load(dir).with_context(|| format!("loading {}", dir.display()))?;
+/// `outside`: the scene's own files may lie outside its folder (the user allowed it).
+fn validate_edit(dir: &Path, changes: &[(PathBuf, Vec<u8>)], outside: bool) -> Result<()> {
+    let scene = Scene::load_with(dir, &heliar::scene::LoadOptions { allow_outside_scene: outside }).with_context(|| format!("loading {}", dir.display()))?;
     let frame_dirs: Vec<PathBuf> = scene.manifest.sequences.iter().map(|s| dir.join(&s.dir)).collect();
     let tmp = temp_sibling(dir, "edit");
     let _ = std::fs::remove_dir_all(&tmp);
@@ -87,7 +88,7 @@ pub fn edit_scene(dir: &Path, changes: &[(PathBuf, Vec<u8>)]) -> Result<Scene> {
         };
         inside.push((r, bytes.clone()));
     }
-    validate_edit(dir, &inside)?;
+    validate_edit(dir, &inside, false)?;
     for (rel, bytes) in &inside {
         let p = dir.join(rel);
         if let Some(parent) = p.parent() {
@@ -111,12 +112,12 @@ pub fn edit_camera_outside(dir: &Path, target: &Path, bytes: &[u8]) -> Result<Sc
         let mut doc: toml_edit::DocumentMut = text.parse().with_context(|| format!("{}: not valid TOML", mpath.display()))?;
         let camera = doc.get_mut("camera").and_then(|c| c.as_table_like_mut()).with_context(|| format!("{}: no [camera] table", mpath.display()))?;
         camera.insert("file", toml_edit::value(check.to_string_lossy().into_owned()));
-        validate_edit(dir, &[(PathBuf::from(heliar::scene::MANIFEST_FILE), doc.to_string().into_bytes())])
+        validate_edit(dir, &[(PathBuf::from(heliar::scene::MANIFEST_FILE), doc.to_string().into_bytes())], true)
     })();
     let _ = std::fs::remove_file(&check);
     result?;
     write_atomic(target, bytes)?;
-    Scene::load(dir).with_context(|| format!("reloading {}", dir.display()))
+    Scene::load_with(dir, &heliar::scene::LoadOptions { allow_outside_scene: true }).with_context(|| format!("reloading {}", dir.display()))
 }
 
 /// Creates the scene folder `out` from `files` (relative path → contents, or a source file to

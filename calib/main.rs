@@ -169,7 +169,8 @@ struct PoseArgs {
 }
 
 fn pose(a: PoseArgs) -> Result<()> {
-    let scene = Scene::load(&a.scene).with_context(|| format!("loading {}", a.scene.display()))?;
+    let options = heliar::scene::LoadOptions { allow_outside_scene: a.allow_outside_scene };
+    let scene = Scene::load_with(&a.scene, &options).with_context(|| format!("loading {}", a.scene.display()))?;
     let (px, world) = ops::pose::read_pairs(&a.pairs)?;
     let k = &scene.camera.intrinsics;
     ops::pose::check_inside(k, &px, &a.pairs.display().to_string())?;

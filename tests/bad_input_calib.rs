@@ -248,7 +248,10 @@ fn pose_stays_inside_the_scene_folder() {
     let (ok, _, err) = calib(&["pose", s(&scene), "--pairs", s(&pairs), "--allow-outside-scene"]);
     assert!(ok, "{err}");
     assert!(std::fs::read_to_string(d.join("x/camera.toml")).unwrap().contains("rvec_camera_from_world"));
-    heliar::scene::Scene::load(&scene).unwrap();
+    // (The scene itself reads the outside camera file only when told so.)
+    let outside = heliar::scene::LoadOptions { allow_outside_scene: true };
+    heliar::scene::Scene::load_with(&scene, &outside).unwrap();
+    assert!(heliar::scene::Scene::load(&scene).is_err());
     assert_eq!(std::fs::read_dir(d.join("x")).unwrap().count(), 1);
     std::fs::remove_dir_all(&d).ok();
 }
