@@ -68,7 +68,10 @@ impl Estimator {
                 PixelState::Ok if censored(self.pool.node[e], sun.lit[e]) => counts.censored += 1,
                 PixelState::Ok => {
                     let (a, b) = match &self.sun_sky {
-                        Some(sky) => (sky.a[e], std::array::from_fn(|c| sun.b[e][c] + sky.b[e][c])),
+                        Some(sky) => {
+                            let a = if self.overcast { sky.a_overcast[e] } else { sky.a[e] };
+                            (a, std::array::from_fn(|c| sun.b[e][c] + sky.b[e][c]))
+                        }
                         None => (self.pool.a[e], sun.b[e]),
                     };
                     for c in 0..3 {

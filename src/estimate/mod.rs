@@ -77,6 +77,8 @@ pub struct Estimator {
     /// current sun.
     sky: Option<sky_terms::SkyTerms>,
     sun_sky: Option<sky_terms::SunSky>,
+    /// The last smoothed lighting had no direct sun: the sky is taken as uniform.
+    overcast: bool,
     /// Time of the last frame that updated the smoother.
     last_update: Option<DateTime<FixedOffset>>,
     rows: [ChannelRows; 3],
@@ -153,6 +155,7 @@ impl Estimator {
             last_update: None,
             sky,
             sun_sky: None,
+            overcast: false,
             rows: Default::default(),
             lit: Vec::new(),
             bounce_only: Vec::new(),
@@ -192,6 +195,14 @@ impl Estimator {
     /// The current sun state, after the first frame.
     pub fn sun_state(&self) -> Option<&SunState> {
         self.sun.as_ref()
+    }
+
+    /// The sky this frame's model uses (see `sky_terms`: overcast frames use the uniform one).
+    fn sky_used(&self) -> crate::scene::settings::SkyShape {
+        match (&self.sky, self.overcast) {
+            (Some(_), false) => self.config.sky.shape,
+            _ => crate::scene::settings::SkyShape::Uniform,
+        }
     }
 
     /// Sun position and world direction at `time`.
@@ -257,6 +268,7 @@ impl Estimator {
             sun_rebuilt: rebuilt,
             sun_rebuild_ms,
             estimate_ms: 0.0,
+            sky: self.sky_used(),
         };
 
         if self.is_dark(time) {

@@ -140,6 +140,8 @@ pub struct FrameEstimate {
     pub sun_rebuild_ms: f64,
     /// Time of the per-frame estimate (sampling and fit, excluding decode and rebuild), ms.
     pub estimate_ms: f64,
+    /// The sky's shape in this frame's model (`uniform` after a frame without direct sun).
+    pub sky: crate::scene::settings::SkyShape,
 }
 
 /// Errors setting up the estimator.

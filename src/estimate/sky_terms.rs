@@ -19,6 +19,11 @@
 //! `L_t = ρ_t/π·(Pa + max(l_y,0)·Pd)`, [`crate::sky::terrain`]). Both unknowns stay linear, so the
 //! solver is unchanged. Visibility along the set is traced once per pool entry; a new sun only
 //! re-evaluates the sky.
+//!
+//! **Overcast.** A clear-sky shape is wrong under cloud, whose sky is close to uniform. After a
+//! frame whose smoothed `Pd` is below `no_sun_ratio` of `Pa` (status `no_direct_sun`), the next
+//! frames use the uniform sky (with the terrain) until the sun is back; each frame's report says
+//! which sky it used (`sky`).
 
 use super::pool::Pool;
 use crate::geometry::raycast::RayScene;
@@ -43,6 +48,8 @@ pub struct SkyTerms {
 pub struct SunSky {
     /// `ρ/π·(c + E_shape − E_uniform + ρ_t/π·E_below)` per channel.
     pub a: Vec<[f32; 3]>,
+    /// The same with the uniform sky (`ρ/π·(c + ρ_t/π·E_below)`): overcast frames.
+    pub a_overcast: Vec<[f32; 3]>,
     /// `ρ/π·ρ_t/π·max(l_y,0)·E_below` per channel.
     pub b: Vec<[f32; 3]>,
 }
@@ -92,7 +99,7 @@ impl SkyTerms {
         let w = self.set.weight();
         let rho_t = Vec3::from(self.config.terrain_albedo) / PI;
         let sun_y = if above_horizon { l.y.max(0.0) } else { 0.0 };
-        let per: Vec<([f32; 3], [f32; 3])> = (0..pool.len())
+        let per: Vec<([f32; 3], [f32; 3], [f32; 3])> = (0..pool.len())
             .into_par_iter()
             .map(|k| {
                 let (mut e_shape, mut e_uniform, mut below) = (Vec3::ZERO, 0.0f32, 0u32);
@@ -109,13 +116,19 @@ impl SkyTerms {
                 }
                 let (e_shape, e_uniform, e_below) = (e_shape * w, e_uniform * w, below as f32 * w);
                 let rho = pool.albedo[k] / PI;
-                let a = Vec3::from(pool.a[k]) + rho * (e_shape - Vec3::splat(e_uniform) + rho_t * e_below);
-                let b = rho * rho_t * e_below * sun_y;
-                (a.to_array(), b.to_array())
+                let terrain = rho * rho_t * e_below;
+                let a = Vec3::from(pool.a[k]) + rho * (e_shape - Vec3::splat(e_uniform)) + terrain;
+                let a_overcast = Vec3::from(pool.a[k]) + terrain;
+                (a.to_array(), a_overcast.to_array(), (terrain * sun_y).to_array())
             })
             .collect();
-        let (a, b) = per.into_iter().unzip();
-        Ok(SunSky { a, b })
+        let mut out = SunSky::default();
+        for (a, ao, b) in per {
+            out.a.push(a);
+            out.a_overcast.push(ao);
+            out.b.push(b);
+        }
+        Ok(out)
     }
 }
 

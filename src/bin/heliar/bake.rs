@@ -52,6 +52,13 @@ pub fn bake_with_progress(scene: &Scene, ray: Arc<RayScene>, force: bool) -> Res
     let t = std::time::Instant::now();
     let (baked, cached) = bake_cached(scene, ray, force, &progress).with_context(|| format!("baking {}", scene.root.display()))?;
     let i = &baked.info;
+    if let Some(o) = &i.orientation {
+        match o.warning() {
+            Some(w) => eprintln!("{w}"),
+            None if !cached => eprintln!("environment map orientation: {:.1}% of the upper hemisphere agrees with the proxy (best turn {:.0}°)", 100.0 * o.agreement, o.best_yaw_deg),
+            None => {}
+        }
+    }
     if cached {
         eprintln!("bake of {} is up to date ({} ms to load; `--force` to redo)", scene.root.display(), t.elapsed().as_millis());
     } else {

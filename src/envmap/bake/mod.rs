@@ -44,6 +44,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use steps::{Hits, Inversion, capture_lighting, fill_flagged, hit_buffers};
 
 mod steps;
+pub mod orientation;
 
 /// Texels whose inverse-rendering denominator is below this fraction of `Pa` are flagged: they
 /// receive almost no light, so their radiance says nothing about their albedo.
@@ -141,6 +142,10 @@ pub struct BakeInfo {
     pub config: Option<BakeConfig>,
     /// Wall time per stage, ms.
     pub timings_ms: Vec<(String, f64)>,
+    /// How well the captured map's bright sky matches where the proxy leaves the sky open, as
+    /// read and at the best turn ([`orientation`]); `None` without a map or without both classes.
+    #[serde(default)]
+    pub orientation: Option<orientation::Orientation>,
 }
 
 /// The baked maps, in memory. Vectors are row-major `width × height`.
@@ -256,6 +261,9 @@ pub fn bake_with_map(scene: &Scene, ray: std::sync::Arc<RayScene>, map: Option<L
     let Hits { node, position, normal, base } = hit_buffers(&ray, &view, n);
     info.surface_texels = node.iter().filter(|&&k| k != SKY).count();
     info.sky_texels = n - info.surface_texels;
+    if let Some((img, _)) = &captured {
+        info.orientation = orientation::check(&node, img);
+    }
     lap(&mut info, "hit buffers");
 
     // 2. Weighted ambient.
