@@ -215,6 +215,23 @@ pub struct AugmentOutcome {
     pub error: Option<anyhow::Error>,
 }
 
+/// The run's frames: its first (`A` of a chunk, else 0), the first replayed as warm-up, and the
+/// index it stops before (`max_frames`, the chunk's end), if any.
+fn span(opts: &AugmentOptions) -> Result<(usize, usize, Option<usize>)> {
+    let (first, end) = opts.frames.as_ref().map_or((0, None), |r| (r.start, Some(r.end)));
+    if let Some(e) = end
+        && e <= first
+    {
+        bail!("--frames {first}..{e}: the chunk is empty (A..B runs frames A to B-1)");
+    }
+    let from = first - opts.warmup.unwrap_or(first).min(first);
+    let limit = match (opts.max_frames, end) {
+        (Some(m), Some(e)) => Some(m.min(e)),
+        (m, e) => m.or(e),
+    };
+    Ok((first, from, limit))
+}
+
 /// Augments `input` into `opts.output` (see the module docs). `stop` counts interrupts: the
 /// loop ends after the frame in hand once it is non-zero. Returns the outcome, whose `error`
 /// says why the loop stopped early; set-up failures (unreadable input, unwritable output) are
@@ -228,21 +245,13 @@ pub fn augment(scene: &Scene, input: &Input, session: &mut OutdoorSession, opts:
     let mut source = input.open()?;
     let mut thumbs = Thumbs::new(SHEET_KEEP, SHEET_TILE_WIDTH);
     let mut clock_check = ClockCheck::default();
-    let (first, end) = opts.frames.as_ref().map_or((0, None), |r| (r.start, Some(r.end)));
-    if end.is_some_and(|e| e <= first) {
-        bail!("--frames {first}..{}: the chunk is empty (A..B runs frames A to B-1)", end.unwrap_or(0));
-    }
-    let from = first - opts.warmup.unwrap_or(first).min(first);
+    let (first, from, limit) = span(opts)?;
     let Resumed { done, mut writer } = if opts.resume {
         resume(&out, opts, input, scene, first, &mut thumbs, obs)?
     } else {
         fresh(&out, opts, input, scene, first, &mut thumbs, obs)?
     };
     catch_up((from, first, done), &out, opts, input, source.as_mut(), session, &lin, &mut thumbs, &mut clock_check, obs)?;
-    let limit = match (opts.max_frames, end) {
-        (Some(m), Some(e)) => Some(m.min(e)),
-        (m, e) => m.or(e),
-    };
     let mut report = if done > first { JsonLines::append(&out.report) } else { JsonLines::create(&out.report) }.with_context(|| format!("{}: cannot write the report", out.report.display()))?;
 
     let total = input.count.map(|n| limit.map_or(n, |m| n.min(m)));
@@ -303,13 +312,8 @@ pub fn augment(scene: &Scene, input: &Input, session: &mut OutdoorSession, opts:
     if let Err(e) = crate::io::write_atomic(&out.summary, serde_json::to_string_pretty(&summary)?.as_bytes()) {
         obs.note(&format!("warning: {}: summary not written: {e}", out.summary.display()));
     }
-    if let Some(n) = input.count
-        && i < n
-        && result.is_ok()
-        && !interrupted
-        && limit.is_none_or(|m| i < m)
-    {
-        obs.note(&format!("warning: {} ended after {i} of the {n} frames its container announces (truncated or corrupt)", input.label));
+    if result.is_ok() && !interrupted {
+        warn_if_truncated(input, i, limit, obs);
     }
     let error = match (close_err, result) {
         (Some(e), _) => Some(e.context(format!("closing {}", out.target.display()))),
@@ -317,6 +321,17 @@ pub fn augment(scene: &Scene, input: &Input, session: &mut OutdoorSession, opts:
         (None, Ok(())) => None,
     };
     Ok(AugmentOutcome { summary, outputs: out, error })
+}
+
+/// Warns when a run that ended normally at frame `i` (before `limit`) wrote fewer frames than its
+/// input announces.
+fn warn_if_truncated(input: &Input, i: usize, limit: Option<usize>, obs: &mut dyn Observer) {
+    if let Some(n) = input.count
+        && i < n
+        && limit.is_none_or(|m| i < m)
+    {
+        obs.note(&format!("warning: {} ended after {i} of the {n} frames its container announces (truncated or corrupt)", input.label));
+    }
 }
 
 /// The loop's state over one run.
