@@ -317,7 +317,10 @@ pub fn augment(scene: &Scene, input: &Input, session: &mut OutdoorSession, opts:
     }
     let error = match (close_err, result) {
         (Some(e), _) => Some(e.context(format!("closing {}", out.target.display()))),
-        (None, Err(e)) => Some(e.context(format!("stopped after {i} frames; they are kept in {} (listed in {}); `--resume` continues", out.target.display(), out.report.display()))),
+        (None, Err(e)) => {
+            let kept = if first > 0 { format!("frames {first}..{i} of the chunk") } else { format!("{i} frames") };
+            Some(e.context(format!("stopped after {kept}; they are kept in {} (listed in {}); `--resume` continues", out.target.display(), out.report.display())))
+        }
         (None, Ok(())) => None,
     };
     Ok(AugmentOutcome { summary, outputs: out, error })

@@ -67,16 +67,16 @@ pub(super) struct Resumed {
     pub writer: FrameWriter,
 }
 
-/// Opens the output for `done` kept frames: the folder, or a video (a resumed one copies the
+/// Opens the output for the `kept` frames: the folder, or a video (a resumed one copies the
 /// earlier frames into a partial file that replaces the output when closed).
 #[cfg_attr(not(feature = "opencv"), allow(unused_variables))]
-fn open_writer(out: &Outputs, opts: &AugmentOptions, input: &Input, scene: &Scene, done: usize, old: Option<&mut Box<dyn FrameSource>>, thumbs: &mut Thumbs) -> Result<FrameWriter> {
+fn open_writer(out: &Outputs, opts: &AugmentOptions, input: &Input, scene: &Scene, kept: std::ops::Range<usize>, old: Option<&mut Box<dyn FrameSource>>, thumbs: &mut Thumbs) -> Result<FrameWriter> {
     if !out.video {
         return Ok(FrameWriter::Dir { dir: opts.output.clone(), format: opts.format });
     }
     #[cfg(feature = "opencv")]
     {
-        let partial = (done > 0).then(|| {
+        let partial = (!kept.is_empty()).then(|| {
             let ext = crate::run::source::extension(&out.target).unwrap_or_default();
             out.target.with_extension(format!("partial.{ext}"))
         });
@@ -84,8 +84,8 @@ fn open_writer(out: &Outputs, opts: &AugmentOptions, input: &Input, scene: &Scen
         let k = &scene.camera.intrinsics;
         let mut sink = crate::io::video::VideoSink::create(&path, input.fps, k.width, k.height).with_context(|| format!("{}: cannot write the output video", path.display()))?;
         if let Some(v) = old {
-            for i in 0..done {
-                let Some(f) = v.read()? else { bail!("{}: ended after {i} frames while copying {done}", out.target.display()) };
+            for (n, i) in kept.clone().enumerate() {
+                let Some(f) = v.read()? else { bail!("{}: ended after {n} frames while copying {}", out.target.display(), kept.len()) };
                 let rgb: Vec<u8> = match &f.frame.data {
                     crate::io::frames::FrameData::Ldr { codes, .. } => codes.iter().map(|&c| c as u8).collect(),
                     crate::io::frames::FrameData::Hdr(_) => bail!("{}: unexpected HDR frame from a video", out.target.display()),
@@ -128,7 +128,7 @@ pub(super) fn resume(out: &Outputs, opts: &AugmentOptions, input: &Input, scene:
     } else {
         obs.note(&format!("note: nothing to resume in {}: starting from frame {first}", out.report.display()));
     }
-    let writer = open_writer(out, opts, input, scene, keep, old.as_mut(), thumbs)?;
+    let writer = open_writer(out, opts, input, scene, first..first + keep, old.as_mut(), thumbs)?;
     Ok(Resumed { done: first + keep, writer })
 }
 
@@ -184,5 +184,5 @@ pub(super) fn fresh(out: &Outputs, opts: &AugmentOptions, input: &Input, scene: 
     if out.report.exists() {
         obs.note(&format!("note: overwriting the earlier run in {} (--resume continues one instead)", out.target.display()));
     }
-    Ok(Resumed { done: first, writer: open_writer(out, opts, input, scene, 0, None, thumbs)? })
+    Ok(Resumed { done: first, writer: open_writer(out, opts, input, scene, first..first, None, thumbs)? })
 }
