@@ -44,6 +44,11 @@ pub trait FrameSource: Send {
     fn label(&self) -> String;
     /// The next frame; `None` at the end of a file, or when a camera gave no frame.
     fn read(&mut self) -> Result<Option<SourceFrame>>;
+    /// Passes over the next frame (a chunk's frames before its warm-up); false at the end.
+    /// Sources that can move on without decoding (folders) do.
+    fn skip(&mut self) -> Result<bool> {
+        Ok(self.read()?.is_some())
+    }
     /// Frame rate to pace reading at (files), or `None` for a source that paces itself (cameras).
     fn pace_fps(&self) -> Option<f64>;
     /// True for files and folders: the end of the frames is the end of the input, not a loss.
@@ -97,6 +102,11 @@ impl FrameSource for FolderSource {
         let ts = self.next as f64 * 1e3 / self.fps;
         self.next += 1;
         Ok(Some(SourceFrame { frame: Frame::load(p)?, ts_ms: Some(ts), label: p.display().to_string() }))
+    }
+    fn skip(&mut self) -> Result<bool> {
+        let more = self.next < self.files.len();
+        self.next += more as usize;
+        Ok(more)
     }
     fn pace_fps(&self) -> Option<f64> {
         Some(self.fps)

@@ -170,14 +170,35 @@ pub struct AugmentArgs {
     #[arg(long)]
     resume: bool,
     /// Stop after this many frames (counting frames already written by a resumed run).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "frames")]
     max_frames: Option<usize>,
+    /// Only frames A..B (B exclusive, counted from 0 as in the report): a chunk, whose frames
+    /// keep their numbers and names. `heliar merge` joins chunks; `--resume` with the same
+    /// --frames continues an interrupted chunk.
+    #[arg(long, value_parser = parse_frames)]
+    frames: Option<std::ops::Range<usize>>,
+    /// Frames before a chunk replayed first (estimate, relights, decisions; nothing written) to
+    /// warm the smoothing and caches. Default: all of them (from frame 0), which makes the chunk
+    /// equal a sequential run byte for byte; see docs/measurements.md for shorter warm-ups.
+    #[arg(long, requires = "frames")]
+    warmup: Option<usize>,
     /// Write even where an output would overwrite the input or a file of the scene.
     #[arg(long)]
     force: bool,
     /// Frame times that do not increase are an error (default: a warning naming the frames).
     #[arg(long)]
     strict: bool,
+}
+
+/// `A..B` with A < B.
+fn parse_frames(s: &str) -> Result<std::ops::Range<usize>, String> {
+    let (a, b) = s.split_once("..").ok_or_else(|| format!("`{s}`: expected A..B (frames A to B-1)"))?;
+    let num = |x: &str, what: &str| x.trim().parse::<usize>().map_err(|e| format!("`{s}`: {what} `{x}`: {e}"));
+    let (a, b) = (num(a, "first frame")?, num(b, "end frame")?);
+    if b <= a {
+        return Err(format!("`{s}`: the end {b} must be after the first frame {a} (A..B runs frames A to B-1)"));
+    }
+    Ok(a..b)
 }
 
 pub fn run(a: AugmentArgs) -> Result<()> {
@@ -206,6 +227,8 @@ pub fn run(a: AugmentArgs) -> Result<()> {
         format,
         resume: a.resume,
         max_frames: a.max_frames,
+        frames: a.frames.clone(),
+        warmup: a.warmup,
         sheet_columns: a.sheet_columns,
         force: a.force,
         strict_clock: a.strict,

@@ -9,6 +9,7 @@ mod bench_vem;
 mod common;
 mod estimate;
 mod live;
+mod merge;
 mod sun;
 mod vem;
 
@@ -44,6 +45,8 @@ enum Command {
     Vem(vem::VemArgs),
     /// Composite the scene's virtual objects into a frame sequence (estimate → relight → composite).
     Augment(augment::AugmentArgs),
+    /// Join the output folders of `augment --frames` chunks into one (report, summary, frames).
+    Merge(merge::MergeArgs),
     /// Composite live: a camera, stream or file played as one, in a window (feature `opencv`).
     Live(live::LiveArgs),
 }
@@ -61,6 +64,7 @@ fn main() {
         Command::Vem(a) => vem::run(a),
         Command::Augment(a) => augment::run(a),
         Command::Live(a) => live::run(a),
+        Command::Merge(a) => merge::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -14,10 +14,21 @@
 //! replayed over them ([`OutdoorSession::replay`]: decode and estimate, the probes' relights, the
 //! compositor's decisions without their work), so the smoothing and every cache continue as in
 //! an uninterrupted run and the frames after the resume point equal its frames.
+//!
+//! # Chunks
+//! With [`AugmentOptions::frames`] `A..B` (B exclusive) a run writes only frames `A..B`, under
+//! their own sequence numbers and names (report lines `frame = A, …, B-1`). The `warmup` frames
+//! before `A` are replayed first, as a resume replays (no output, untimed); the input's frames
+//! before them are passed over unread where the source allows (folders). With the whole history
+//! as warm-up (the default, `warmup: None`) the chunk's frames equal a sequential run's byte for
+//! byte; shorter warm-ups are measured in `docs/measurements.md` ("Chunk warm-up"). A chunk can
+//! be resumed (`resume` with the same `frames`). [`merge`] joins chunks' output folders.
 
+mod merge;
 mod resume;
 
-use resume::{Resumed, fresh, resume};
+pub use merge::{MergeOptions, MergeOutcome, merge};
+use resume::{Resumed, catch_up, fresh, resume};
 use super::session::OutdoorSession;
 use super::clock::ClockCheck;
 use super::sink::{Format, FrameWriter, OutputLock, Outputs, StageTime, Thumbs};
@@ -50,8 +61,14 @@ pub struct AugmentOptions {
     pub format: Option<Format>,
     /// Continue an interrupted run into the same output.
     pub resume: bool,
-    /// Stop after this many frames (counting frames already written by a resumed run).
+    /// Stop before frame index `max_frames` (counting frames already written by a resumed run,
+    /// and, for a chunk, the frames before it).
     pub max_frames: Option<usize>,
+    /// Only frames `A..B` (B exclusive): a chunk (see the module docs). `None`: all.
+    pub frames: Option<std::ops::Range<usize>>,
+    /// Frames before the chunk's first replayed to warm the smoothing and caches; `None`: all
+    /// of them (from frame 0: the chunk then equals a sequential run).
+    pub warmup: Option<usize>,
     /// Columns of the contact sheet.
     pub sheet_columns: u32,
     /// Write even where an output would overwrite an input or a file of the scene.
@@ -145,12 +162,29 @@ pub struct AugmentSummary {
     pub counts: RunCounts,
     /// Per-stage timings.
     pub stages: Stages,
+    /// The chunk this run wrote (absent for a whole run).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub chunk: Option<ChunkSummary>,
+}
+
+/// A chunk's place in its sequence.
+#[derive(Clone, Debug, Serialize)]
+pub struct ChunkSummary {
+    /// First frame of the chunk.
+    pub first: usize,
+    /// The frame after its last, as asked (`--frames A..B`).
+    pub end: usize,
+    /// Frames replayed before the first.
+    pub warmup: usize,
 }
 
 impl AugmentSummary {
     /// The summary as a table for the terminal.
     pub fn table(&self) -> Table {
         let mut t = Table::new(&["quantity", "value"]);
+        if let Some(c) = &self.chunk {
+            t.push(vec!["chunk".into(), format!("frames {}..{} after {} frames of warm-up", c.first, c.end, c.warmup)]);
+        }
         let resumed = if self.resumed_after > 0 { format!(", resumed after {}", self.resumed_after) } else { String::new() };
         t.push(vec!["frames written".into(), format!("{} ({} this run{resumed})", self.frames_written, self.frames_this_run)]);
         t.push(vec!["throughput".into(), format!("{:.2} frames/s over {:.1} s", self.frames_per_second, self.wall_s)]);
@@ -181,6 +215,23 @@ pub struct AugmentOutcome {
     pub error: Option<anyhow::Error>,
 }
 
+/// The run's frames: its first (`A` of a chunk, else 0), the first replayed as warm-up, and the
+/// index it stops before (`max_frames`, the chunk's end), if any.
+fn span(opts: &AugmentOptions) -> Result<(usize, usize, Option<usize>)> {
+    let (first, end) = opts.frames.as_ref().map_or((0, None), |r| (r.start, Some(r.end)));
+    if let Some(e) = end
+        && e <= first
+    {
+        bail!("--frames {first}..{e}: the chunk is empty (A..B runs frames A to B-1)");
+    }
+    let from = first - opts.warmup.unwrap_or(first).min(first);
+    let limit = match (opts.max_frames, end) {
+        (Some(m), Some(e)) => Some(m.min(e)),
+        (m, e) => m.or(e),
+    };
+    Ok((first, from, limit))
+}
+
 /// Augments `input` into `opts.output` (see the module docs). `stop` counts interrupts: the
 /// loop ends after the frame in hand once it is non-zero. Returns the outcome, whose `error`
 /// says why the loop stopped early; set-up failures (unreadable input, unwritable output) are
@@ -194,14 +245,16 @@ pub fn augment(scene: &Scene, input: &Input, session: &mut OutdoorSession, opts:
     let mut source = input.open()?;
     let mut thumbs = Thumbs::new(SHEET_KEEP, SHEET_TILE_WIDTH);
     let mut clock_check = ClockCheck::default();
+    let (first, from, limit) = span(opts)?;
     let Resumed { done, mut writer } = if opts.resume {
-        resume(&out, opts, input, scene, source.as_mut(), session, &lin, &mut thumbs, &mut clock_check, obs)?
+        resume(&out, opts, input, scene, first, &mut thumbs, obs)?
     } else {
-        fresh(&out, opts, input, scene, &mut thumbs, obs)?
+        fresh(&out, opts, input, scene, first, &mut thumbs, obs)?
     };
-    let mut report = if done > 0 { JsonLines::append(&out.report) } else { JsonLines::create(&out.report) }.with_context(|| format!("{}: cannot write the report", out.report.display()))?;
+    catch_up((from, first, done), &out, opts, input, source.as_mut(), session, &lin, &mut thumbs, &mut clock_check, obs)?;
+    let mut report = if done > first { JsonLines::append(&out.report) } else { JsonLines::create(&out.report) }.with_context(|| format!("{}: cannot write the report", out.report.display()))?;
 
-    let total = input.count.map(|n| opts.max_frames.map_or(n, |m| n.min(m)));
+    let total = input.count.map(|n| limit.map_or(n, |m| n.min(m)));
     obs.start(&format!("augment {}", input.sequence.as_deref().unwrap_or(&input.label)), total, done);
     let started = std::time::Instant::now();
     let (mut counts, mut stages) = (RunCounts::default(), Stages::default());
@@ -220,7 +273,7 @@ pub fn augment(scene: &Scene, input: &Input, session: &mut OutdoorSession, opts:
         clock: clock_check,
         strict_clock: opts.strict_clock,
     };
-    let (i, interrupted, result) = frames.run(done, opts.max_frames, stop, obs);
+    let (i, interrupted, result) = frames.run(done, limit, stop, obs);
     let clock_check = frames.clock;
     obs.finish();
     if let Some(w) = clock_check.warning(&input.label) {
@@ -241,9 +294,9 @@ pub fn augment(scene: &Scene, input: &Input, session: &mut OutdoorSession, opts:
     let summary = AugmentSummary {
         input: input.label.clone(),
         output: out.target.display().to_string(),
-        frames_written: i,
+        frames_written: i - first,
         frames_this_run: this_run,
-        resumed_after: done,
+        resumed_after: done - first,
         interrupted,
         error: result.as_ref().err().map(|e| format!("{e:#}")),
         input_frames: input.count,
@@ -254,24 +307,34 @@ pub fn augment(scene: &Scene, input: &Input, session: &mut OutdoorSession, opts:
         probe_source: session.stage.probes.name().to_owned(),
         counts,
         stages,
+        chunk: opts.frames.as_ref().map(|r| ChunkSummary { first: r.start, end: r.end, warmup: first - from }),
     };
     if let Err(e) = crate::io::write_atomic(&out.summary, serde_json::to_string_pretty(&summary)?.as_bytes()) {
         obs.note(&format!("warning: {}: summary not written: {e}", out.summary.display()));
     }
-    if let Some(n) = input.count
-        && i < n
-        && result.is_ok()
-        && !interrupted
-        && opts.max_frames.is_none_or(|m| i < m)
-    {
-        obs.note(&format!("warning: {} ended after {i} of the {n} frames its container announces (truncated or corrupt)", input.label));
+    if result.is_ok() && !interrupted {
+        warn_if_truncated(input, i, limit, obs);
     }
     let error = match (close_err, result) {
         (Some(e), _) => Some(e.context(format!("closing {}", out.target.display()))),
-        (None, Err(e)) => Some(e.context(format!("stopped after {i} frames; they are kept in {} (listed in {}); `--resume` continues", out.target.display(), out.report.display()))),
+        (None, Err(e)) => {
+            let kept = if first > 0 { format!("frames {first}..{i} of the chunk") } else { format!("{i} frames") };
+            Some(e.context(format!("stopped after {kept}; they are kept in {} (listed in {}); `--resume` continues", out.target.display(), out.report.display())))
+        }
         (None, Ok(())) => None,
     };
     Ok(AugmentOutcome { summary, outputs: out, error })
+}
+
+/// Warns when a run that ended normally at frame `i` (before `limit`) wrote fewer frames than its
+/// input announces.
+fn warn_if_truncated(input: &Input, i: usize, limit: Option<usize>, obs: &mut dyn Observer) {
+    if let Some(n) = input.count
+        && i < n
+        && limit.is_none_or(|m| i < m)
+    {
+        obs.note(&format!("warning: {} ended after {i} of the {n} frames its container announces (truncated or corrupt)", input.label));
+    }
 }
 
 /// The loop's state over one run.
