@@ -22,6 +22,8 @@ pub enum SamplerArg {
     HavranCentres,
     /// The standard marginal/conditional inversion (pbrt).
     Standard,
+    /// Debevec's median cut (a baseline: lights of unequal power, not temporally filtered).
+    MedianCut,
 }
 
 impl From<SamplerArg> for SamplerKind {
@@ -30,6 +32,7 @@ impl From<SamplerArg> for SamplerKind {
             SamplerArg::Havran => SamplerKind::Havran,
             SamplerArg::HavranCentres => SamplerKind::HavranCentres,
             SamplerArg::Standard => SamplerKind::Standard,
+            SamplerArg::MedianCut => SamplerKind::MedianCut,
         }
     }
 }
