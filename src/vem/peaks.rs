@@ -21,6 +21,10 @@
 //! 4. **Tracking.** A peak within [`TRACK_RAD`] of one of the previous frame's keeps its index;
 //!    a new one gets the next index from [`PEAK_INDEX_BASE`] on (apart from the samples'
 //!    indices), so a peak's light keeps its identity while it exists.
+//!
+//! In the [`crate::vem::Decomposer`] the peak lights are appended to the filtered samples of
+//! the remainder without the temporal filter: a peak's light follows its frame at once, while
+//! the remainder comes with the FIR's delay (Havran §3.3: 4 frames at 21 Hz).
 
 use crate::vem::Light;
 use crate::vem::polar::{PolarMap, luminance};

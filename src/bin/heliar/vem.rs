@@ -77,6 +77,10 @@ pub struct VemArgs {
     /// Inverse transform.
     #[arg(long, value_enum, default_value = "havran")]
     sampler: SamplerArg,
+    /// Give concentrated peaks (the sun) lights of their own, at their measured power and
+    /// tracked from frame to frame, and sample the rest of the map with the other lights.
+    #[arg(long)]
+    peaks: bool,
     /// Use plain Halton samples instead of the relaxed ones.
     #[arg(long)]
     no_relax: bool,
@@ -134,6 +138,7 @@ pub fn run(a: VemArgs) -> Result<()> {
         rate_hz: a.rate_hz,
         clusters: a.clusters,
         glossy_lights: a.glossy_lights,
+        peaks: a.peaks,
         ..VemConfig::default()
     };
     check_options(&a)?;

@@ -99,6 +99,49 @@ pub fn polar_maps(width: u32, height: u32, frames: usize) -> Vec<crate::vem::pol
 mod tests {
     use super::*;
     use crate::vem::polar::luminance;
+    use crate::vem::peaks::PEAK_INDEX_BASE;
+    use crate::vem::sampling::SamplerKind;
+    use crate::vem::{Decomposer, VemConfig};
+
+    fn small(peaks: bool, sampler: SamplerKind) -> Decomposer {
+        Decomposer::new(VemConfig { polar_width: 180, polar_height: 45, lights: 64, peaks, sampler, ..VemConfig::default() }).unwrap()
+    }
+
+    #[test]
+    fn the_decomposer_with_median_cut_gives_n_lights_holding_the_power() {
+        let maps = polar_maps(180, 45, 2);
+        let mut dec = small(false, SamplerKind::MedianCut);
+        for m in &maps {
+            let s = dec.process(m);
+            assert_eq!(dec.lights().len(), 64);
+            let y: f64 = dec.lights().iter().map(|l| luminance(l.rgb) as f64).sum();
+            assert!((y - s.power).abs() < 1e-4 * s.power && (s.filtered_power - s.power).abs() < 1e-9 * s.power, "{y} {s:?}");
+        }
+    }
+
+    #[test]
+    fn the_sun_keeps_one_tracked_light_through_the_cloud_and_only_with_peaks() {
+        let base = clear_sky();
+        let maps = polar_maps(180, 45, FRAMES);
+        let mut dec = small(true, SamplerKind::Havran);
+        let mut index = None;
+        for (k, m) in maps.iter().enumerate() {
+            let s = dec.process(m);
+            assert_eq!(dec.lights().len(), 64, "frame {k}");
+            let peaks: Vec<_> = dec.lights().iter().filter(|l| l.index >= PEAK_INDEX_BASE).collect();
+            let sun = frame(&base, k).suns().first().map_or(0.0, |s| luminance(s.1));
+            if sun as f64 > 0.2 * s.power {
+                assert_eq!(peaks.len(), 1, "frame {k}");
+                assert!(peaks[0].dir.dot(base.sun_dir) > 1f32.to_radians().cos(), "frame {k}");
+                assert!((luminance(peaks[0].rgb) - sun).abs() < 0.05 * sun, "frame {k}: {:?} vs {sun}", peaks[0].rgb);
+                assert_eq!(*index.get_or_insert(peaks[0].index), peaks[0].index, "frame {k}");
+            }
+        }
+        assert!(index.is_some());
+        let mut plain = small(false, SamplerKind::Havran);
+        plain.process(&maps[0]);
+        assert!(plain.lights().iter().all(|l| l.index < PEAK_INDEX_BASE));
+    }
 
     #[test]
     fn the_sun_holds_most_power_and_the_cloud_takes_it_away_and_back() {
