@@ -11,6 +11,7 @@ use anyhow::{Context, Result};
 use heliar::report::{Table, median, percentile};
 use heliar::vem::eval::metrics::{random_normals, reference_irradiance};
 use heliar::vem::eval::sunny;
+use heliar::vem::eval::synth::Environment;
 use heliar::vem::peaks::PeakTracker;
 use heliar::vem::polar::{IrradianceReference, PolarMap};
 use heliar::vem::sampling::SamplerKind;
@@ -71,6 +72,30 @@ fn measure(maps: &[PolarMap], normals: &[glam::Vec3], refs: &[Vec<f64>], kind: S
     }
 }
 
+/// How well the peak detector finds the sun: frames with one peak, its power and direction
+/// against the sequence's sun.
+fn print_peaks(maps: &[PolarMap]) {
+    let base = sunny::clear_sky();
+    let mut tracker = PeakTracker::new();
+    let (mut found, mut ids, mut worst_rel, mut worst_deg) = (0, std::collections::BTreeSet::new(), 0.0f64, 0.0f64);
+    for (k, m) in maps.iter().enumerate() {
+        tracker.split(m, 4);
+        let truth = sunny::frame(&base, k).suns().first().map_or(0.0, |s| heliar::vem::polar::luminance(s.1) as f64);
+        if let Some(p) = tracker.peaks().first() {
+            found += 1;
+            ids.insert(p.index);
+            worst_rel = worst_rel.max((heliar::vem::polar::luminance(p.rgb) as f64 - truth).abs() / truth.max(1e-300));
+            worst_deg = worst_deg.max(p.dir.dot(base.sun_dir).clamp(-1.0, 1.0).acos().to_degrees() as f64);
+        }
+    }
+    println!(
+        "peaks: the sun found in {found} of {} frames under {} index(es); worst power error {:.2}%, worst direction error {worst_deg:.3}°",
+        maps.len(),
+        ids.len(),
+        100.0 * worst_rel
+    );
+}
+
 /// Runs the comparison and writes `csv`.
 pub fn sun_sweep(normals_wanted: usize, csv: &Path) -> Result<()> {
     let maps = sunny::polar_maps(360, 90, sunny::FRAMES);
@@ -100,6 +125,7 @@ pub fn sun_sweep(normals_wanted: usize, csv: &Path) -> Result<()> {
         normals.len()
     );
     print!("{table}");
+    print_peaks(&maps);
     table.write_csv(csv).with_context(|| format!("writing {}", csv.display()))?;
     println!("wrote {}", csv.display());
     Ok(())
