@@ -24,7 +24,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("estimate", &["camera", "geometry", "io", "scene", "sky", "sun"]),
     ("envmap", &["camera", "estimate", "geometry", "io", "lighting", "scene", "sun"]),
     ("irradiance", &["envmap", "geometry", "lighting", "scene"]),
-    ("vem", &["camera", "geometry", "io", "report", "scene"]),
+    ("vem", &["camera", "geometry", "io", "report", "scene", "sky"]),
     ("lamps", &["geometry", "io", "report"]),
     ("cuts", &["geometry", "io", "report"]),
     ("sky", &["geometry"]),

@@ -112,6 +112,53 @@ fn bench_vem_writes_tables_and_plots() {
 }
 
 #[test]
+fn bench_vem_sun_compares_samplers_median_cut_and_peaks() {
+    let dir = temp_dir("bench-sun");
+    let prefix = dir.join("b");
+    let (ok, out, err) = heliar(&["bench", "vem", "--what", "sun", "--normals", "16", "--out", s(&prefix)]);
+    assert!(ok, "{err}");
+    assert!(out.contains("sun-dominated sequence") && out.contains("64 upper-hemisphere normals"), "{out}");
+    let csv = std::fs::read_to_string(dir.join("b_sun.csv")).unwrap();
+    assert!(csv.starts_with("lights,variant,err_mean_pct,err_p95_pct,err_max_pct,ms_per_frame,excess_flicker_rms_pct"), "{csv}");
+    assert_eq!(csv.lines().count(), 1 + 3 * 6);
+    assert!(csv.contains(",median_cut,") && csv.contains(",havran+peaks,"));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn median_cut_and_peaks_from_the_command_line() {
+    let dir = temp_dir("mc");
+    let (ok, _, err) = run(env!("CARGO_BIN_EXE_gen-vem"), &["--out", s(&dir), "--size", "64", "--frames", "6"]);
+    assert!(ok, "{err}");
+    let d = dir.join("outdoor");
+    let (frames, calib) = (d.join("frames"), d.join("calib/fisheye.toml"));
+    let lines = |args: &[&str]| -> Vec<serde_json::Value> {
+        let mut a = vec!["vem", "--input", s(&frames), "--calib", s(&calib), "--lights", "24"];
+        a.extend_from_slice(args);
+        let (ok, out, err) = heliar(&a);
+        assert!(ok, "{args:?}: {err}");
+        out.lines().map(|l| serde_json::from_str(l).unwrap()).collect()
+    };
+    for v in lines(&["--sampler", "median-cut"]) {
+        let l = v["lights"].as_array().unwrap();
+        assert_eq!(l.len(), 24);
+        let y: f64 = l.iter().map(|l| {
+            let c: Vec<f64> = l["rgb"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+            0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+        }).sum();
+        let p = v["power"].as_f64().unwrap();
+        assert!((y - p).abs() < 1e-3 * p, "{y} vs {p}");
+    }
+    let with_peaks = lines(&["--peaks"]);
+    let sun_lights = with_peaks.iter().filter(|v| v["lights"].as_array().unwrap().iter().any(|l| l["index"].as_u64().unwrap() >= 1 << 30)).count();
+    assert!(sun_lights >= 4, "the sun of the generated sky is a peak: {sun_lights} of 6 frames");
+    assert!(with_peaks.iter().all(|v| v["lights"].as_array().unwrap().len() == 24));
+    let (ok, _, err) = heliar(&["vem", "--input", s(&frames), "--calib", s(&calib), "--lights", "24", "--peaks", "--glossy-lights", "48"]);
+    assert!(!ok && err.contains("glossy_lights"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn scene_compositing_writes_frames_report_and_contact_sheet() {
     // 14 generated frames over the bundled courtyard (12 footage frames): footage backgrounds,
     // then the VEM seen through the camera.

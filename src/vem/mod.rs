@@ -37,6 +37,7 @@ pub mod cluster;
 pub mod eval;
 pub mod fir;
 pub mod glossy;
+pub mod peaks;
 pub mod polar;
 pub mod regions;
 pub mod reinhard;
@@ -165,6 +166,9 @@ pub struct VemConfig {
     pub glossy_lights: Option<usize>,
     /// Regions of the glossy set.
     pub glossy_regions: usize,
+    /// Give concentrated peaks (the sun) lights of their own and sample the rest ([`peaks`];
+    /// off by default).
+    pub peaks: bool,
 }
 
 impl Default for VemConfig {
@@ -182,6 +186,7 @@ impl Default for VemConfig {
             lut_size: regions::DEFAULT_LUT_SIZE,
             glossy_lights: None,
             glossy_regions: glossy::DEFAULT_GLOSSY_REGIONS,
+            peaks: false,
         }
     }
 }
@@ -203,6 +208,9 @@ impl VemConfig {
             && !(l > self.lights && l <= MAX_LIGHTS)
         {
             return bad("glossy_lights", format!("{l} must exceed lights ({}) and be at most {MAX_LIGHTS}", self.lights));
+        }
+        if self.glossy_lights.is_some() && (self.peaks || self.sampler == SamplerKind::MedianCut) {
+            return bad("glossy_lights", "a glossy set needs equal-power samples: not with peaks or median cut".into());
         }
         if self.clusters == Some(0) {
             return bad("clusters", "must be positive".into());
@@ -250,6 +258,7 @@ pub struct Decomposer {
     regions: RegionSet,
     lists: RegionLists,
     glossy: Option<(glossy::GlossyRegions, RegionLists)>,
+    peaks: peaks::PeakTracker,
 }
 
 impl Decomposer {
@@ -272,6 +281,7 @@ impl Decomposer {
             regions: RegionSet::lambertian(cfg.regions, cfg.lut_size),
             lists: RegionLists::default(),
             glossy,
+            peaks: peaks::PeakTracker::new(),
             cfg,
         })
     }
@@ -297,10 +307,21 @@ impl Decomposer {
     /// Processes one frame. Texels that are NaN, infinite or negative in any channel count as
     /// black (and are counted).
     pub fn process(&mut self, map: &PolarMap) -> FrameSummary {
-        let sanitized = self.dist.rebuild(map);
         let n = self.cfg.glossy_lights.unwrap_or(0).max(self.cfg.lights);
-        let (status, step) = if self.dist.is_empty() {
+        let map = if self.cfg.peaks {
+            self.peaks.split(map, n - 1);
+            self.peaks.remainder()
+        } else {
+            map
+        };
+        let n = n - self.peaks.peaks().len();
+        let sanitized = self.dist.rebuild(map);
+        let (status, mut step) = if self.dist.is_empty() && self.peaks.peaks().is_empty() {
             (Status::Dark, self.filter.step_dark(&mut self.filtered))
+        } else if self.cfg.sampler == SamplerKind::MedianCut {
+            // Median cut has no sample identity for the FIR to follow: its lights go unfiltered.
+            self.filtered = sampling::median_cut::median_cut_lights(map, n);
+            (Status::Ok, fir::FilterStep { power: self.dist.integral(), held: 0 })
         } else {
             self.raw.clear();
             for k in 0..n {
@@ -310,6 +331,15 @@ impl Decomposer {
             }
             (Status::Ok, self.filter.step(self.dist.integral(), &self.raw, &mut self.filtered))
         };
+        let (mut power_rgb, mut power) = (self.dist.integral_rgb(), self.dist.integral());
+        for p in self.peaks.peaks() {
+            self.filtered.push(*p);
+            let y = polar::luminance(p.rgb) as f64;
+            (power, step.power) = (power + y, step.power + y);
+            for c in 0..3 {
+                power_rgb[c] += p.rgb[c] as f64;
+            }
+        }
         if self.glossy.is_some() {
             glossy::high_set(&self.filtered, self.cfg.lights, &mut self.high);
         }
@@ -325,8 +355,8 @@ impl Decomposer {
         FrameSummary {
             status,
             sanitized_texels: sanitized,
-            power_rgb: self.dist.integral_rgb(),
-            power: self.dist.integral(),
+            power_rgb,
+            power,
             filtered_power: step.power,
             held: step.held,
         }
@@ -375,6 +405,9 @@ pub fn lights_of_distribution(dist: &PolarDistribution, map: &PolarMap, kind: Sa
     if dist.is_empty() || n == 0 {
         return Vec::new();
     }
+    if kind == SamplerKind::MedianCut {
+        return sampling::median_cut::median_cut_lights(map, n);
+    }
     let p = (dist.integral() / n as f64) as f32;
     (0..n)
         .filter_map(|k| {
@@ -382,6 +415,19 @@ pub fn lights_of_distribution(dist: &PolarDistribution, map: &PolarMap, kind: Sa
             Some(Light { index: k as u32, dir: r.dir, rgb: dist.light_rgb(map, &r).map(|c| c * p) })
         })
         .collect()
+}
+
+/// Unfiltered lights of one map with its peaks as lights of their own ([`peaks`]): at most
+/// `n − 1` peaks from `tracker` (indices tracked from its previous map), then `n − peaks`
+/// lights of `kind` on the remainder.
+pub fn lights_with_peaks(tracker: &mut peaks::PeakTracker, map: &PolarMap, kind: SamplerKind, pattern: Pattern, n: usize) -> Vec<Light> {
+    if n == 0 {
+        return Vec::new();
+    }
+    tracker.split(map, n - 1);
+    let mut l = lights_of_map(tracker.remainder(), kind, pattern, n - tracker.peaks().len());
+    l.extend_from_slice(tracker.peaks());
+    l
 }
 
 /// Irradiance (RGB) of a set of lights on a surface with unit normal `n`: `Σ rgb·max(n·l, 0)`.

@@ -1,5 +1,6 @@
 //! `heliar bench vem`: the light decomposition's irradiance error against run time, and its
-//! temporal coherence, for Havran's transform and the standard inversion.
+//! temporal coherence, for Havran's transform and the standard inversion; with `--what sun`,
+//! median cut and the peak lights on a sun-dominated sequence (`bench_vem_sun`).
 
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
@@ -24,7 +25,10 @@ enum What {
     Coherence,
     /// Time per frame of the whole pipeline and its parts, wall clock and CPU time of the thread.
     Speed,
-    /// Error, coherence and speed.
+    /// Samplers, median cut and peak lights on the sun-dominated Hošek–Wilkie sequence
+    /// (error, time, excess flicker at N = 64, 128, 300).
+    Sun,
+    /// Error, coherence and speed (not `sun`).
     All,
 }
 
@@ -46,7 +50,7 @@ pub struct VemSweep {
     /// Timed repetitions per light count (the median is reported).
     #[arg(long, default_value_t = 15)]
     repeats: usize,
-    /// Output prefix: writes PREFIX_error.csv/.svg and PREFIX_coherence.csv/.svg.
+    /// Output prefix: writes PREFIX_error.csv/.svg, PREFIX_coherence.csv/.svg and PREFIX_sun.csv.
     #[arg(long, default_value = "out/bench_vem")]
     out: PathBuf,
 }
@@ -289,6 +293,9 @@ pub fn run(s: VemSweep) -> Result<()> {
     }
     if matches!(s.what, What::Speed | What::All) {
         speed(&s, &maps)?;
+    }
+    if s.what == What::Sun {
+        crate::bench_vem_sun::sun_sweep(s.normals, &with_suffix(&s.out, "_sun.csv"))?;
     }
     if matches!(s.what, What::Coherence | What::All) {
         let pairs: Vec<(String, PolarMap, PolarMap)> = match &s.input {

@@ -6,6 +6,7 @@ mod bench;
 mod bench_irradiance;
 mod bench_render;
 mod bench_vem;
+mod bench_vem_sun;
 mod common;
 mod estimate;
 mod live;

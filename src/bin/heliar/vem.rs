@@ -22,6 +22,8 @@ pub enum SamplerArg {
     HavranCentres,
     /// The standard marginal/conditional inversion (pbrt).
     Standard,
+    /// Debevec's median cut (a baseline: lights of unequal power, not temporally filtered).
+    MedianCut,
 }
 
 impl From<SamplerArg> for SamplerKind {
@@ -30,6 +32,7 @@ impl From<SamplerArg> for SamplerKind {
             SamplerArg::Havran => SamplerKind::Havran,
             SamplerArg::HavranCentres => SamplerKind::HavranCentres,
             SamplerArg::Standard => SamplerKind::Standard,
+            SamplerArg::MedianCut => SamplerKind::MedianCut,
         }
     }
 }
@@ -74,6 +77,10 @@ pub struct VemArgs {
     /// Inverse transform.
     #[arg(long, value_enum, default_value = "havran")]
     sampler: SamplerArg,
+    /// Give concentrated peaks (the sun) lights of their own, at their measured power and
+    /// tracked from frame to frame, and sample the rest of the map with the other lights.
+    #[arg(long)]
+    peaks: bool,
     /// Use plain Halton samples instead of the relaxed ones.
     #[arg(long)]
     no_relax: bool,
@@ -131,6 +138,7 @@ pub fn run(a: VemArgs) -> Result<()> {
         rate_hz: a.rate_hz,
         clusters: a.clusters,
         glossy_lights: a.glossy_lights,
+        peaks: a.peaks,
         ..VemConfig::default()
     };
     check_options(&a)?;

@@ -1,4 +1,5 @@
 //! Synthetic VEM data and the measures the tests and benchmarks judge the decomposer by.
 
 pub mod metrics;
+pub mod sunny;
 pub mod synth;

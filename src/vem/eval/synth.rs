@@ -39,7 +39,8 @@ pub struct Cloud {
 }
 
 impl Cloud {
-    fn cover(&self, d: Vec3) -> f32 {
+    /// Opacity along `d`.
+    pub fn cover(&self, d: Vec3) -> f32 {
         let a = d.dot(self.centre).clamp(-1.0, 1.0).acos() / self.radius;
         let t = ((1.0 - a) / 0.4).clamp(0.0, 1.0);
         self.opacity * t * t * (3.0 - 2.0 * t)

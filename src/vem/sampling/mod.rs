@@ -14,6 +14,8 @@
 //!   hemisphere map. Bijective and continuous wherever the map is positive.
 //! - [`standard`]: the standard marginal/conditional inversion (pbrt's `Distribution2D`, the
 //!   paper's [PH04]) over the `(φ, θ)` parameter square: the baseline.
+//! - [`median_cut`]: Debevec's median cut (a second baseline, `--sampler median-cut`): `N`
+//!   regions of equal energy from a summed-area table, one light of the region's power each.
 //! - Both expose the triad `sample_*`, `*_pdf`, `invert_*`; [`PolarDistribution::sample`],
 //!   [`PolarDistribution::pdf`], [`PolarDistribution::invert`] and
 //!   [`PolarDistribution::integral`] dispatch on [`SamplerKind`].
@@ -23,6 +25,7 @@
 //! sum over lights is an unbiased estimate of every RGB channel.
 
 pub mod havran;
+pub mod median_cut;
 pub mod pattern;
 pub mod standard;
 
@@ -43,6 +46,11 @@ pub enum SamplerKind {
     HavranCentres,
     /// The standard marginal/conditional inversion (pbrt).
     Standard,
+    /// Debevec's median cut ([`median_cut`]): not an inverse transform but a set of `N` lights
+    /// of unequal power. [`PolarDistribution::sample`] and [`PolarDistribution::invert`] give
+    /// `None` and [`PolarDistribution::pdf`] 0 for it; [`crate::vem::lights_of_map`] and the
+    /// [`crate::vem::Decomposer`] build its lights with [`median_cut::median_cut_lights`].
+    MedianCut,
 }
 
 impl SamplerKind {
@@ -52,6 +60,7 @@ impl SamplerKind {
             SamplerKind::Havran => "havran",
             SamplerKind::HavranCentres => "havran_centres",
             SamplerKind::Standard => "standard",
+            SamplerKind::MedianCut => "median_cut",
         }
     }
 }
@@ -258,6 +267,7 @@ impl PolarDistribution {
             SamplerKind::Havran => self.sample_havran(u, havran::RingBlend::Lighter),
             SamplerKind::HavranCentres => self.sample_havran(u, havran::RingBlend::Centres),
             SamplerKind::Standard => self.sample_standard(u),
+            SamplerKind::MedianCut => None,
         }
     }
 
@@ -267,6 +277,7 @@ impl PolarDistribution {
             SamplerKind::Havran => self.havran_pdf(dir, havran::RingBlend::Lighter),
             SamplerKind::HavranCentres => self.havran_pdf(dir, havran::RingBlend::Centres),
             SamplerKind::Standard => self.standard_pdf(dir),
+            SamplerKind::MedianCut => 0.0,
         }
     }
 
@@ -277,6 +288,7 @@ impl PolarDistribution {
             SamplerKind::Havran => self.invert_havran(dir, havran::RingBlend::Lighter),
             SamplerKind::HavranCentres => self.invert_havran(dir, havran::RingBlend::Centres),
             SamplerKind::Standard => self.invert_standard(dir),
+            SamplerKind::MedianCut => None,
         }
     }
 
