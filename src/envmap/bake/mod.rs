@@ -29,7 +29,6 @@
 
 pub use crate::scene::settings::BakeConfig;
 use crate::estimate::{EstimateError, Status};
-use crate::geometry::ambient::transport;
 use crate::geometry::raycast::RayScene;
 use crate::geometry::sampling::sphere_fibonacci;
 use crate::io::IoError;
@@ -37,10 +36,8 @@ use crate::io::image::{ExrPrecision, LinearImage};
 use crate::camera::View;
 use crate::scene::{AlbedoSource, Scene};
 use glam::{DVec3, Vec3};
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
 use steps::{Hits, Inversion, capture_lighting, fill_flagged, hit_buffers};
 
 mod steps;
@@ -267,18 +264,7 @@ pub fn bake_with_map(scene: &Scene, ray: std::sync::Arc<RayScene>, map: Option<L
     lap(&mut info, "hit buffers");
 
     // 2. Weighted ambient.
-    let done = AtomicU64::new(0);
-    let ambient: Vec<Vec3> = (0..n)
-        .into_par_iter()
-        .map(|i| {
-            let r = if node[i] == SKY { Vec3::ZERO } else { transport(&ray, position[i], normal[i], None, cfg.ambient, 0xa3b1_0000 + i as u64).c };
-            let k = done.fetch_add(1, Ordering::Relaxed) + 1;
-            if k % 1024 == 0 || k == n as u64 {
-                progress("weighted ambient", k, n as u64);
-            }
-            r
-        })
-        .collect();
+    let ambient = steps::weighted_ambient(&ray, &node, &position, &normal, cfg, progress);
     lap(&mut info, "weighted ambient");
 
     // 3–4. Albedo.

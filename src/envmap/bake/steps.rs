@@ -45,6 +45,23 @@ pub(super) fn hit_buffers(ray: &RayScene, view: &View, n: usize) -> Hits {
     }
 }
 
+/// The weighted-ambient factor `c` per surface texel (Jensen §3.2; 0 for sky texels).
+pub(super) fn weighted_ambient(ray: &RayScene, node: &[u32], position: &[Vec3], normal: &[Vec3], cfg: &BakeConfig, progress: Progress) -> Vec<Vec3> {
+    let n = node.len();
+    let done = AtomicU64::new(0);
+    (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let r = if node[i] == SKY { Vec3::ZERO } else { transport(ray, position[i], normal[i], None, cfg.ambient, 0xa3b1_0000 + i as u64).c };
+            let k = done.fetch_add(1, Ordering::Relaxed) + 1;
+            if k % 1024 == 0 || k == n as u64 {
+                progress("weighted ambient", k, n as u64);
+            }
+            r
+        })
+        .collect()
+}
+
 /// The lighting when the map was captured: the manifest's `capture_pd`/`capture_pa`, or the
 /// estimator run on the map itself. Returns `(Pd, Pa, sun direction, sun above the horizon)`.
 pub(super) fn capture_lighting(
