@@ -16,7 +16,7 @@
 //! at depth 0 and are never clipped, so z-fail counting needs no far cap (Everitt & Kilgard,
 //! "Practical and Robust Stenciled Shadow Volumes", 2002).
 
-use crate::camera::{Camera, Pose};
+use crate::camera::{Camera, Intrinsics, Pose};
 use glam::{DMat4, DVec2, DVec3, DVec4, Mat4};
 
 /// Near plane of the canvas projection, metres. Geometry closer to the camera is clipped; z-fail
@@ -43,18 +43,10 @@ pub struct CameraUniform {
 /// The undistorted canvas of a camera and the warp from the footage's pixels into it.
 #[derive(Clone, Debug)]
 pub struct Canvas {
-    /// Canvas width in pixels.
-    pub width: u32,
-    /// Canvas height in pixels.
-    pub height: u32,
-    /// Canvas focal length, pixels (the camera's times the supersampling factor).
-    pub fx: f64,
-    /// Canvas focal length, pixels.
-    pub fy: f64,
-    /// Canvas principal point, pixels (OpenCV convention).
-    pub cx: f64,
-    /// Canvas principal point, pixels.
-    pub cy: f64,
+    /// The canvas's own pinhole camera (`Lens::BrownConrady` without distortion): its size, and
+    /// its focal lengths (the camera's times the supersampling factor) and principal point in
+    /// canvas pixels (OpenCV convention).
+    pub intrinsics: Intrinsics,
     /// `world_from_camera`.
     pub pose: Pose,
     /// Footage width, pixels.
@@ -101,7 +93,7 @@ impl Canvas {
                 None => [-1.0, -1.0],
             })
             .collect();
-        Self { width: width as u32, height: height as u32, fx, fy, cx, cy, pose: camera.pose, out_width: w, out_height: h, warp }
+        Self { intrinsics: Intrinsics::pinhole(width as u32, height as u32, fx, fy, cx, cy), pose: camera.pose, out_width: w, out_height: h, warp }
     }
 
     /// The warp with each footage pixel's footprint on the canvas: `[x, y, sx, sy]`, where
@@ -139,12 +131,12 @@ impl Canvas {
 
     /// Clip space from camera space (OpenCV frame, homogeneous), reversed depth, infinite far.
     pub fn clip_from_camera(&self) -> DMat4 {
-        let (w, h) = (self.width as f64, self.height as f64);
+        let (w, h) = (self.intrinsics.width as f64, self.intrinsics.height as f64);
         // OpenCV pixel (u, v) has its centre at framebuffer coordinate (u + ½, v + ½).
         DMat4::from_cols(
-            DVec4::new(2.0 * self.fx / w, 0.0, 0.0, 0.0),
-            DVec4::new(0.0, -2.0 * self.fy / h, 0.0, 0.0),
-            DVec4::new(2.0 * (self.cx + 0.5) / w - 1.0, 1.0 - 2.0 * (self.cy + 0.5) / h, 0.0, 1.0),
+            DVec4::new(2.0 * self.intrinsics.fx / w, 0.0, 0.0, 0.0),
+            DVec4::new(0.0, -2.0 * self.intrinsics.fy / h, 0.0, 0.0),
+            DVec4::new(2.0 * (self.intrinsics.cx + 0.5) / w - 1.0, 1.0 - 2.0 * (self.intrinsics.cy + 0.5) / h, 0.0, 1.0),
             DVec4::new(0.0, 0.0, NEAR_M, 0.0),
         )
     }
@@ -168,21 +160,21 @@ impl Canvas {
         CameraUniform {
             clip_from_world: m.to_cols_array_2d(),
             eye_world: [e.x, e.y, e.z, 1.0],
-            canvas_size: [self.width as f32, self.height as f32, 1.0 / self.width as f32, 1.0 / self.height as f32],
+            canvas_size: [self.intrinsics.width as f32, self.intrinsics.height as f32, 1.0 / self.intrinsics.width as f32, 1.0 / self.intrinsics.height as f32],
         }
     }
 
     /// Unit world direction of the ray through the centre of canvas pixel `i` (row-major), from
     /// the camera centre `pose.translation`.
     pub fn pixel_dir(&self, i: u32) -> glam::Vec3 {
-        let (u, v) = ((i % self.width) as f64, (i / self.width) as f64);
-        (self.pose.rotation * DVec3::new((u - self.cx) / self.fx, (v - self.cy) / self.fy, 1.0).normalize()).as_vec3()
+        let (u, v) = ((i % self.intrinsics.width) as f64, (i / self.intrinsics.width) as f64);
+        (self.pose.rotation * DVec3::new((u - self.intrinsics.cx) / self.intrinsics.fx, (v - self.intrinsics.cy) / self.intrinsics.fy, 1.0).normalize()).as_vec3()
     }
 
     /// Canvas pixel coordinates of a world point in front of the camera.
     pub fn canvas_from_world(&self, p: DVec3) -> Option<DVec2> {
         let c = self.pose.camera_from_world(p);
-        (c.z > 0.0).then(|| DVec2::new(self.fx * c.x / c.z + self.cx, self.fy * c.y / c.z + self.cy))
+        (c.z > 0.0).then(|| DVec2::new(self.intrinsics.fx * c.x / c.z + self.intrinsics.cx, self.intrinsics.fy * c.y / c.z + self.intrinsics.cy))
     }
 }
 
@@ -246,8 +238,8 @@ mod tests {
             let ndc = clip.truncate() / clip.w;
             let want = canvas.canvas_from_world(p).unwrap();
             // NDC → OpenCV pixel coordinates of the canvas.
-            let u = (ndc.x + 1.0) / 2.0 * canvas.width as f64 - 0.5;
-            let v = (1.0 - ndc.y) / 2.0 * canvas.height as f64 - 0.5;
+            let u = (ndc.x + 1.0) / 2.0 * canvas.intrinsics.width as f64 - 0.5;
+            let v = (1.0 - ndc.y) / 2.0 * canvas.intrinsics.height as f64 - 0.5;
             assert!((DVec2::new(u, v) - want).length() < 1e-9, "{u},{v} vs {want}");
             let z = canvas.pose.camera_from_world(p).z;
             assert!((ndc.z - NEAR_M / z).abs() < 1e-12);
@@ -264,13 +256,13 @@ mod tests {
         let cam = camera([-0.08, 0.012, 0.0005, -0.0003, 0.0]);
         let canvas = Canvas::new(&cam, 1.0);
         // Barrel distortion: the canvas is larger than the footage.
-        assert!(canvas.width > 320 && canvas.height > 240, "{}×{}", canvas.width, canvas.height);
+        assert!(canvas.intrinsics.width > 320 && canvas.intrinsics.height > 240, "{}×{}", canvas.intrinsics.width, canvas.intrinsics.height);
         for (col, row) in [(0u32, 0u32), (319, 239), (160, 120), (17, 201), (300, 5)] {
             let (o, d) = cam.pixel_ray(col, row).unwrap();
             let want = canvas.canvas_from_world(o + d * 7.0).unwrap();
             let got = canvas.warp[(row * 320 + col) as usize];
             assert!((DVec2::new(got[0] as f64, got[1] as f64) - want).length() < 1e-3, "{col},{row}: {got:?} vs {want}");
-            assert!(got[0] >= 0.0 && (got[0] as u32) < canvas.width && (got[1] as u32) < canvas.height);
+            assert!(got[0] >= 0.0 && (got[0] as u32) < canvas.intrinsics.width && (got[1] as u32) < canvas.intrinsics.height);
         }
     }
 

@@ -22,7 +22,7 @@ pub const AO_RAYS: u32 = 128;
 
 /// The unoccluded fraction per canvas pixel (row-major, canvas size).
 pub fn virtual_occlusion(canvas: &Canvas, objects: &RayScene, rays: u32, seed: u64) -> Vec<f32> {
-    let (w, h) = (canvas.width, canvas.height);
+    let (w, h) = (canvas.intrinsics.width, canvas.intrinsics.height);
     let m = (rays.max(1) as f32).sqrt().ceil() as u32;
     (0..w * h)
         .into_par_iter()

@@ -87,15 +87,15 @@ pub fn canvas_region(canvas: &Canvas, receivers: &Receivers, bounds: &[(Vec3, Ve
     let m = REGION_MARGIN_PX as f64;
     let x0 = (b.lo.0 - m).floor().max(0.0) as u32;
     let y0 = (b.lo.1 - m).floor().max(0.0) as u32;
-    let x1 = ((b.hi.0 + m).ceil().max(0.0) as u32 + 1).min(canvas.width);
-    let y1 = ((b.hi.1 + m).ceil().max(0.0) as u32 + 1).min(canvas.height);
+    let x1 = ((b.hi.0 + m).ceil().max(0.0) as u32 + 1).min(canvas.intrinsics.width);
+    let y1 = ((b.hi.1 + m).ceil().max(0.0) as u32 + 1).min(canvas.intrinsics.height);
     if x1 <= x0 || y1 <= y0 {
         // Objects and shadows entirely off the canvas: nothing to draw, but a scissor must not
         // be empty, so one corner pixel (whose clear layers the composite leaves alone).
         return Some(Rect { x: 0, y: 0, width: 1, height: 1 });
     }
     let r = Rect { x: x0, y: y0, width: x1 - x0, height: y1 - y0 };
-    let share = (r.width as f64 * r.height as f64) / (canvas.width as f64 * canvas.height as f64);
+    let share = (r.width as f64 * r.height as f64) / (canvas.intrinsics.width as f64 * canvas.intrinsics.height as f64);
     (share <= FULL_CANVAS_SHARE).then_some(r)
 }
 

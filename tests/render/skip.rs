@@ -206,7 +206,7 @@ fn the_scissored_region_draws_the_same_picture_as_the_whole_canvas() {
         assert_eq!(ra.canvas_region, None);
         let r = rb.canvas_region.expect("a region smaller than the canvas");
         let canvas = cut.canvas();
-        assert!((r.width * r.height) < canvas.width * canvas.height / 2, "{r:?} of {}×{}", canvas.width, canvas.height);
+        assert!((r.width * r.height) < canvas.intrinsics.width * canvas.intrinsics.height / 2, "{r:?} of {}×{}", canvas.intrinsics.width, canvas.intrinsics.height);
         let differ = a.image.data.iter().zip(&b.image.data).filter(|(x, y)| x != y).count();
         assert_eq!(differ, 0, "{differ} pixels differ with the scissor ({r:?})");
     }

@@ -56,7 +56,7 @@ fn object_occlusion(canvas: &Canvas, scene: Option<&TransferScene>, config: &Com
             // The objects alone: the transfer scene holds them in one mesh already.
             virtual_occlusion(canvas, &RayScene::new(scene.objects.clone()), rays, config.seed)
         }
-        _ => vec![1.0f32; (canvas.width * canvas.height) as usize],
+        _ => vec![1.0f32; (canvas.intrinsics.width * canvas.intrinsics.height) as usize],
     }
 }
 
@@ -151,7 +151,7 @@ impl Compositor {
         let closed: Vec<Vec<bool>> = virtual_occ.iter().zip(parts.objects).map(|(o, (_, m))| o.closed_triangles(m.triangles.len())).collect();
         let volumes = Volumes::new(&gpu, virtual_occ, proxy_occ, config.builder)?;
         let d = &gpu.device;
-        let res = Resources::new(&gpu, (canvas.width, canvas.height), (canvas.out_width, canvas.out_height));
+        let res = Resources::new(&gpu, (canvas.intrinsics.width, canvas.intrinsics.height), (canvas.out_width, canvas.out_height));
         let cam_layout = camera_layout(d);
         let uniforms = Uniforms::new(d, &canvas, &cam_layout);
         let mat_layout = material_layout(d);

@@ -233,7 +233,7 @@ pub fn trace_point(scene: &TransferScene, s: &PixelSurface, sun: Option<Vec3>, q
 /// The surfaces the canvas pixels' centres show on the virtual objects (pixels whose centre ray
 /// meets the proxy first, or nothing, are left out).
 pub fn pixel_surfaces(canvas: &Canvas, scene: &TransferScene) -> Vec<PixelSurface> {
-    let (w, h) = (canvas.width, canvas.height);
+    let (w, h) = (canvas.intrinsics.width, canvas.intrinsics.height);
     let eye = canvas.pose.translation.as_vec3();
     (0..w * h)
         .into_par_iter()
@@ -246,7 +246,7 @@ pub fn pixel_surfaces(canvas: &Canvas, scene: &TransferScene) -> Vec<PixelSurfac
             let view = -d;
             let normal = scene.shading_normal(hit.tri, hit.bary, hit.normal);
             let cos = hit.normal.dot(view).abs().max(MIN_FOOTPRINT_COS);
-            let footprint_m = hit.t / canvas.fx.min(canvas.fy) as f32 / cos;
+            let footprint_m = hit.t / canvas.intrinsics.fx.min(canvas.intrinsics.fy) as f32 / cos;
             Some(PixelSurface { pixel: i, point: hit.point, normal, face_normal: hit.normal, view, tri: hit.tri, footprint_m })
         })
         .collect()
@@ -300,11 +300,11 @@ impl ObjectTransfer {
     /// Finds the object pixels of `canvas` and keeps those on the lattice of `stride` (0: the
     /// automatic stride of [`stride_for`]); nothing is traced yet.
     pub fn new(canvas: &Canvas, scene: &TransferScene, quality: TransportQuality, stride: u32, seed: u64) -> Self {
-        let n = (canvas.width * canvas.height) as usize;
+        let n = (canvas.intrinsics.width * canvas.intrinsics.height) as usize;
         let mut surfaces = pixel_surfaces(canvas, scene);
         let object_pixels = surfaces.len();
         let stride = stride_for(object_pixels, quality.paths, stride);
-        let w = canvas.width;
+        let w = canvas.intrinsics.width;
         surfaces.retain(|s| (s.pixel % w).is_multiple_of(stride) && (s.pixel / w).is_multiple_of(stride));
         let mut point = vec![[0.0f32; 4]; n];
         let mut normal = vec![[0.0f32; 4]; n];

@@ -181,7 +181,7 @@ fn a_stride_keeps_the_lattice_pixels_only() {
     let every2 = ObjectTransfer::new(&canvas, &scene, q, 2, 1);
     assert_eq!(every2.stride(), 2);
     assert_eq!(every2.object_pixels(), all.object_pixels());
-    let w = canvas.width;
+    let w = canvas.intrinsics.width;
     assert!(every2.surfaces().iter().all(|s| (s.pixel % w).is_multiple_of(2) && (s.pixel / w).is_multiple_of(2)));
     let n = every2.surfaces().len() as f64;
     assert!((n - all.surfaces().len() as f64 / 4.0).abs() < 0.2 * n, "{n} of {}", all.surfaces().len());

@@ -39,7 +39,7 @@ impl Targets {
     /// must fit the device's largest texture); the warp is uploaded.
     pub fn new(gpu: &Gpu, canvas: &Canvas, cfg: &VemRenderConfig) -> Result<Self, GpuError> {
         let device = &gpu.device;
-        let cs = (canvas.width, canvas.height);
+        let cs = (canvas.intrinsics.width, canvas.intrinsics.height);
         let os = (canvas.out_width, canvas.out_height);
         let rt = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
         let input = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST;
