@@ -38,6 +38,11 @@ enum Knob {
     BouncePaths,
     /// Pool size.
     PoolSize,
+    /// The sky in the model (`[estimator.sky]`): uniform without terrain (Jensen), uniform with
+    /// terrain, Hošek–Wilkie at turbidity 2, 3, 4 (terrain 0.2), and Hošek–Wilkie without terrain.
+    Sky,
+    /// Quadrature directions of the sky and terrain terms: 32 … 1024.
+    SkyDirections,
 }
 
 #[derive(Args)]
@@ -138,6 +143,27 @@ fn knob_configs(knob: Knob, base: &EstimatorConfig) -> Vec<(String, EstimatorCon
             .iter()
             .map(|&p| (p.to_string(), EstimatorConfig { pool_size: p, samples: base.samples.min(p), ..base.clone() }))
             .collect(),
+        Knob::Sky => {
+            use heliar::scene::settings::{SkyShape, SkyTermsConfig};
+            let d = SkyTermsConfig::default();
+            let skies = [
+                ("uniform", SkyTermsConfig::jensen()),
+                ("uniform+terrain", SkyTermsConfig { shape: SkyShape::Uniform, ..d.clone() }),
+                ("hosek_t2", SkyTermsConfig { turbidity: 2.0, ..d.clone() }),
+                ("hosek_t3", d.clone()),
+                ("hosek_t4", SkyTermsConfig { turbidity: 4.0, ..d.clone() }),
+                ("hosek_t3_no_terrain", SkyTermsConfig { terrain_albedo: [0.0; 3], ..d.clone() }),
+            ];
+            skies.into_iter().map(|(name, sky)| (name.to_string(), EstimatorConfig { sky, ..base.clone() })).collect()
+        }
+        Knob::SkyDirections => [32, 64, 128, 256, 512, 1024]
+            .iter()
+            .map(|&n| {
+                let mut c = base.clone();
+                c.sky.directions = n;
+                (n.to_string(), c)
+            })
+            .collect(),
     }
 }
 
@@ -163,6 +189,8 @@ pub fn run(a: BenchArgs) -> Result<()> {
         Knob::AmbientPaths => "ambient_paths",
         Knob::BouncePaths => "bounce_paths",
         Knob::PoolSize => "pool_size",
+        Knob::Sky => "sky",
+        Knob::SkyDirections => "sky_directions",
     };
     let pb = frame_bar(configs.len(), &format!("sweep {knob_name}"));
     let mut table = Table::new(&[
@@ -183,7 +211,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
         // Time axis: per-frame time for the sample count; set-up time for the set-up knobs.
         let t = match s.knob {
             Knob::Samples => median(&r.ms),
-            Knob::AmbientPaths | Knob::PoolSize => r.setup_ms,
+            Knob::AmbientPaths | Knob::PoolSize | Knob::Sky | Knob::SkyDirections => r.setup_ms,
             Knob::BouncePaths => median(&r.rebuild_ms),
         };
         pd_pts.push((t, 100.0 * mean(&r.errs_pd)));
@@ -209,7 +237,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
     if let Some(path) = &s.plot {
         let x_label = match s.knob {
             Knob::Samples => "median estimate time per frame (ms)",
-            Knob::AmbientPaths | Knob::PoolSize => "estimator set-up time (ms)",
+            Knob::AmbientPaths | Knob::PoolSize | Knob::Sky | Knob::SkyDirections => "estimator set-up time (ms)",
             Knob::BouncePaths => "sun-visibility rebuild time (ms)",
         };
         let series = vec![
