@@ -87,10 +87,10 @@ fn winter(variant: &str, sky: heliar::scene::settings::SkyTermsConfig) -> (f64, 
 }
 
 /// Issue 13: on a real-shaped sky with a sun 5–10° high, the default model (Hošek–Wilkie shape,
-/// terrain of albedo 0.2 beyond the proxy; the truth's terrain is 0.8 or 0.08) recovers `Pd` and
-/// `Pa` several times better than Jensen's uniform sky. Measured (mean Pd / mean Pa / worst):
-/// default 2.4% / 5.5% / 8.9% (snow) and 2.1% / 4.9% / 6.4% (asphalt); uniform 24% / 22% / 30%
-/// and 22% / 21% / 29%.
+/// terrain of albedo 0.2 beyond the proxy, 512 quadrature directions; the truth's terrain is 0.8
+/// or 0.08) recovers `Pd` and `Pa` several times better than Jensen's uniform sky. Measured by
+/// `heliar estimate` (mean Pd / mean Pa / worst): default 2.4% / 2.7% / 7.3% (snow) and
+/// 1.2% / 1.9% / 3.9% (asphalt); uniform 24% / 22% / 30% and 22% / 21% / 29%.
 #[test]
 fn a_low_winter_sun_under_a_real_sky_is_recovered_with_the_sky_model() {
     use heliar::scene::settings::SkyTermsConfig;
@@ -98,7 +98,7 @@ fn a_low_winter_sun_under_a_real_sky_is_recovered_with_the_sky_model() {
         let (d, a, worst) = winter(variant, SkyTermsConfig::default());
         let (ud, ua, _) = winter(variant, SkyTermsConfig::jensen());
         eprintln!("{variant}: sky model Pd {:.1}% Pa {:.1}% worst {:.1}%; uniform Pd {:.1}% Pa {:.1}%", 100.0 * d, 100.0 * a, 100.0 * worst, 100.0 * ud, 100.0 * ua);
-        assert!(d < 0.04 && a < 0.07 && worst < 0.11, "{variant}: Pd {d} Pa {a} worst {worst}");
+        assert!(d < 0.035 && a < 0.04 && worst < 0.09, "{variant}: Pd {d} Pa {a} worst {worst}");
         assert!(ud > 3.0 * d && ua > 2.0 * a, "{variant}: the uniform sky should be clearly worse: Pd {ud} Pa {ua}");
     }
 }

@@ -80,7 +80,7 @@ pub const SKY_TURBIDITY_RANGE: (f64, f64) = (1.0, 10.0);
 
 impl Default for SkyTermsConfig {
     fn default() -> Self {
-        Self { shape: SkyShape::HosekWilkie, turbidity: 3.0, terrain_albedo: [0.2; 3], directions: 256 }
+        Self { shape: SkyShape::HosekWilkie, turbidity: 3.0, terrain_albedo: [0.2; 3], directions: 512 }
     }
 }
 
