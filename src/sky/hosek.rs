@@ -1,6 +1,6 @@
 //! The Hosek–Wilkie sky-dome model: "An analytic model for full spectral sky-dome radiance"
 //! (SIGGRAPH 2012), RGB variant, ported from the authors' reference implementation (version 1.4a)
-//! with its coefficient tables (`hosek_data.rs`, BSD licence kept there).
+//! with its coefficient tables (`hosek_data/`, BSD licence kept there).
 //!
 //! # How it works
 //! Radiance along a view at zenith angle `θ` and angle `γ` to the sun is the paper's extended

@@ -9,7 +9,7 @@
 //! - [`preetham`]: the Preetham–Shirley–Smits (1999) analytic daylight model (Perez function with
 //!   turbidity-dependent coefficients, xyY → linear Rec.709).
 //! - [`hosek`]: the Hosek–Wilkie (2012) sky-dome model, RGB variant, with the authors' coefficient
-//!   tables (`hosek_data.rs`, BSD licence kept with the data).
+//!   tables (`hosek_data/`, BSD licence kept with the data).
 //! - [`basis`]: the sky heliar's estimator fits: a few sun-following shapes (uniform,
 //!   circumsolar, horizon band, optionally Preetham), each normalised to unit irradiance on an
 //!   unoccluded horizontal surface, so fitted weights add up to `Pa`.

@@ -43,18 +43,11 @@ pub struct HosekSunSky {
 
 impl Environment for HosekSunSky {
     fn radiance(&self, d: Vec3) -> [f32; 3] {
-        let mut c = self.sky.radiance_rgb(d);
-        for cl in &self.clouds {
-            let a = cl.cover(d);
-            for k in 0..3 {
-                c[k] = c[k] * (1.0 - a) + cl.rgb[k] * a;
-            }
-        }
-        c
+        Cloud::over(&self.clouds, d, self.sky.radiance_rgb(d))
     }
 
     fn suns(&self) -> Vec<(Vec3, [f32; 3])> {
-        let t: f32 = self.clouds.iter().map(|c| 1.0 - c.cover(self.sun_dir)).product();
+        let t = Cloud::transmission(&self.clouds, self.sun_dir);
         if t <= 0.0 { vec![] } else { vec![(self.sun_dir, self.sun_irradiance.map(|e| e * t))] }
     }
 }

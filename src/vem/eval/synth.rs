@@ -39,6 +39,22 @@ pub struct Cloud {
 }
 
 impl Cloud {
+    /// `rgb` (the sky's radiance along `d`) seen through `clouds`, each composited over it.
+    pub fn over(clouds: &[Cloud], d: Vec3, mut rgb: [f32; 3]) -> [f32; 3] {
+        for cl in clouds {
+            let a = cl.cover(d);
+            for k in 0..3 {
+                rgb[k] = rgb[k] * (1.0 - a) + cl.rgb[k] * a;
+            }
+        }
+        rgb
+    }
+
+    /// The fraction of a source toward `dir` that `clouds` let through.
+    pub fn transmission(clouds: &[Cloud], dir: Vec3) -> f32 {
+        clouds.iter().map(|c| 1.0 - c.cover(dir)).product()
+    }
+
     /// Opacity along `d`.
     pub fn cover(&self, d: Vec3) -> f32 {
         let a = d.dot(self.centre).clamp(-1.0, 1.0).acos() / self.radius;
@@ -65,18 +81,12 @@ impl Environment for OutdoorSky {
         let horizon = 1.0 + 1.5 * (1.0 - d.y.clamp(0.0, 1.0)).powi(3);
         let gamma = d.dot(self.sun_dir).clamp(-1.0, 1.0).acos();
         let glow = 4.0 * (-gamma / 0.12).exp() + 0.6 * (-gamma / 0.6).exp();
-        let mut c: [f32; 3] = std::array::from_fn(|k| self.zenith[k] * horizon + glow * [1.0, 0.9, 0.75][k]);
-        for cl in &self.clouds {
-            let a = cl.cover(d);
-            for k in 0..3 {
-                c[k] = c[k] * (1.0 - a) + cl.rgb[k] * a;
-            }
-        }
-        c
+        let c: [f32; 3] = std::array::from_fn(|k| self.zenith[k] * horizon + glow * [1.0, 0.9, 0.75][k]);
+        Cloud::over(&self.clouds, d, c)
     }
 
     fn suns(&self) -> Vec<(Vec3, [f32; 3])> {
-        let t: f32 = self.clouds.iter().map(|c| 1.0 - c.cover(self.sun_dir)).product();
+        let t = Cloud::transmission(&self.clouds, self.sun_dir);
         if self.sun_dir.y <= 0.0 || t <= 0.0 {
             return vec![];
         }
