@@ -136,7 +136,6 @@ impl Estimator {
             self.last_smoothed = Some(s);
             out.smoothed = Some(Intensities { pd: [s[0], s[1], s[2]], pa: [s[3], s[4], s[5]] });
             self.last_update = Some(*time);
-            self.overcast = luma(&[s[0], s[1], s[2]]) < self.config.no_sun_ratio * luma(&[s[3], s[4], s[5]]);
             out.change = self.detector.check(dir, s, self.config.relight_threshold, self.config.relight_sun_deg);
             out.relight = out.change != ChangeReason::Unchanged;
         }

@@ -21,6 +21,7 @@ pub(super) struct Gathered {
 impl Estimator {
     /// Draws the frame's samples and fills `rows`, `lit`, `bounce_only` and `rho_over_pi`.
     pub(super) fn gather(&mut self, frame: &Frame, lin: &Linearizer, rng: &mut SmallRng) -> Gathered {
+        let overcast = self.overcast();
         let Some(sun) = self.sun.as_ref() else { unreachable!("ensure_sun always sets the state") };
         let sun: &SunState = sun;
         let available = sun.available();
@@ -69,7 +70,7 @@ impl Estimator {
                 PixelState::Ok => {
                     let (a, b) = match &self.sun_sky {
                         Some(sky) => {
-                            let a = if self.overcast { sky.a_overcast[e] } else { sky.a[e] };
+                            let a = if overcast { sky.a_overcast[e] } else { sky.a[e] };
                             (a, std::array::from_fn(|c| sun.b[e][c] + sky.b[e][c]))
                         }
                         None => (self.pool.a[e], sun.b[e]),

@@ -77,8 +77,6 @@ pub struct Estimator {
     /// current sun.
     sky: Option<sky_terms::SkyTerms>,
     sun_sky: Option<sky_terms::SunSky>,
-    /// The last smoothed lighting had no direct sun: the sky is taken as uniform.
-    overcast: bool,
     /// Time of the last frame that updated the smoother.
     last_update: Option<DateTime<FixedOffset>>,
     rows: [ChannelRows; 3],
@@ -155,7 +153,6 @@ impl Estimator {
             last_update: None,
             sky,
             sun_sky: None,
-            overcast: false,
             rows: Default::default(),
             lit: Vec::new(),
             bounce_only: Vec::new(),
@@ -197,9 +194,15 @@ impl Estimator {
         self.sun.as_ref()
     }
 
+    /// The last smoothed lighting had no direct sun (`Pd` below `no_sun_ratio` of `Pa`): the sky
+    /// is taken as uniform (see `sky_terms`).
+    fn overcast(&self) -> bool {
+        self.last_smoothed.is_some_and(|s| luma(&[s[0], s[1], s[2]]) < self.config.no_sun_ratio * luma(&[s[3], s[4], s[5]]))
+    }
+
     /// The sky this frame's model uses (see `sky_terms`: overcast frames use the uniform one).
     fn sky_used(&self) -> crate::scene::settings::SkyShape {
-        match (&self.sky, self.overcast) {
+        match (&self.sky, self.overcast()) {
             (Some(_), false) => self.config.sky.shape,
             _ => crate::scene::settings::SkyShape::Uniform,
         }
