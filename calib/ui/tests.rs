@@ -175,7 +175,7 @@ fn clicking_the_courtyard_frame_marks_the_node_under_it() {
     std::fs::remove_dir_all(dir.parent().unwrap()).ok();
 }
 
-/// Proxy corners seen by the courtyard camera (as in `tests/calib_tool.rs`).
+/// Proxy corners seen by the courtyard camera (as in `tests/suite/calib_tool.rs`).
 const CORNERS: [[f64; 3]; 12] = [
     [-8.0, 0.0, -8.0], [-8.0, 6.0, -8.0], [-2.8, 2.4, 1.5], [-2.8, 0.0, 1.5], [-2.8, 2.4, -1.5], [5.0, 0.0, -8.0],
     [-8.0, 0.0, 4.0], [3.0, 5.0, -8.0], [0.0, 0.0, 0.0], [4.0, 0.0, 3.0], [-8.0, 4.0, -2.0], [8.0, 7.0, -8.0],
@@ -307,7 +307,7 @@ fn the_intrinsics_tab_recovers_the_courtyard_lens_from_synthetic_boards() {
     let cam = Camera { intrinsics: k.clone(), pose: Pose { rotation: DMat3::IDENTITY, translation: DVec3::ZERO } };
     let board = Board { cols: 9, rows: 6, square_m: 0.03 };
     let centre = DVec3::new(-0.15, -0.1, 0.0);
-    // The views of `tests/calib_tool.rs`: tilted every way, and near the four image corners.
+    // The views of `tests/suite/calib_tool.rs`: tilted every way, and near the four image corners.
     for (i, (ax, ay, dist, ox, oy)) in [
         (0.0, 0.0, 0.7, 0.0, 0.0), (0.35, 0.0, 0.75, 0.0, 0.0), (-0.35, 0.1, 0.75, 0.0, 0.0), (0.0, 0.4, 0.65, 0.0, 0.0), (0.1, -0.4, 0.8, 0.0, 0.0),
         (0.3, 0.3, 0.85, 0.0, 0.0), (-0.25, -0.3, 0.65, 0.0, 0.0), (0.2, 0.2, 0.75, 0.27, 0.19), (-0.2, 0.2, 0.75, -0.27, 0.19), (0.2, -0.2, 0.75, 0.27, -0.19), (-0.2, -0.2, 0.75, -0.27, -0.19),

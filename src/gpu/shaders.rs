@@ -3,7 +3,7 @@
 //! A pass's shader lives in `shaders/<pass>.wgsl`; code shared by several passes lives in
 //! `shaders/common/`. A line `#include "common/x.wgsl"` is replaced by that file (recursively,
 //! each file at most once per module), so every module naga sees is plain WGSL. The validation
-//! test (`tests/shader_validation.rs`) checks that every `.wgsl` file on disk is listed here and
+//! test (`tests/suite/shader_validation.rs`) checks that every `.wgsl` file on disk is listed here and
 //! that every resolved module parses and validates.
 
 use super::GpuError;

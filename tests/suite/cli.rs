@@ -1,6 +1,6 @@
 //! The `heliar` command line: `sun` (single and batch), `estimate`, `bake`, `relight`, `irradiance`.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::Command;

@@ -4,9 +4,7 @@
 //! `ToneParams::apply`, the `dark` skip, and the report of each kind of frame (recorded).
 //! Headless on whatever adapter wgpu opens.
 
-#[allow(dead_code)]
-#[path = "render/support.rs"]
-mod support;
+use crate::render::support;
 
 use glam::Vec3;
 use heliar::geometry::raycast::RayScene;

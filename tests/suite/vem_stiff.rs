@@ -1,6 +1,6 @@
 //! Stiff and extreme inputs of the VEM decomposition (issue 5 §7): a delta-peaked map, an
 //! all-zero map, a uniform map, values from 1e-4 to 1e6, and NaN/Inf texels.
-//! `cargo test --test vem_stiff -- --nocapture` prints each case's numbers.
+//! `cargo test --test suite vem_stiff:: -- --nocapture` prints each case's numbers.
 
 use glam::Vec3;
 use heliar::vem::eval::metrics::{irradiance_error, random_normals, reference_irradiance};

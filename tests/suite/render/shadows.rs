@@ -2,7 +2,7 @@
 //! centre, the first hit (proxy or virtual) and shadow rays toward the sun against the real and
 //! the virtual meshes.
 
-use crate::support::*;
+use super::support::*;
 use glam::Vec3;
 use heliar::geometry::Material;
 use heliar::lighting::Lighting;

@@ -2,7 +2,7 @@
 //! surface points (CPU ray casts for the points, sun visibility by shadow rays, the CPU
 //! `ProbeGrid::irradiance` for the ambient, the BRDF written again in Rust).
 
-use crate::support::*;
+use super::support::*;
 use glam::{UVec3, Vec3};
 use heliar::geometry::{Material, Mesh};
 use heliar::irradiance::{ProbeGrid, sh};

@@ -9,5 +9,6 @@ mod robust;
 mod shading;
 mod shadows;
 mod skip;
-mod support;
+#[allow(dead_code)]
+pub(crate) mod support;
 mod transfer;

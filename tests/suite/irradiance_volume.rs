@@ -1,7 +1,7 @@
 //! Bake, relighting and the irradiance volume (Jensen §3.3, §3.4, §4) against closed forms, brute
 //! force and the bundled scene's capture.
 
-mod common;
+use crate::common;
 
 use glam::{UVec3, Vec3};
 use heliar::envmap::bake::{Baked, BakeInfo, SKY, bake, bake_cached};

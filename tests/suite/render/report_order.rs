@@ -7,7 +7,7 @@
 //! were recorded from the compositor as it was before its passes became units (commit e556da0,
 //! one `encode` function holding every decision); every frame here must still give them exactly.
 
-use crate::support::*;
+use super::support::*;
 use glam::Vec3;
 use heliar::geometry::{Material, Mesh};
 use heliar::lighting::Lighting;

@@ -6,7 +6,7 @@
 //! objects' shadows on the ground that lights them) and its plumbing to the GPU (texture layout,
 //! the per-fragment lookup, scaling by `Pa` and `Pd`) at once.
 
-use crate::support::*;
+use super::support::*;
 use glam::{Vec2, Vec3};
 use heliar::geometry::raycast::{RAY_EPSILON_M, RayScene};
 use heliar::geometry::sampling::sample_cosine_around;

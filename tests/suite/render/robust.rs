@@ -2,8 +2,8 @@
 //! warning naming the mesh), degenerate triangles, a sun exactly parallel to faces, and the
 //! compute-pass builder producing the CPU builder's triangles.
 
-use crate::shadows::{check, check_with, statue};
-use crate::support::*;
+use super::shadows::{check, check_with, statue};
+use super::support::*;
 use glam::{Vec2, Vec3};
 use heliar::geometry::{Material, Mesh};
 use heliar::render::occluder::Occluder;

@@ -1,7 +1,7 @@
 //! The skip logic: every pass a frame does not need is left out with a reason, and leaving it
 //! out does not change the picture.
 
-use crate::support::*;
+use super::support::*;
 use glam::Vec3;
 use heliar::geometry::{Material, Mesh};
 use heliar::render::frame::pass;

@@ -171,7 +171,7 @@ fn every_module_imports_only_the_layers_below_it() {
     let mut bad = Vec::new();
     for (m, uses) in &top.edges {
         let Some(ok) = allowed.get(m.as_str()) else {
-            bad.push(format!("{m}: not in the layering table (tests/architecture.rs, ARCHITECTURE.md)"));
+            bad.push(format!("{m}: not in the layering table (tests/suite/architecture.rs, ARCHITECTURE.md)"));
             continue;
         };
         for u in uses {

@@ -9,7 +9,7 @@
 //! the differential darkening), for the other two darkening models, and for two ablations: the
 //! irradiance volume alone (transfer off: probes times ambient occlusion, the previous product
 //! path) and a uniform sky alone (the stand-in for scenes without an environment map).
-//! `cargo test --test render courtyard -- --nocapture` shows the table, and `HELIAR_DUMP=dir`
+//! `cargo test --test suite render::courtyard -- --nocapture` shows the table, and `HELIAR_DUMP=dir`
 //! writes footage / composite / reference / signed difference crops.
 //!
 //! What limits the agreement (measured, see DEVELOPERS.md): silhouette and shadow-edge pixels,
@@ -19,7 +19,7 @@
 //! overcast); the estimated `Pd`, `Pa` (≤ 1.5% off); the proxy's mean albedo where the real
 //! surfaces are textured; and the reference's own noise (≈ 1.5% at 4096 spp).
 
-use crate::support::*;
+use super::support::*;
 use glam::Vec3;
 use heliar::estimate::Estimator;
 use heliar::geometry::raycast::RayScene;

@@ -1,0 +1,27 @@
+//! heliar's integration tests, as one test binary: every module below was once a binary of its
+//! own, and each of those linked wgpu, OpenCV and egui again (21 links of ~100 MB on two cores,
+//! and the disk that CI ran out of). One binary links once; `cargo test --features opencv
+//! --test suite <module>::` runs one module, e.g. `render::` or `bad_input::`.
+
+mod common;
+mod render;
+mod architecture;
+mod augment_video;
+mod bad_input;
+mod bad_input_calib;
+mod bad_input_run;
+mod behaviour;
+mod calib_tool;
+mod chunks;
+mod cli;
+mod estimate_courtyard;
+mod estimator_stiff;
+mod interrupt_resume;
+mod irradiance_volume;
+mod live;
+mod scene_errors;
+mod shader_validation;
+mod vem_cli;
+mod vem_render;
+mod vem_sequences;
+mod vem_stiff;
