@@ -1,8 +1,6 @@
 //! The stiff and extreme cases of the estimator (issue: foundation §4). Every case states what
 //! must come out; none may give NaN, negative intensities or an arbitrary split.
 
-use crate::common;
-
 use crate::common::*;
 use heliar::estimate::{EstimatorConfig, Fallback, FrameEstimate, Status};
 use heliar::io::frames::{Linearizer, Response};
