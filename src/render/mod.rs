@@ -54,7 +54,7 @@ pub mod virtual_shading;
 pub mod volume;
 pub mod volume_compute;
 
-pub use compositor::{Builder, Compositor, CompositorConfig, PassSwitches, RenderedFrame, SceneParts};
+pub use compositor::{Builder, Compositor, CompositorConfig, PassSwitches, RenderedFrame, SceneParts, TRACE_PATHS_PER_FRAME};
 pub use frame::{Darkening, PassReport, VideoFrame};
 
 /// Errors of the renderers.
