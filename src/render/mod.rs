@@ -55,7 +55,7 @@ pub mod volume;
 pub mod volume_compute;
 
 pub use compositor::{Builder, Compositor, CompositorConfig, PassSwitches, RenderedFrame, SceneParts, TRACE_PATHS_PER_FRAME};
-pub use frame::{Darkening, PassReport, VideoFrame};
+pub use frame::{Darkening, FrameTimings, PassReport, VideoFrame};
 
 /// Errors of the renderers.
 #[derive(Debug, thiserror::Error)]

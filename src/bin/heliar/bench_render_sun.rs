@@ -30,6 +30,8 @@ struct Run {
     frame_ms: Vec<f64>,
     max_paths: u64,
     swaps: usize,
+    /// Stage timings of every frame after the first.
+    stages: Vec<heliar::render::FrameTimings>,
 }
 
 /// Runs the moving-sun benchmark on `scene_dir`: `frames` frames with the default budget (and
@@ -57,7 +59,7 @@ pub fn run(scene_dir: &Path, frames: usize, step_deg: f32, csv: &Path) -> Result
         let paths = (config.bounce_quality.paths as u64 * 2, config.transfer_paths as u64);
         let mut comp = Compositor::for_scene(gpu.clone(), &scene, ray.clone(), config).with_context(|| format!("setting up the compositor for {}", scene.root.display()))?;
         comp.set_probes(&grid);
-        let mut r = Run { budget, first_ms: 0.0, frame_ms: Vec::new(), max_paths: 0, swaps: 0 };
+        let mut r = Run { budget, first_ms: 0.0, frame_ms: Vec::new(), max_paths: 0, swaps: 0, stages: Vec::new() };
         let pb = frame_bar(n, if budget == 0 { "whole re-trace" } else { "sliced re-trace" });
         for k in 0..n {
             let (video, lighting) = &inputs[k % inputs.len()];
@@ -70,6 +72,7 @@ pub fn run(scene_dir: &Path, frames: usize, step_deg: f32, csv: &Path) -> Result
                 r.first_ms = ms;
             } else {
                 r.frame_ms.push(ms);
+                r.stages.push(report.timings);
                 // Receivers with the objects: two integrals per pixel (the differential model).
                 let p = report.receivers_computed as u64 * paths.0 + report.transfer_traced as u64 * paths.1;
                 r.max_paths = r.max_paths.max(p);
@@ -100,7 +103,36 @@ pub fn run(scene_dir: &Path, frames: usize, step_deg: f32, csv: &Path) -> Result
         scene.camera.intrinsics.height
     );
     print!("{table}");
+    print_stages(&runs);
     crate::common::write_output(csv, |tmp| Ok(table.write_csv(tmp)?))?;
     println!("wrote {}", csv.display());
     Ok(())
+}
+
+/// The median of each stage per run, and the stages of its slowest frame.
+fn print_stages(runs: &[Run]) {
+    type Get = fn(&heliar::render::FrameTimings) -> f64;
+    let stages: [(&str, Get); 7] = [
+        ("volume_build", |t| t.volume_build_ms),
+        ("receivers", |t| t.receivers_ms),
+        ("transfer", |t| t.transfer_ms),
+        ("region", |t| t.region_ms),
+        ("upload", |t| t.upload_ms),
+        ("gpu", |t| t.gpu_ms),
+        ("readback", |t| t.readback_ms),
+    ];
+    let mut head = vec!["trace_paths_per_frame", "frame"];
+    head.extend(stages.iter().map(|(n, _)| *n));
+    let mut table = Table::new(&head);
+    for r in runs {
+        let Some(slowest) = (0..r.frame_ms.len()).max_by(|&a, &b| r.frame_ms[a].total_cmp(&r.frame_ms[b])) else { continue };
+        let mut row = vec![r.budget.to_string(), "median".to_owned()];
+        row.extend(stages.iter().map(|(_, f)| format!("{:.1}", median(&r.stages.iter().map(f).collect::<Vec<_>>()))));
+        table.push(row);
+        let mut row = vec![r.budget.to_string(), format!("slowest ({:.0} ms)", r.frame_ms[slowest])];
+        row.extend(stages.iter().map(|(_, f)| format!("{:.1}", f(&r.stages[slowest]))));
+        table.push(row);
+    }
+    println!("stage times, ms (the report's timings)");
+    print!("{table}");
 }

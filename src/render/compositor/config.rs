@@ -16,10 +16,11 @@ use crate::scene::settings::EstimatorConfig;
 pub const REUSE_SUN_DEG: f64 = 0.05;
 
 /// Default paths per frame of each sun-dependent re-trace (the receivers' `b`, the objects'
-/// `R_d`) after a sun move: 2¹⁵ paths take about 25 ms on this machine's two cores (1.3 M
-/// paths/s, release build), so both fit a 150 ms frame beside the GPU passes
-/// (`heliar bench render --knob moving-sun`).
-pub const TRACE_PATHS_PER_FRAME: u64 = 1 << 15;
+/// `R_d`) after a sun move. On this machine's two shared cores (dev build) 2¹⁴ paths take
+/// 15–30 ms per re-trace, so both fit a 150 ms frame beside the software GPU's ~60 ms
+/// (`heliar bench render --knob moving-sun`); a re-trace of the bundled courtyard then takes a
+/// few hundred frames (seconds of 30 fps footage, while the sun moves 0.25° in a minute).
+pub const TRACE_PATHS_PER_FRAME: u64 = 1 << 14;
 
 /// Relative error of a value stored as a half float (11 significant bits; conversion may
 /// truncate, so one unit in the last place).
