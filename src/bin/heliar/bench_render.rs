@@ -27,6 +27,10 @@ pub enum Knob {
     Msaa,
     /// Canvas pixels per footage pixel: 1, 1.5, 2.
     Supersample,
+    /// Paths per frame of the sun-dependent re-trace: 0 (whole, as before issue 13 part 4) and
+    /// the default (sliced); the reference frames are rendered in order by one compositor, so a
+    /// re-trace started by the sun's motion between them lags.
+    TraceBudget,
     /// Not a sweep: frame times with the sun moving past the re-trace threshold every frame,
     /// the re-trace whole and in per-frame slices (`bench_render_sun`).
     MovingSun,
@@ -144,6 +148,10 @@ fn knob_values(knob: Knob, base: &CompositorConfig) -> Vec<(String, CompositorCo
         Knob::TransferStride => [1u32, 2, 3, 4].iter().map(|&s| (s.to_string(), CompositorConfig { transfer_stride: s, ..base.clone() }, 4)).collect(),
         Knob::Msaa => [1u32, 4].iter().map(|&m| (m.to_string(), base.clone(), m)).collect(),
         Knob::Supersample => [1.0f64, 1.5, 2.0].iter().map(|&s| (s.to_string(), CompositorConfig { supersample: s, ..base.clone() }, 4)).collect(),
+        Knob::TraceBudget => [0u64, heliar::render::TRACE_PATHS_PER_FRAME]
+            .iter()
+            .map(|&b| (b.to_string(), CompositorConfig { trace_paths_per_frame: b, ..base.clone() }, 4))
+            .collect(),
         Knob::MovingSun => Vec::new(),
     }
 }
@@ -195,6 +203,7 @@ fn report(a: &RenderSweep, rows: &[Row], frames: &[RefFrame]) -> Result<()> {
         Knob::TransferStride => "transfer_stride",
         Knob::Msaa => "msaa_samples",
         Knob::Supersample => "supersample",
+        Knob::TraceBudget => "trace_paths_per_frame",
         Knob::MovingSun => "moving_sun",
     };
     let mut table = Table::new(&[name, "worst_pct", "mean_pct", "object_pct", "shadow_pct", "interior_pct", "traced_px", "stride", "transfer_ms", "frame_ms", "setup_ms"]);
