@@ -16,11 +16,13 @@ use crate::scene::settings::EstimatorConfig;
 pub const REUSE_SUN_DEG: f64 = 0.05;
 
 /// Default paths per frame of each sun-dependent re-trace (the receivers' `b`, the objects'
-/// `R_d`) after a sun move. On this machine's two shared cores (dev build) 2¹⁴ paths take
-/// 15–30 ms per re-trace, so both fit a 150 ms frame beside the software GPU's ~60 ms
-/// (`heliar bench render --knob moving-sun`); a re-trace of the bundled courtyard then takes a
-/// few hundred frames (seconds of 30 fps footage, while the sun moves 0.25° in a minute).
-pub const TRACE_PATHS_PER_FRAME: u64 = 1 << 14;
+/// `R_d`) after a sun move. On this machine's two shared cores (dev build, load 5) 2¹⁴ paths
+/// took a median 12 ms for the receivers and 23 ms for the transfer, but up to 78 ms for the
+/// transfer, which put the slowest frame at 162 ms beside the software GPU's ~50 ms; 2¹³ keeps
+/// every frame under 150 ms (`heliar bench render --knob moving-sun`, docs/measurements.md). A
+/// re-trace of the bundled courtyard then takes 334 frames for the receivers (5344 pixels, 11 s
+/// of 30 fps footage, in which the sun moves 0.05°) and 42 for the transfer.
+pub const TRACE_PATHS_PER_FRAME: u64 = 1 << 13;
 
 /// Relative error of a value stored as a half float (11 significant bits; conversion may
 /// truncate, so one unit in the last place).
