@@ -19,6 +19,13 @@
 //! following the light at all (issue 13: a passing cloud was smoothed away). The run's clock
 //! check names such frames in a warning.
 //!
+//! **How fast a cloud is followed.** At 30 fps a frame's drift allowance (`q·(Pd + Pa)·√Δt`, about
+//! 6% of the light at the default `q` = 0.1) is several times the standard error of an N = 500
+//! estimate, so the gain is close to 1 and a cloud that covers the sun within 0.5 s is followed
+//! within a frame: `tests/cloud_lag.rs` measures a half-way lag of 0.02 frames with 1% pixel
+//! noise and 0.13 frames with 10%, settled within 5% of the step on the frame of full cover, and
+//! holds it to at most 1 frame of lag and 2 frames of settling.
+//!
 //! # Change detection
 //! [`ChangeDetector`] compares the smoothed lighting with the lighting that the last relight used.
 //! It reports a change when, in any channel, `Pd` or `Pa` moved by more than `relight_threshold`

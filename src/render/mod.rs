@@ -54,8 +54,8 @@ pub mod virtual_shading;
 pub mod volume;
 pub mod volume_compute;
 
-pub use compositor::{Builder, Compositor, CompositorConfig, PassSwitches, RenderedFrame, SceneParts};
-pub use frame::{Darkening, PassReport, VideoFrame};
+pub use compositor::{Builder, Compositor, CompositorConfig, PassSwitches, RenderedFrame, SceneParts, TRACE_PATHS_PER_FRAME};
+pub use frame::{Darkening, FrameTimings, PassReport, VideoFrame};
 
 /// Errors of the renderers.
 #[derive(Debug, thiserror::Error)]

@@ -97,3 +97,71 @@ fn interrupted_and_resumed_runs_give_the_uninterrupted_frames_byte_for_byte() {
     }
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// Every value of `key` anywhere in a JSON value.
+fn values_of(v: &serde_json::Value, key: &str, out: &mut Vec<u64>) {
+    match v {
+        serde_json::Value::Object(m) => m.iter().for_each(|(k, x)| {
+            if k == key {
+                out.extend(x.as_u64());
+            }
+            values_of(x, key, out);
+        }),
+        serde_json::Value::Array(a) => a.iter().for_each(|x| values_of(x, key, out)),
+        _ => {}
+    }
+}
+
+/// Issue 13 part 4: the sun moves 0.5° per frame (frames 2 minutes apart from the sequence's own
+/// start), so the receivers' `b` and the objects' `R_d` are re-traced a slice per frame all the
+/// time; a run stopped in the middle of a re-trace or after a swap resumes to the uninterrupted
+/// frames, byte for byte, and no frame after the first traces more paths than its budget.
+///
+/// The courtyard has 5344 receiver pixels (512 paths each with the objects) and 667 transfer
+/// pixels (512 paths). With 2¹⁸ paths per frame the receivers' re-trace takes 11 frames and the
+/// transfer's 2, so the stops at 3 and 7 fall inside a receivers' job and on both sides of
+/// transfer swaps, and the receivers swap after the resume; with 2¹⁹ the receivers swap at frame 6
+/// (a swap the replay passes) and the transfer is traced whole every frame.
+#[test]
+fn a_run_resumed_during_and_after_a_sliced_retrace_gives_the_uninterrupted_frames() {
+    // Not `scratch()`: the other test removes that folder when it ends.
+    let d = std::env::temp_dir().join(format!("heliar-interrupt-sliced-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    for budget in [1u64 << 18, 1 << 19] {
+        let b = budget.to_string();
+        let fast = ["--sequence", "hdr", "--start", "2024-06-21T15:30:00+02:00", "--fps", "0.008333333", "--trace-paths-per-frame", b.as_str()];
+        let whole = d.join(format!("whole-{budget}"));
+        run(&whole, &fast);
+        let want = frames(&whole);
+        assert_eq!(want.len(), 12);
+        // Paths per frame from the report: receivers with the objects (differential model: two
+        // integrals of the estimator's 256 bounce paths), transfer pixels of 512 paths.
+        let report = std::fs::read_to_string(whole.join("report.jsonl")).unwrap();
+        let mut retraced = 0;
+        for (i, line) in report.lines().enumerate().skip(1) {
+            let v: serde_json::Value = serde_json::from_str(line).unwrap();
+            let (mut rc, mut tt) = (Vec::new(), Vec::new());
+            values_of(&v, "receivers_computed", &mut rc);
+            values_of(&v, "transfer_traced", &mut tt);
+            let (rc, tt) = (rc.iter().sum::<u64>(), tt.iter().sum::<u64>());
+            assert!(rc * 512 <= budget && tt * 512 <= budget, "budget {budget}, frame {i}: {rc} receiver pixels, {tt} transfer pixels");
+            retraced += usize::from(rc > 0);
+        }
+        assert!(retraced >= 10, "budget {budget}: the receivers are re-traced on most frames ({retraced} of 11)");
+        for at in [3, 7] {
+            let out = d.join(format!("stop-{budget}-{at}"));
+            let n = at.to_string();
+            let mut first: Vec<&str> = fast.to_vec();
+            first.extend(["--max-frames", n.as_str()]);
+            run(&out, &first);
+            let mut again: Vec<&str> = fast.to_vec();
+            again.push("--resume");
+            run(&out, &again);
+            let got = frames(&out);
+            let differ: Vec<&String> = want.keys().filter(|k| got.get(*k) != want.get(*k)).collect();
+            assert!(differ.is_empty(), "budget {budget}, resumed at frame {at}: these frames differ from the uninterrupted run: {differ:?}");
+        }
+    }
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -160,9 +160,15 @@ pub struct AugmentArgs {
     #[arg(long, value_enum, default_value = "auto")]
     ambient: AmbientArg,
     /// Paths per pixel of the virtual objects' per-pixel ambient transfer, traced on the first
-    /// frame and again when the sun has moved 0.25° (0: probes × ambient occlusion instead).
+    /// frame, its sun part again when the sun has moved 0.25° (0: probes × ambient occlusion
+    /// instead).
     #[arg(long, default_value_t = heliar::render::object_transfer::TRANSFER_PATHS)]
     transfer_paths: u32,
+    /// Paths per frame of the re-trace of the sun-dependent terms (the receivers' `b`, the
+    /// objects' `R_d`) after the sun has moved 0.25°: done a slice per frame while the previous
+    /// values serve (0: the whole re-trace in one frame, which stalls it for seconds).
+    #[arg(long, default_value_t = heliar::render::TRACE_PATHS_PER_FRAME)]
+    trace_paths_per_frame: u64,
     /// Columns of the contact sheet.
     #[arg(long, default_value_t = 4)]
     sheet_columns: u32,
@@ -217,6 +223,7 @@ pub fn run(a: AugmentArgs) -> Result<()> {
         VolumesArg::Compute => Builder::Compute,
     };
     config.transfer_paths = a.transfer_paths;
+    config.trace_paths_per_frame = a.trace_paths_per_frame;
     let mut session = outdoor_session(&scene, ray, a.samples, config, a.ambient.into())?;
     let format = a.format.map(|f| match f {
         FormatArg::Png => Format::Png,

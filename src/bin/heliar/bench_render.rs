@@ -27,6 +27,13 @@ pub enum Knob {
     Msaa,
     /// Canvas pixels per footage pixel: 1, 1.5, 2.
     Supersample,
+    /// Paths per frame of the sun-dependent re-trace: 0 (whole, as before issue 13 part 4) and
+    /// the default (sliced); the reference frames are rendered in order by one compositor, so a
+    /// re-trace started by the sun's motion between them lags.
+    TraceBudget,
+    /// Not a sweep: frame times with the sun moving past the re-trace threshold every frame,
+    /// the re-trace whole and in per-frame slices (`bench_render_sun`).
+    MovingSun,
 }
 
 #[derive(Args)]
@@ -46,6 +53,12 @@ pub struct RenderSweep {
     /// Write the outputs even over a file of the scene.
     #[arg(long)]
     force: bool,
+    /// Frames of the moving-sun benchmark.
+    #[arg(long, default_value_t = 40)]
+    frames: usize,
+    /// Sun motion per frame of the moving-sun benchmark, degrees.
+    #[arg(long, default_value_t = 0.5)]
+    sun_step_deg: f32,
 }
 
 /// One reference frame: its footage, lighting, reference image and pixel classes.
@@ -73,6 +86,10 @@ fn ms(t: std::time::Instant) -> f64 {
 }
 
 pub fn run(a: RenderSweep) -> Result<()> {
+    if let Knob::MovingSun = a.knob {
+        crate::common::guard_files(Some(&a.scene), &[], &[a.csv.as_path()], a.force)?;
+        return crate::bench_render_sun::run(&a.scene, a.frames.max(2), a.sun_step_deg, &a.csv);
+    }
     let (scene, ray) = load_scene(&a.scene)?;
     let outputs: Vec<&std::path::Path> = std::iter::once(&a.csv).chain(&a.plot).map(PathBuf::as_path).collect();
     crate::common::guard_files(Some(&scene.root), &[], &outputs, a.force)?;
@@ -131,6 +148,11 @@ fn knob_values(knob: Knob, base: &CompositorConfig) -> Vec<(String, CompositorCo
         Knob::TransferStride => [1u32, 2, 3, 4].iter().map(|&s| (s.to_string(), CompositorConfig { transfer_stride: s, ..base.clone() }, 4)).collect(),
         Knob::Msaa => [1u32, 4].iter().map(|&m| (m.to_string(), base.clone(), m)).collect(),
         Knob::Supersample => [1.0f64, 1.5, 2.0].iter().map(|&s| (s.to_string(), CompositorConfig { supersample: s, ..base.clone() }, 4)).collect(),
+        Knob::TraceBudget => [0u64, heliar::render::TRACE_PATHS_PER_FRAME]
+            .iter()
+            .map(|&b| (b.to_string(), CompositorConfig { trace_paths_per_frame: b, ..base.clone() }, 4))
+            .collect(),
+        Knob::MovingSun => Vec::new(),
     }
 }
 
@@ -181,6 +203,8 @@ fn report(a: &RenderSweep, rows: &[Row], frames: &[RefFrame]) -> Result<()> {
         Knob::TransferStride => "transfer_stride",
         Knob::Msaa => "msaa_samples",
         Knob::Supersample => "supersample",
+        Knob::TraceBudget => "trace_paths_per_frame",
+        Knob::MovingSun => "moving_sun",
     };
     let mut table = Table::new(&[name, "worst_pct", "mean_pct", "object_pct", "shadow_pct", "interior_pct", "traced_px", "stride", "transfer_ms", "frame_ms", "setup_ms"]);
     let mut pts = Vec::new();

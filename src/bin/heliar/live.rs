@@ -56,6 +56,11 @@ pub struct LiveArgs {
     /// occlusion; switchable in the window when on).
     #[arg(long, default_value_t = heliar::render::object_transfer::TRANSFER_PATHS)]
     transfer_paths: u32,
+    /// Paths per frame of the re-trace of the sun-dependent terms after the sun has moved
+    /// 0.25°, done a slice per frame while the previous values serve (0: whole, stalling the
+    /// window for seconds).
+    #[arg(long, default_value_t = heliar::render::TRACE_PATHS_PER_FRAME)]
+    trace_paths_per_frame: u64,
     /// A captured VEM sequence (fisheye/equirect/polar frames) to decompose into lights in a
     /// panel of the window.
     #[arg(long)]
@@ -120,6 +125,7 @@ mod imp {
         let mut config = CompositorConfig::for_scene(&scene);
         config.darkening = a.darkening.into();
         config.transfer_paths = a.transfer_paths;
+        config.trace_paths_per_frame = a.trace_paths_per_frame;
         let session = crate::augment::outdoor_session(&scene, ray, a.samples, config, a.ambient.into())?;
         // The uniform sky is always at hand as the other choice of the volume.
         let other: Option<Box<dyn ProbeSource + Send>> =

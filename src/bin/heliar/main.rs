@@ -5,6 +5,7 @@ mod augment;
 mod bench;
 mod bench_irradiance;
 mod bench_render;
+mod bench_render_sun;
 mod bench_vem;
 mod bench_vem_sun;
 mod common;

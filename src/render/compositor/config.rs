@@ -15,6 +15,15 @@ use crate::scene::settings::EstimatorConfig;
 /// an occluder 5 m from its receiver moves 4 mm, a fraction of a pixel at courtyard distances.
 pub const REUSE_SUN_DEG: f64 = 0.05;
 
+/// Default paths per frame of each sun-dependent re-trace (the receivers' `b`, the objects'
+/// `R_d`) after a sun move. On this machine's two shared cores (dev build, load 5) 2¹⁴ paths
+/// took a median 12 ms for the receivers and 23 ms for the transfer, but up to 78 ms for the
+/// transfer, which put the slowest frame at 162 ms beside the software GPU's ~50 ms; 2¹³ keeps
+/// every frame under 150 ms (`heliar bench render --knob moving-sun`, docs/measurements.md). A
+/// re-trace of the bundled courtyard then takes 334 frames for the receivers (5344 pixels, 11 s
+/// of 30 fps footage, in which the sun moves 0.05°) and 42 for the transfer.
+pub const TRACE_PATHS_PER_FRAME: u64 = 1 << 13;
+
 /// Relative error of a value stored as a half float (11 significant bits; conversion may
 /// truncate, so one unit in the last place).
 pub const HALF_PRECISION: f32 = 1.0 / 1024.0;
@@ -59,6 +68,10 @@ pub struct CompositorConfig {
     /// Lattice spacing of the transfer's traced pixels (0: automatic, within
     /// [`crate::render::object_transfer::TRANSFER_PATH_BUDGET`]).
     pub transfer_stride: u32,
+    /// Paths each of the receivers' `b` and the objects' `R_d` may trace per frame when they
+    /// are re-traced after a sun move (0: unbounded, the whole re-trace in the frame that decides
+    /// it). The re-trace is then done a slice per frame while the previous values serve.
+    pub trace_paths_per_frame: u64,
     /// Seed of the integrals.
     pub seed: u64,
 }
@@ -90,6 +103,7 @@ impl CompositorConfig {
             transfer_paths: crate::render::object_transfer::TRANSFER_PATHS,
             transfer_bounces: crate::render::object_transfer::TRANSFER_BOUNCES,
             transfer_stride: 0,
+            trace_paths_per_frame: TRACE_PATHS_PER_FRAME,
             seed: e.seed,
         }
     }

@@ -12,9 +12,10 @@
 //!    virtual-surface samples are in some shadow;
 //! 4. the virtual objects shaded in one geometry pass: sun term times the pixel's unshadowed
 //!    fraction of virtual-surface samples, ambient from the per-pixel transfer
-//!    ([`super::object_transfer`], traced on the CPU on the first frame and when the sun has moved past
-//!    `bounce_rebuild_deg`), or SH ambient from the probe grid times the objects' own ambient
-//!    occlusion where the transfer has no entry (or is off).
+//!    ([`super::object_transfer`], traced on the CPU on the first frame; its sun part re-traced
+//!    when the sun has moved past `bounce_rebuild_deg`, a slice of `trace_paths_per_frame` paths
+//!    per frame while the previous one serves), or SH ambient from the probe grid times the
+//!    objects' own ambient occlusion where the transfer has no entry (or is off).
 //!
 //! Then, in the footage's pixel grid, the composite warps the canvas layers through the lens
 //! model and darkens the footage: under the virtual shadow with the proxy's normal and `c`, and,
@@ -27,7 +28,11 @@
 //! term), no real part whose shadow can reach the objects or their shadows (no real volumes),
 //! a sun that has not moved more than `reuse_sun_deg` with static objects (the volumes, the
 //! stencil and the mask of the earlier frame are kept; only shading and composite run), and a
-//! sun that has not moved more than `bounce_rebuild_deg` (the objects' transfer is kept).
+//! sun that has not moved more than `bounce_rebuild_deg` (the objects' transfer is kept). A sun
+//! that has moved further never stalls a frame: the sun-dependent values (the receivers' `b`
+//! and `s`, the objects' `R_d`) are re-traced within `trace_paths_per_frame` paths per frame;
+//! the sky-only ones (`c`, `R_a`) keep their values (they share those paths, whose random numbers
+//! do not depend on the sun, so they would come out the same) (issue 13 part 4).
 //!
 //! # Passes as units
 //! Every pass is a unit ([`crate::render::plan`]): it plans from the frame's facts
@@ -62,7 +67,7 @@ mod transfer;
 mod units;
 mod volumes;
 
-pub use config::{CompositorConfig, HALF_PRECISION, PassSwitches, REUSE_SUN_DEG, RenderedFrame, SceneParts};
+pub use config::{CompositorConfig, HALF_PRECISION, PassSwitches, REUSE_SUN_DEG, RenderedFrame, SceneParts, TRACE_PATHS_PER_FRAME};
 pub use context::{FrameContext, Gate};
 pub use resources::Resources;
 pub use stencil_cache::StencilCache;

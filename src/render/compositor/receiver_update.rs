@@ -9,6 +9,9 @@
 //! [`RECEIVER_GROW_PX`]) plus, for the differential model, those near the objects
 //! ([`Receivers::near`]); the list follows the sun only as closely as `b` does, so it is rebuilt
 //! when `b` is (past `bounce_rebuild_deg`) or the model changes. Changed values are uploaded.
+//! A recomputation after a sun move that exceeds the per-frame budget runs a slice per frame
+//! (the receivers' `retrace`), on frames that reuse the stored stencil too, and is uploaded when
+//! complete.
 
 use super::Compositor;
 use super::context::{FrameContext, angle_deg};
@@ -72,16 +75,26 @@ impl Compositor {
     pub(super) fn update_receivers(&mut self, ctx: &FrameContext, report: &mut PassReport) {
         let differential = self.config.darkening == Darkening::Differential;
         let normal_with_sun = ctx.sun().is_some() && self.config.darkening == Darkening::Normal;
-        if !ctx.has_objects() || ctx.reuses() || !(differential || normal_with_sun) {
+        if !ctx.has_objects() || !(differential || normal_with_sun) {
             return;
         }
         let c = &self.config;
-        let pixels = self.receiver_pixels.pixels(&self.receivers, &self.virtual_bounds, ctx.sun(), differential, c.bounce_rebuild_deg);
         let with = if differential { self.with_ray.as_deref() } else { None };
-        let s = self.receivers.ensure(&self.proxy_ray, with, pixels, ctx.sun(), c.ambient_quality, c.bounce_quality, c.bounce_rebuild_deg);
+        let s = if ctx.reuses() {
+            // The stored stencil serves, but a recomputation in progress moves on.
+            match self.receivers.continue_job(&self.proxy_ray, with, c.bounce_quality) {
+                Some(s) => s,
+                None => return,
+            }
+        } else {
+            let pixels = self.receiver_pixels.pixels(&self.receivers, &self.virtual_bounds, ctx.sun(), differential, c.bounce_rebuild_deg);
+            self.receivers.ensure(&self.proxy_ray, with, pixels, ctx.sun(), c.ambient_quality, c.bounce_quality, c.bounce_rebuild_deg)
+        };
         report.receivers_computed = s.computed;
         report.timings.receivers_ms = s.ms;
-        if s.computed > 0 || s.bounce_reset {
+        // A slice of a recomputation in progress changes nothing served yet.
+        let staged = s.computed > 0 && !s.bounce_reset && self.receivers.retrace_progress().is_some();
+        if (s.computed > 0 || s.bounce_reset) && !staged {
             let t = std::time::Instant::now();
             self.upload_receivers();
             report.timings.upload_ms += t.elapsed().as_secs_f64() * 1e3;

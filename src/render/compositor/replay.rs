@@ -57,12 +57,16 @@ impl Compositor {
     fn replay_receivers(&mut self, ctx: &FrameContext) {
         let differential = self.config.darkening == Darkening::Differential;
         let normal_with_sun = ctx.sun().is_some() && self.config.darkening == Darkening::Normal;
-        if !ctx.has_objects() || ctx.reuses() || !(differential || normal_with_sun) {
+        if !ctx.has_objects() || !(differential || normal_with_sun) {
+            return;
+        }
+        if ctx.reuses() {
+            self.receivers.replay_continue_job(differential, self.config.bounce_quality.paths);
             return;
         }
         let rebuild = self.config.bounce_rebuild_deg;
         let pixels = self.receiver_pixels.pixels(&self.receivers, &self.virtual_bounds, ctx.sun(), differential, rebuild).to_vec();
-        self.receivers.replay(&pixels, ctx.sun(), rebuild, differential);
+        self.receivers.replay(&pixels, ctx.sun(), rebuild, differential, self.config.bounce_quality.paths);
     }
 
     /// Pays what replayed frames owe before the frame `now` is recorded into `encoder`.

@@ -2,10 +2,13 @@
 //! ([`crate::render::object_transfer`]), traced on the CPU and uploaded for the shading pass.
 //!
 //! # How it works
-//! The transfer is traced on the first frame and again when the sun has moved more than
-//! `bounce_rebuild_deg` from the direction it was traced for (as far as the bounce `b` is
-//! allowed to lag); a frame without sun keeps it (its shading ignores `R_d`). The unit's plan
-//! says which, with the report's reason, before anything is traced.
+//! The transfer is traced on the first frame; when the sun has moved more than
+//! `bounce_rebuild_deg` from the direction its `R_d` was traced for (as far as the bounce `b` is
+//! allowed to lag), `R_d` is re-traced a slice per frame within the compositor's
+//! `trace_paths_per_frame` and uploaded when complete
+//! ([`crate::render::object_transfer`]'s `retrace`); a frame without sun keeps it (its shading
+//! ignores `R_d`). The unit's plan says which, with the report's reason, before anything is
+//! traced.
 
 use super::context::{FrameContext, angle_deg};
 use super::resources::Resources;
@@ -46,6 +49,9 @@ impl TransferPass {
         debug_assert!(u.traced > 0, "the plan said the transfer must be traced");
         report.timings.transfer_ms = u.ms;
         report.transfer_traced = u.traced;
+        if !u.changed {
+            return; // a slice of a re-trace: the served values stay
+        }
         let t = std::time::Instant::now();
         res.transfer_sky.write(queue, &transfer.sky);
         res.transfer_sun.write(queue, &transfer.sun);
@@ -75,6 +81,9 @@ impl TransferPass {
         }
         report.timings.transfer_ms += u.ms;
         report.transfer_traced += u.traced;
+        if !u.changed {
+            return true; // slices of a re-trace in progress: the served values stay
+        }
         res.transfer_sky.write(queue, &transfer.sky);
         res.transfer_sun.write(queue, &transfer.sun);
         true

@@ -35,8 +35,11 @@
 //!   `max_bounces` surface hits.
 //!
 //! `R_a` does not depend on the sun and `R_d` changes slowly with it: both are traced on the first
-//! frame and again when the sun has moved more than the compositor's `bounce_rebuild_deg`
-//! (the same paths, so `R_a` is unchanged by a rebuild).
+//! frame; when the sun has moved more than the compositor's `bounce_rebuild_deg`, `R_d` is
+//! re-traced for the new sun a bounded slice of lattice pixels per frame while the previous
+//! values serve, and swapped in when complete (`retrace`). `R_a` is never re-traced for a sun
+//! move: its estimate takes the same random numbers whatever the sun, so it would come out the
+//! same.
 //!
 //! The real surfaces' albedo comes from the proxy's materials, as for the estimator's `c`, `b`
 //! and the receivers: a proxy whose materials are far from the real surfaces' colours gets a
@@ -252,15 +255,6 @@ pub fn pixel_surfaces(canvas: &Canvas, scene: &TransferScene) -> Vec<PixelSurfac
         .collect()
 }
 
-/// What one [`ObjectTransfer::ensure`] call did.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct TransferUpdate {
-    /// Pixels traced (0 when the stored values were kept).
-    pub traced: usize,
-    /// Time spent, ms.
-    pub ms: f64,
-}
-
 /// The stride for `pixels` object pixels: `requested` when it is not 0, else the smallest whose
 /// traced pixels (about `pixels / stride²`) times `paths` fit [`TRANSFER_PATH_BUDGET`].
 pub fn stride_for(pixels: usize, paths: u32, requested: u32) -> u32 {
@@ -292,6 +286,10 @@ pub struct ObjectTransfer {
     traced: bool,
     /// A trace replayed frames decided on but did not do (with its sun), paid by `restore`.
     owed: Option<Option<Vec3>>,
+    /// Lattice pixels re-traced per frame after a sun move (0: all at once); see `retrace`.
+    slice: usize,
+    /// The re-trace for a new sun in progress.
+    job: Option<retrace::SunJob>,
     quality: TransportQuality,
     seed: u64,
 }
@@ -312,7 +310,15 @@ impl ObjectTransfer {
             point[s.pixel as usize] = [s.point.x, s.point.y, s.point.z, s.footprint_m];
             normal[s.pixel as usize] = [s.normal.x, s.normal.y, s.normal.z, 0.0];
         }
-        Self { surfaces, object_pixels, stride, sky: vec![[0.0; 4]; n], sun: vec![[0.0; 4]; n], point, normal, traced_sun: None, traced: false, owed: None, quality, seed }
+        Self { surfaces, object_pixels, stride, sky: vec![[0.0; 4]; n], sun: vec![[0.0; 4]; n], point, normal, traced_sun: None, traced: false, owed: None, slice: 0, job: None, quality, seed }
+    }
+
+    /// Re-traces `R_d` after a sun move in slices of about `paths_per_frame` paths, one slice per
+    /// frame, serving the previous values until the last slice is done (0: all in the frame
+    /// that decides it, as on the first frame). See `retrace`.
+    pub fn with_budget(mut self, paths_per_frame: u64) -> Self {
+        self.slice = retrace::slice_pixels(paths_per_frame, self.quality.paths as u64);
+        self
     }
 
     /// The traced pixels (the object pixels on the lattice).
@@ -334,83 +340,11 @@ impl ObjectTransfer {
     pub fn traced_sun(&self) -> Option<Vec3> {
         self.traced_sun
     }
-
-    /// True when [`ObjectTransfer::ensure`] for `sun` would trace: there are pixels to trace, and
-    /// nothing was traced yet, or `sun` has moved more than `rebuild_deg` from the traced one
-    /// (or is the first sun).
-    pub fn needs_trace(&self, sun: Option<Vec3>, rebuild_deg: f64) -> bool {
-        let stale = match (self.traced, self.traced_sun, sun) {
-            (false, _, _) => true,
-            (true, None, Some(_)) => true,
-            (true, Some(a), Some(b)) => (a.dot(b).clamp(-1.0, 1.0).acos().to_degrees() as f64) > rebuild_deg,
-            (true, _, None) => false,
-        };
-        stale && !self.surfaces.is_empty()
-    }
-
-    /// Traces the values on first use and again when `sun` has moved more than `rebuild_deg` from
-    /// the direction they were traced for (a frame without sun keeps the stored values; its
-    /// shading ignores `R_d`).
-    pub fn ensure(&mut self, scene: &TransferScene, sun: Option<Vec3>, rebuild_deg: f64) -> TransferUpdate {
-        if !self.advance(sun, rebuild_deg) {
-            return TransferUpdate::default();
-        }
-        self.trace_values(scene, sun)
-    }
-
-    /// What [`Self::ensure`] decides, without tracing: the traced state moves on as if it had
-    /// traced, and the trace is owed (for a run resumed after an interruption, whose earlier
-    /// frames are replayed without their work). [`Self::restore`] pays it.
-    pub fn replay(&mut self, sun: Option<Vec3>, rebuild_deg: f64) {
-        if self.advance(sun, rebuild_deg) {
-            self.owed = Some(sun);
-        }
-    }
-
-    /// True when replayed frames owe a trace.
-    pub fn owes(&self) -> bool {
-        self.owed.is_some()
-    }
-
-    /// Traces what the replayed frames owe (the last trace they decided on, with its sun);
-    /// nothing when they owe none.
-    pub fn restore(&mut self, scene: &TransferScene) -> TransferUpdate {
-        match self.owed.take() {
-            Some(sun) => self.trace_values(scene, sun),
-            None => TransferUpdate::default(),
-        }
-    }
-
-    /// The decision of [`Self::ensure`]: true when it must trace for `sun`; the traced state
-    /// (`traced`, `traced_sun`) is updated either way.
-    fn advance(&mut self, sun: Option<Vec3>, rebuild_deg: f64) -> bool {
-        let trace = self.needs_trace(sun, rebuild_deg);
-        self.traced = true;
-        if trace && sun.is_some() {
-            self.traced_sun = sun;
-        }
-        if trace {
-            self.owed = None;
-        }
-        trace
-    }
-
-    /// Traces every lattice pixel for `sun` into the stored values.
-    fn trace_values(&mut self, scene: &TransferScene, sun: Option<Vec3>) -> TransferUpdate {
-        let t0 = std::time::Instant::now();
-        let (q, seed) = (self.quality, self.seed);
-        let values: Vec<PointTransfer> = self
-            .surfaces
-            .par_iter()
-            .map(|s| trace_point(scene, s, sun, q, seed ^ (s.pixel as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)))
-            .collect();
-        for (s, t) in self.surfaces.iter().zip(&values) {
-            self.sky[s.pixel as usize] = [t.sky.x, t.sky.y, t.sky.z, 1.0];
-            self.sun[s.pixel as usize] = [t.sun.x, t.sun.y, t.sun.z, 0.0];
-        }
-        TransferUpdate { traced: values.len(), ms: t0.elapsed().as_secs_f64() * 1e3 }
-    }
 }
+
+mod retrace;
+
+pub use retrace::TransferUpdate;
 
 #[cfg(test)]
 mod tests;

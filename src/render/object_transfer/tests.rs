@@ -7,7 +7,7 @@ use glam::DVec3;
 use crate::geometry::Material;
 use crate::camera::{Camera, Intrinsics, Pose};
 
-fn lambert_ball() -> Mesh {
+pub(super) fn lambert_ball() -> Mesh {
     let mut m = Mesh::default();
     let mat = m.add_material(Material { roughness: 1.0, ..Material::diffuse("white", [0.8, 0.5, 0.2]) });
     let n = m.add_node("ball", false);

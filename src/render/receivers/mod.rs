@@ -13,6 +13,13 @@
 //! can reach or near the virtual objects (the caller passes them) and cached: `c` and `c_v` for
 //! good, `b`, `b_v` and the real sun visibility `s` until the sun has moved more than the
 //! estimator's `sun_rebuild_deg`. Pixels not computed hold `c = 1`, `b = 0` and no `c_v`.
+//!
+//! When the sun has moved that far and recomputing the pixels would take more than the per-frame
+//! path budget, the recomputation for the new sun is done a slice per frame while the stored
+//! values serve, and swapped in when complete ([`retrace`]); `c` does not depend on the sun (the
+//! same random numbers whatever it is), so it comes out as stored.
+
+mod retrace;
 
 use crate::geometry::ambient::{TransportQuality, transport};
 use crate::geometry::raycast::RayScene;
@@ -56,7 +63,14 @@ pub struct Receivers {
     seed: u64,
     /// The camera (for sub-pixel rays).
     camera: Camera,
+    /// Paths per frame of a recomputation after a sun move (0: unbounded); see [`retrace`].
+    budget_paths: u64,
+    /// The recomputation for a new sun in progress.
+    job: Option<retrace::BounceJob>,
 }
+
+/// One pixel's computed values: pixel, `c`, `b`, sunlit fraction, and (`c_v`, `b_v`).
+type Row = (u32, Vec3, Vec3, f32, Option<(Vec3, Vec3)>);
 
 /// Sub-pixel rays per axis for the sunlit fraction of a pixel (a pixel on a real shadow's edge is
 /// partly lit in the footage; the differential model darkens exactly that part).
@@ -131,7 +145,17 @@ impl Receivers {
             bounce_sun: None,
             seed,
             camera: camera.clone(),
+            budget_paths: 0,
+            job: None,
         }
+    }
+
+    /// Recomputes after a sun move in slices of about `paths_per_frame` paths, one per frame,
+    /// serving the stored values until the last slice is done (0: all in the frame that decides
+    /// it). See [`retrace`].
+    pub fn with_budget(mut self, paths_per_frame: u64) -> Self {
+        self.budget_paths = paths_per_frame;
+        self
     }
 
     /// Makes sure `c` (and, with `sun` given, `b` and `s` for that sun) is known at `pixels`,
@@ -150,6 +174,10 @@ impl Receivers {
         rebuild_deg: f64,
     ) -> EnsureStats {
         let t = std::time::Instant::now();
+        if let Some(mut stats) = self.job_slice(proxy, with, pixels, sun, bounce_quality, rebuild_deg) {
+            stats.ms = t.elapsed().as_secs_f64() * 1e3;
+            return stats;
+        }
         let (todo, bounce_sun, bounce_reset) = self.advance(pixels, sun, rebuild_deg, with.is_some());
         let q = if bounce_sun.is_some() { bounce_quality } else { ambient_quality };
         self.compute(proxy, with, &todo, bounce_sun, q);
@@ -160,7 +188,10 @@ impl Receivers {
     /// computed, and each pixel's computation is owed with the sun it would have used (a run
     /// resumed after an interruption replays its earlier frames this way). [`Self::restore`]
     /// pays what is owed, so the values end up as the uninterrupted run's.
-    pub fn replay(&mut self, pixels: &[u32], sun: Option<Vec3>, rebuild_deg: f64, with: bool) -> EnsureStats {
+    pub fn replay(&mut self, pixels: &[u32], sun: Option<Vec3>, rebuild_deg: f64, with: bool, bounce_paths: u32) -> EnsureStats {
+        if let Some(stats) = self.replay_job_slice(pixels, sun, rebuild_deg, with, bounce_paths) {
+            return stats;
+        }
         let (todo, bounce_sun, bounce_reset) = self.advance(pixels, sun, rebuild_deg, with);
         if bounce_reset {
             self.owed.push(Owed::Reset);
@@ -174,7 +205,7 @@ impl Receivers {
 
     /// True when replayed frames owe computations.
     pub fn owes(&self) -> bool {
-        !self.owed.is_empty()
+        !self.owed.is_empty() || self.job_owes()
     }
 
     /// Redoes what [`Self::replay`] left owed, step by step as the frames that decided on it
@@ -195,7 +226,7 @@ impl Receivers {
                 }
             }
         }
-        computed
+        computed + self.restore_job(proxy, with, bounce_quality)
     }
 
     /// The bookkeeping of [`Self::ensure`]: drops the sun-dependent values when the sun moved,
@@ -206,10 +237,7 @@ impl Receivers {
         if let Some(l) = sun {
             let moved = self.bounce_sun.is_none_or(|s| (s.dot(l).clamp(-1.0, 1.0).acos().to_degrees() as f64) > rebuild_deg);
             if moved {
-                self.have_bounce.iter_mut().for_each(|b| *b = false);
-                self.bounce.iter_mut().for_each(|b| *b = [0.0; 4]);
-                self.bounce_with.iter_mut().for_each(|b| *b = [0.0; 4]);
-                self.bounce_sun = Some(l);
+                self.reset_bounce(l);
                 reset = true;
             }
         }
@@ -224,21 +252,39 @@ impl Receivers {
                     && (!self.have_ambient[i] || (with && !self.have_with[i]) || (bounce_sun.is_some() && !self.have_bounce[i]))
             })
             .collect();
-        for &p in &todo {
+        self.mark(&todo, bounce_sun.is_some(), with);
+        (todo, bounce_sun, reset)
+    }
+
+    /// Drops every pixel's `b`, `b_v` (the bounce now belongs to the sun `l`).
+    fn reset_bounce(&mut self, l: Vec3) {
+        self.have_bounce.iter_mut().for_each(|b| *b = false);
+        self.bounce.iter_mut().for_each(|b| *b = [0.0; 4]);
+        self.bounce_with.iter_mut().for_each(|b| *b = [0.0; 4]);
+        self.bounce_sun = Some(l);
+    }
+
+    /// Marks `todo` as computed (`b` with `bounce`, `c_v`, `b_v` with `with`).
+    fn mark(&mut self, todo: &[u32], bounce: bool, with: bool) {
+        for &p in todo {
             let i = p as usize;
             self.have_ambient[i] = true;
-            self.have_bounce[i] |= bounce_sun.is_some();
+            self.have_bounce[i] |= bounce;
             self.have_with[i] |= with;
         }
-        (todo, bounce_sun, reset)
     }
 
     /// Path-traces `c`, `b`, the sunlit fraction (and with `with`, `c_v`, `b_v`) at `todo` for
     /// `bounce_sun` with quality `q`, into the stored values.
     fn compute(&mut self, proxy: &RayScene, with: Option<&RayScene>, todo: &[u32], bounce_sun: Option<Vec3>, q: TransportQuality) {
+        let rows = self.trace_rows(proxy, with, todo, bounce_sun, q);
+        self.apply_rows(rows, bounce_sun.is_some());
+    }
+
+    /// The values of [`Self::compute`] at `todo`, not stored.
+    fn trace_rows(&self, proxy: &RayScene, with: Option<&RayScene>, todo: &[u32], bounce_sun: Option<Vec3>, q: TransportQuality) -> Vec<Row> {
         let seed = self.seed;
-        type Row = (u32, Vec3, Vec3, f32, Option<(Vec3, Vec3)>);
-        let results: Vec<Row> = todo
+        todo
             .par_iter()
             .filter_map(|&p| {
                 let i = p as usize;
@@ -255,11 +301,15 @@ impl Receivers {
                 });
                 Some((p, tr.c, tr.b, lit, tv))
             })
-            .collect();
-        for (p, c, b, lit, tv) in results {
+            .collect()
+    }
+
+    /// Stores computed values (`b` too when they were computed with a sun).
+    fn apply_rows(&mut self, rows: Vec<Row>, with_bounce: bool) {
+        for (p, c, b, lit, tv) in rows {
             let i = p as usize;
             self.ambient[i] = [c.x, c.y, c.z, lit];
-            if bounce_sun.is_some() {
+            if with_bounce {
                 self.bounce[i] = [b.x, b.y, b.z, 1.0];
             }
             if let Some((cv, bv)) = tv {
