@@ -35,12 +35,16 @@ pub struct VemPanel {
 }
 
 impl VemPanel {
-    /// Opens the sequence (and its fisheye calibration) for `lights` lights.
-    pub fn open(frames: &Path, calib: Option<&Path>, lights: usize) -> Result<Self> {
-        let cfg = VemConfig { lights: lights.clamp(1, MAX_LIGHTS), ..VemConfig::default() };
+    /// Opens the sequence (and its fisheye calibration) for `lights` lights, turned by `yaw_deg`
+    /// about the up axis (its north looks toward that azimuth); prints the layout assumed.
+    pub fn open(frames: &Path, calib: Option<&Path>, lights: usize, yaw_deg: f64) -> Result<Self> {
+        // Live: the low-delay (minimum-phase) causal filter, about 1 frame instead of 4 at 21 Hz.
+        let cfg = VemConfig { lights: lights.clamp(1, MAX_LIGHTS), temporal: crate::vem::fir::Temporal::MinimumPhase, ..VemConfig::default() };
         let interval = Duration::from_secs_f64(1.0 / cfg.rate_hz.max(1e-3));
         let light_count = cfg.lights;
-        let stage = VemStage::open(frames, calib, cfg)?;
+        let mut stage = VemStage::open(frames, calib, cfg)?;
+        stage.input.set_yaw_deg(yaw_deg).context("--vem-yaw")?;
+        eprintln!("VEM layout: {}", stage.input.layout()?);
         Ok(Self { stage, status: Status::Dark, overlay: None, compose: false, light_count, frame: None, last: None, interval, decompose_ms: 0.0, error: None })
     }
 

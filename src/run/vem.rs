@@ -44,7 +44,21 @@ pub struct VemStage {
     pub dec: Decomposer,
 }
 
-/// What the stage did with one frame.
+/// A frame loaded and given to the decomposer, waiting for its lights.
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    /// Frame index in the capture.
+    pub index: usize,
+    /// Resampling counts.
+    pub stats: ResampleStats,
+    /// Decode and resample time, ms.
+    pub decode_ms: f64,
+    /// Time of the decomposer's call for this frame (its sampling, and the filtering of the
+    /// frame given out then), ms.
+    pub decompose_ms: f64,
+}
+
+/// What the stage did with one frame (a causal filter: the frame's summary is out at once).
 #[derive(Clone, Debug)]
 pub struct VemFrame {
     /// Frame index in the capture.
@@ -77,7 +91,8 @@ impl VemStage {
         self.input.is_empty()
     }
 
-    /// Loads capture frame `i` and decomposes it.
+    /// Loads capture frame `i` and decomposes it ([`Decomposer::process`]: with the zero-phase
+    /// filter this frame's lights are unfiltered; footage goes through [`VemStage::push`]).
     pub fn light(&mut self, i: usize) -> Result<VemFrame> {
         let t = std::time::Instant::now();
         let stats = self.input.load(i, &mut self.map)?;
@@ -86,6 +101,18 @@ impl VemStage {
         let summary = self.dec.process(&self.map);
         let decompose_ms = t.elapsed().as_secs_f64() * 1e3;
         Ok(VemFrame { index: i, stats, summary, decode_ms, decompose_ms })
+    }
+
+    /// Loads capture frame `i` and gives it to the decomposer ([`Decomposer::push`]): its
+    /// loading record, and the summary of the frame whose lights are out now, if any.
+    pub fn push(&mut self, i: usize) -> Result<(Loaded, Option<FrameSummary>)> {
+        let t = std::time::Instant::now();
+        let stats = self.input.load(i, &mut self.map)?;
+        let decode_ms = t.elapsed().as_secs_f64() * 1e3;
+        let t = std::time::Instant::now();
+        let summary = self.dec.push(&self.map);
+        let decompose_ms = t.elapsed().as_secs_f64() * 1e3;
+        Ok((Loaded { index: i, stats, decode_ms, decompose_ms }, summary))
     }
 
     /// Decomposes the current map again (after a change of the light count).
@@ -221,7 +248,7 @@ impl VemScene {
     /// The frame's background: the scene's footage frame `i` when its first sequence has one
     /// of the camera's size, else the VEM map seen through the camera (the ground below the
     /// horizon).
-    fn background(&self, i: usize, stage: &VemStage) -> Result<(LinearImage, &'static str)> {
+    fn background(&self, i: usize, stage: &VemStage, map: &PolarMap) -> Result<(LinearImage, &'static str)> {
         if let Some(seq) = self.scene.sequences.first()
             && let Some(path) = seq.files.get(i)
         {
@@ -233,12 +260,12 @@ impl VemScene {
             eprintln!("note: {} is {}×{}, not the camera's {}×{}: using the environment", path.display(), frame.width, frame.height, want.0, want.1);
         }
         let ground = ground_radiance(&stage.dec.region_lists().1.lights, self.overlay.renderer().config().ground_albedo);
-        Ok((environment_background(&stage.map, &self.scene.camera, ground), "environment"))
+        Ok((environment_background(map, &self.scene.camera, ground), "environment"))
     }
 
-    /// Renders frame `i` and writes its PNG.
-    pub fn frame(&mut self, i: usize, stage: &VemStage, status: Status) -> Result<FrameRender> {
-        let (bg, kind) = self.background(i, stage)?;
+    /// Renders frame `i` (its polar map `map`) with the stage's current lights and writes its PNG.
+    pub fn frame(&mut self, i: usize, stage: &VemStage, map: &PolarMap, status: Status) -> Result<FrameRender> {
+        let (bg, kind) = self.background(i, stage, map)?;
         let out = self.overlay.render(stage, status, &bg, self.dt_s)?;
         let (w, h) = (bg.width, bg.height);
         let rgb: Vec<u8> = out.srgb.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
@@ -336,38 +363,66 @@ pub struct VemRunStats {
 }
 
 /// Decomposes every frame of `stage` (rendering it with `scene` when given), one JSON line each
-/// into `out`. `rate_hz` gives the frame times of the plot; `clusters` adds the clustered lights
-/// to the lines.
+/// into `out`, in frame order. With the zero-phase filter a frame's line (and render) waits for
+/// the frames its window needs; its lights describe it (`describes_frame`). `rate_hz` gives the
+/// frame times of the plot; `clusters` adds the clustered lights to the lines.
 pub fn run_vem(stage: &mut VemStage, mut scene: Option<&mut VemScene>, out: &mut JsonLines, rate_hz: f64, clusters: bool, obs: &mut dyn Observer) -> Result<VemRunStats> {
-    let delay = stage.dec.filter_design().delay_frames();
+    let delay = stage.dec.delay_frames();
     let mut stats = VemRunStats::default();
+    // Frames loaded whose lines are not written yet (with their maps when rendering).
+    let mut waiting: std::collections::VecDeque<(Loaded, Option<PolarMap>)> = std::collections::VecDeque::new();
     obs.start("vem", Some(stage.len()), 0);
     for i in 0..stage.len() {
-        let f = stage.light(i)?;
-        *stats.statuses.entry(f.summary.status).or_default() += 1;
-        stats.power.push((i as f64 / rate_hz, f.summary.power, f.summary.filtered_power));
-        stats.decode_ms.push(f.decode_ms);
-        stats.decompose_ms.push(f.decompose_ms);
-        let render = match scene.as_deref_mut() {
-            Some(s) => Some(s.frame(i, stage, f.summary.status)?),
-            None => None,
-        };
-        let (_, lists) = stage.dec.region_lists();
-        out.write(&Record {
-            frame: i,
-            file: stage.input.files[i].display().to_string(),
-            summary: f.summary,
-            input: f.stats,
-            delay_frames: delay,
-            lights: stage.dec.lights(),
-            clusters: clusters.then(|| stage.dec.clusters()),
-            region_list_fraction: lists.mean_fraction(),
-            decode_ms: f.decode_ms,
-            decompose_ms: f.decompose_ms,
-            render,
-        })?;
+        let (loaded, summary) = stage.push(i)?;
+        waiting.push_back((loaded, scene.is_some().then(|| stage.map.clone())));
+        if let Some(summary) = summary {
+            write_frame(stage, scene.as_deref_mut(), out, &mut waiting, summary, (delay, rate_hz, clusters), &mut stats)?;
+            obs.advance();
+        }
+    }
+    while let Some(summary) = stage.dec.flush() {
+        write_frame(stage, scene.as_deref_mut(), out, &mut waiting, summary, (delay, rate_hz, clusters), &mut stats)?;
         obs.advance();
     }
     obs.finish();
     Ok(stats)
+}
+
+/// Renders (with `scene`) and writes the line of the frame `summary` belongs to, the oldest
+/// waiting one.
+fn write_frame(
+    stage: &VemStage,
+    scene: Option<&mut VemScene>,
+    out: &mut JsonLines,
+    waiting: &mut std::collections::VecDeque<(Loaded, Option<PolarMap>)>,
+    summary: FrameSummary,
+    (delay, rate_hz, clusters): (usize, f64, bool),
+    stats: &mut VemRunStats,
+) -> Result<()> {
+    let (f, map) = waiting.pop_front().context("the decomposer gave out a frame that was not loaded")?;
+    anyhow::ensure!(f.index as u64 == summary.frame, "the decomposer gave out frame {} for frame {}", summary.frame, f.index);
+    let i = f.index;
+    *stats.statuses.entry(summary.status).or_default() += 1;
+    stats.power.push((i as f64 / rate_hz, summary.power, summary.filtered_power));
+    stats.decode_ms.push(f.decode_ms);
+    stats.decompose_ms.push(f.decompose_ms);
+    let render = match (scene, &map) {
+        (Some(s), Some(map)) => Some(s.frame(i, stage, map, summary.status)?),
+        _ => None,
+    };
+    let (_, lists) = stage.dec.region_lists();
+    out.write(&Record {
+        frame: i,
+        file: stage.input.files[i].display().to_string(),
+        summary,
+        input: f.stats,
+        delay_frames: delay,
+        lights: stage.dec.lights(),
+        clusters: clusters.then(|| stage.dec.clusters()),
+        region_list_fraction: lists.mean_fraction(),
+        decode_ms: f.decode_ms,
+        decompose_ms: f.decompose_ms,
+        render,
+    })?;
+    Ok(())
 }

@@ -16,7 +16,10 @@
 //!    Halton sample) from frame to frame. The light count can change at any frame without moving
 //!    the other lights.
 //! 3. **Temporal filter** ([`fir`]; Havran §3.3): a 9-tap linear-phase FIR on every light's
-//!    direction and on `P` (4 frames of delay at 21 Hz).
+//!    direction and on `P`. Run causally, as in the paper, its output describes the frame 4
+//!    frames earlier (at 21 Hz); for recorded input it runs zero-phase, centred on the frame
+//!    ([`Decomposer::push`], [`Decomposer::flush`]; frame `t`'s lights describe frame `t`); live,
+//!    its minimum-phase version cuts the delay ([`fir::Temporal`]).
 //! 4. **Clustering** ([`cluster`]; Havran §4.3), optional: at most `Q` lights.
 //! 5. **Culling lists** ([`regions`], [`glossy`]; Havran §4.1–4.2): per angular region, the lights
 //!    that can reach it, as flat GPU buffers; for glossy surfaces a second, denser set `L` with
@@ -34,6 +37,7 @@
 
 pub mod capture;
 pub mod cluster;
+mod config;
 pub mod eval;
 pub mod fir;
 pub mod glossy;
@@ -49,8 +53,9 @@ use polar::PolarMap;
 use regions::{RegionLists, RegionSet};
 use sampling::{PolarDistribution, SamplerKind};
 use serde::Serialize;
-use std::path::PathBuf;
-use fir::{FirDesign, LightFilter};
+use fir::{CentredFilter, FirDesign, LightFilter, Temporal};
+pub use config::{MAX_LIGHTS, VemConfig, VemError};
+use std::collections::VecDeque;
 
 /// One directional light.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -75,156 +80,6 @@ pub enum Status {
     Dark,
 }
 
-/// Errors of the VEM input and pipeline set-up.
-#[derive(Debug, thiserror::Error)]
-pub enum VemError {
-    /// A calibration file problem.
-    #[error(transparent)]
-    LensFile(#[from] capture::lens_file::LensFileError),
-    /// An image or frame file problem.
-    #[error(transparent)]
-    Io(#[from] crate::io::IoError),
-    /// The temporal filter cannot be designed.
-    #[error(transparent)]
-    Temporal(#[from] fir::TemporalError),
-    /// Without a calibration, the frame's shape does not say which projection it is.
-    #[error("{path}: a {width}×{height} frame is neither a 2:1 equirect nor a 4:1 polar map; give --calib for a fisheye frame")]
-    Projection {
-        /// The frame.
-        path: PathBuf,
-        /// Its width.
-        width: u32,
-        /// Its height.
-        height: u32,
-    },
-    /// The frames of a sequence differ in size.
-    #[error("{path}: frame is {got_w}×{got_h} but the sequence (or calibration) is {want_w}×{want_h}")]
-    Size {
-        /// The frame.
-        path: PathBuf,
-        /// Width of the file.
-        got_w: u32,
-        /// Height of the file.
-        got_h: u32,
-        /// Expected width.
-        want_w: u32,
-        /// Expected height.
-        want_h: u32,
-    },
-    /// Too many NaN, infinite or negative pixels to trust the frame.
-    #[error("{path}: {count} of {referenced} pixels used are NaN, infinite or negative ({:.1}%, limit {:.1}%)", 100.0 * *count as f64 / *referenced as f64, 100.0 * limit)]
-    InvalidPixels {
-        /// The frame.
-        path: PathBuf,
-        /// Invalid pixels among those the resampling reads.
-        count: usize,
-        /// Pixels the resampling reads.
-        referenced: usize,
-        /// The accepted fraction.
-        limit: f64,
-    },
-    /// No frames to read.
-    #[error("{path}: no .exr or .png frames")]
-    NoFrames {
-        /// The folder or file given.
-        path: PathBuf,
-    },
-    /// A setting is out of range.
-    #[error("setting `{field}`: {message}")]
-    Config {
-        /// The setting.
-        field: &'static str,
-        /// What is wrong.
-        message: String,
-    },
-}
-
-/// Settings of the per-frame pipeline.
-#[derive(Clone, Debug, PartialEq)]
-pub struct VemConfig {
-    /// Polar map width (default 360).
-    pub polar_width: u32,
-    /// Polar map height (default 90).
-    pub polar_height: u32,
-    /// Lights `N` (the set `H` when glossy lights are on).
-    pub lights: usize,
-    /// Inverse transform.
-    pub sampler: SamplerKind,
-    /// Input samples.
-    pub pattern: Pattern,
-    /// Capture rate, Hz (designs the temporal filter).
-    pub rate_hz: f64,
-    /// Cluster `H` into at most this many lights (Havran §4.3).
-    pub clusters: Option<usize>,
-    /// The clustering correction factor `c_f`.
-    pub cluster_cf: f32,
-    /// Angular regions for the Lambertian lists (Havran §4.1).
-    pub regions: usize,
-    /// Cube-map LUT size per face.
-    pub lut_size: u32,
-    /// Size of the glossy set `L` (Havran §4.2), more than `lights`; `None`: no glossy set.
-    pub glossy_lights: Option<usize>,
-    /// Regions of the glossy set.
-    pub glossy_regions: usize,
-    /// Give concentrated peaks (the sun) lights of their own and sample the rest ([`peaks`];
-    /// off by default).
-    pub peaks: bool,
-}
-
-impl Default for VemConfig {
-    fn default() -> Self {
-        Self {
-            polar_width: polar::DEFAULT_WIDTH,
-            polar_height: polar::DEFAULT_HEIGHT,
-            lights: 300,
-            sampler: SamplerKind::Havran,
-            pattern: Pattern::RelaxedHalton,
-            rate_hz: fir::PAPER_RATE_HZ,
-            clusters: None,
-            cluster_cf: cluster::DEFAULT_CF,
-            regions: regions::DEFAULT_REGIONS,
-            lut_size: regions::DEFAULT_LUT_SIZE,
-            glossy_lights: None,
-            glossy_regions: glossy::DEFAULT_GLOSSY_REGIONS,
-            peaks: false,
-        }
-    }
-}
-
-/// The largest light count accepted.
-pub const MAX_LIGHTS: usize = 1 << 16;
-
-impl VemConfig {
-    /// Checks ranges.
-    pub fn validate(&self) -> Result<(), VemError> {
-        let bad = |field, message: String| Err(VemError::Config { field, message });
-        if self.polar_width < 4 || self.polar_height < 2 || self.polar_width > 8192 || self.polar_height > 4096 {
-            return bad("polar", format!("{}×{} must be within 4×2 … 8192×4096", self.polar_width, self.polar_height));
-        }
-        if self.lights == 0 || self.lights > MAX_LIGHTS {
-            return bad("lights", format!("{} must be in 1 … {MAX_LIGHTS}", self.lights));
-        }
-        if let Some(l) = self.glossy_lights
-            && !(l > self.lights && l <= MAX_LIGHTS)
-        {
-            return bad("glossy_lights", format!("{l} must exceed lights ({}) and be at most {MAX_LIGHTS}", self.lights));
-        }
-        if self.glossy_lights.is_some() && (self.peaks || self.sampler == SamplerKind::MedianCut) {
-            return bad("glossy_lights", "a glossy set needs equal-power samples: not with peaks or median cut".into());
-        }
-        if self.clusters == Some(0) {
-            return bad("clusters", "must be positive".into());
-        }
-        if !(self.cluster_cf.is_finite() && self.cluster_cf > 0.0) {
-            return bad("cluster_cf", "must be positive".into());
-        }
-        if self.regions == 0 || self.regions > 65536 || self.lut_size == 0 || self.lut_size > 1024 {
-            return bad("regions", "regions must be in 1 … 65536 and the LUT size in 1 … 1024".into());
-        }
-        Ok(())
-    }
-}
-
 /// A summary of one processed frame.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct FrameSummary {
@@ -240,6 +95,27 @@ pub struct FrameSummary {
     pub filtered_power: f64,
     /// Lights whose filter window was degenerate and held their last direction.
     pub held: usize,
+    /// The input frame (counted from 0 over the frames given to the decomposer) whose map the
+    /// lights describe: the frame itself with the zero-phase filter, `frame − delay` with a
+    /// causal one (at least 0).
+    pub describes_frame: u64,
+    /// The input frame this summary belongs to (its power, status and texel counts).
+    #[serde(skip)]
+    pub frame: u64,
+}
+
+/// A frame sampled and waiting for its filtered lights (zero phase), or about to get them.
+#[derive(Debug)]
+struct Pending {
+    frame: u64,
+    status: Status,
+    sanitized: usize,
+    power_rgb: [f64; 3],
+    power: f64,
+    /// The frame's peak lights (unfiltered).
+    peaks: Vec<Light>,
+    /// Median cut's lights (unfiltered), instead of filtered samples.
+    unfiltered: Option<Vec<Light>>,
 }
 
 /// The per-frame pipeline (see the module docs). Buffers are reused from frame to frame.
@@ -249,6 +125,9 @@ pub struct Decomposer {
     design: FirDesign,
     dist: PolarDistribution,
     filter: LightFilter,
+    centred: CentredFilter,
+    pending: VecDeque<Pending>,
+    pushed: u64,
     raw: Vec<(Vec3, [f32; 3])>,
     /// Filtered lights: `H` without a glossy set, `L` with one.
     filtered: Vec<Light>,
@@ -265,13 +144,17 @@ impl Decomposer {
     /// Sets up the pipeline (regions, LUTs, the filter design, the cached samples).
     pub fn new(cfg: VemConfig) -> Result<Self, VemError> {
         cfg.validate()?;
-        let design = FirDesign::for_rate(cfg.rate_hz)?;
+        let linear = FirDesign::for_rate(cfg.rate_hz)?;
+        let design = if cfg.temporal == Temporal::MinimumPhase { linear.minimum_phase()? } else { linear };
         if cfg.pattern == Pattern::RelaxedHalton {
             sampling::pattern::relaxed(); // relax once now, not inside the first frame
         }
         let glossy = cfg.glossy_lights.map(|_| (glossy::GlossyRegions::new(cfg.glossy_regions, cfg.lut_size), RegionLists::default()));
         Ok(Self {
             filter: LightFilter::new(&design),
+            centred: CentredFilter::new(&design),
+            pending: VecDeque::new(),
+            pushed: 0,
             design,
             dist: PolarDistribution::default(),
             raw: Vec::new(),
@@ -291,9 +174,18 @@ impl Decomposer {
         &self.cfg
     }
 
-    /// The temporal filter in use.
+    /// The temporal filter in use (the minimum-phase taps with [`Temporal::MinimumPhase`]).
     pub fn filter_design(&self) -> &FirDesign {
         &self.design
+    }
+
+    /// Frames between an input frame and the frame its lights describe: 0 with the zero-phase
+    /// filter, the design's delay at DC (rounded) with a causal one.
+    pub fn delay_frames(&self) -> usize {
+        match self.cfg.temporal {
+            Temporal::ZeroPhase => 0,
+            _ => self.design.delay_frames(),
+        }
     }
 
     /// Changes the light count from the next frame on (existing lights do not move).
@@ -304,9 +196,71 @@ impl Decomposer {
         Ok(())
     }
 
-    /// Processes one frame. Texels that are NaN, infinite or negative in any channel count as
-    /// black (and are counted).
+    /// Processes one frame and returns the summary of the newest frame given out. With a causal
+    /// filter that is this frame. With the zero-phase filter every pending frame is given out
+    /// (the newest with no future frames: unfiltered), so for footage use [`Decomposer::push`]
+    /// and [`Decomposer::flush`] instead. Texels that are NaN, infinite or negative in any
+    /// channel count as black (and are counted).
     pub fn process(&mut self, map: &PolarMap) -> FrameSummary {
+        let mut last = self.push(map);
+        while let Some(s) = self.flush() {
+            last = Some(s);
+        }
+        match last {
+            Some(s) => s,
+            None => unreachable!("a pushed frame is given out by push or flush"),
+        }
+    }
+
+    /// Takes the next input frame. With a causal filter, returns its summary (its lights are
+    /// ready). With the zero-phase filter, returns the summary of the frame `m` before it once
+    /// that frame's window is complete, else `None`; [`Decomposer::flush`] gives out the last
+    /// `m` frames at the end.
+    pub fn push(&mut self, map: &PolarMap) -> Option<FrameSummary> {
+        let mut pending = self.sample(map);
+        if self.cfg.temporal == Temporal::ZeroPhase {
+            match (&pending.unfiltered, pending.status) {
+                (_, Status::Dark) => self.centred.push_dark(),
+                (Some(_), _) => self.centred.push(self.dist.integral(), &[]),
+                (None, _) => self.centred.push(self.dist.integral(), &self.raw),
+            }
+            self.pending.push_back(pending);
+            return if self.centred.ready() { self.emit_centred() } else { None };
+        }
+        let step = match (pending.status, pending.unfiltered.take()) {
+            (Status::Dark, _) => self.filter.step_dark(&mut self.filtered),
+            (_, Some(lights)) => {
+                self.filtered = lights;
+                fir::FilterStep { power: self.dist.integral(), held: 0 }
+            }
+            _ => self.filter.step(self.dist.integral(), &self.raw, &mut self.filtered),
+        };
+        Some(self.finish(pending, step))
+    }
+
+    /// Gives out the next pending frame at the end of a recording (zero phase, with the
+    /// shortened symmetric window); `None` when none is pending (always with a causal filter).
+    pub fn flush(&mut self) -> Option<FrameSummary> {
+        if self.cfg.temporal == Temporal::ZeroPhase && self.centred.pending() { self.emit_centred() } else { None }
+    }
+
+    /// Filters the next pending frame with the zero-phase filter and finishes it.
+    fn emit_centred(&mut self) -> Option<FrameSummary> {
+        let (t, mut step) = self.centred.emit(&mut self.filtered)?;
+        let mut p = self.pending.pop_front()?;
+        debug_assert_eq!(p.frame, t);
+        if let Some(lights) = p.unfiltered.take() {
+            self.filtered = lights;
+            step = fir::FilterStep { power: p.power, held: 0 };
+        }
+        Some(self.finish(p, step))
+    }
+
+    /// Per frame, before filtering: peaks, the distribution and the raw samples (in `raw`), or
+    /// median cut's lights.
+    fn sample(&mut self, map: &PolarMap) -> Pending {
+        let frame = self.pushed;
+        self.pushed += 1;
         let n = self.cfg.glossy_lights.unwrap_or(0).max(self.cfg.lights);
         let map = if self.cfg.peaks {
             self.peaks.split(map, n - 1);
@@ -316,28 +270,40 @@ impl Decomposer {
         };
         let n = n - self.peaks.peaks().len();
         let sanitized = self.dist.rebuild(map);
-        let (status, mut step) = if self.dist.is_empty() && self.peaks.peaks().is_empty() {
-            (Status::Dark, self.filter.step_dark(&mut self.filtered))
-        } else if self.cfg.sampler == SamplerKind::MedianCut {
+        let status = if self.dist.is_empty() && self.peaks.peaks().is_empty() { Status::Dark } else { Status::Ok };
+        self.raw.clear();
+        let mut unfiltered = None;
+        if status == Status::Ok && self.cfg.sampler == SamplerKind::MedianCut {
             // Median cut has no sample identity for the FIR to follow: its lights go unfiltered.
-            self.filtered = sampling::median_cut::median_cut_lights(map, n);
-            (Status::Ok, fir::FilterStep { power: self.dist.integral(), held: 0 })
-        } else {
-            self.raw.clear();
+            unfiltered = Some(sampling::median_cut::median_cut_lights(map, n));
+        } else if status == Status::Ok {
             for k in 0..n {
                 if let Some(r) = self.dist.sample(self.cfg.sampler, sampling::pattern::sample(self.cfg.pattern, k)) {
                     self.raw.push((r.dir, self.dist.light_rgb(map, &r)));
                 }
             }
-            (Status::Ok, self.filter.step(self.dist.integral(), &self.raw, &mut self.filtered))
-        };
-        let (mut power_rgb, mut power) = (self.dist.integral_rgb(), self.dist.integral());
-        for p in self.peaks.peaks() {
-            self.filtered.push(*p);
-            let y = polar::luminance(p.rgb) as f64;
+        }
+        Pending {
+            frame,
+            status,
+            sanitized,
+            power_rgb: self.dist.integral_rgb(),
+            power: self.dist.integral(),
+            peaks: self.peaks.peaks().to_vec(),
+            unfiltered,
+        }
+    }
+
+    /// Adds the frame's peaks to the filtered lights, clusters them, builds the region lists and
+    /// the summary.
+    fn finish(&mut self, p: Pending, mut step: fir::FilterStep) -> FrameSummary {
+        let (mut power_rgb, mut power) = (p.power_rgb, p.power);
+        for l in &p.peaks {
+            self.filtered.push(*l);
+            let y = polar::luminance(l.rgb) as f64;
             (power, step.power) = (power + y, step.power + y);
             for c in 0..3 {
-                power_rgb[c] += p.rgb[c] as f64;
+                power_rgb[c] += l.rgb[c] as f64;
             }
         }
         if self.glossy.is_some() {
@@ -353,12 +319,14 @@ impl Decomposer {
             g.regions.build_lists(&self.filtered, l_lists);
         }
         FrameSummary {
-            status,
-            sanitized_texels: sanitized,
+            status: p.status,
+            sanitized_texels: p.sanitized,
             power_rgb,
             power,
             filtered_power: step.power,
             held: step.held,
+            describes_frame: p.frame.saturating_sub(self.delay_frames() as u64),
+            frame: p.frame,
         }
     }
 
@@ -387,7 +355,8 @@ impl Decomposer {
         self.glossy.as_ref().map(|(g, l)| (g, l))
     }
 
-    /// The distribution of the last frame.
+    /// The distribution of the last frame pushed (with the zero-phase filter, `m` frames after
+    /// the one whose lights are out).
     pub fn distribution(&self) -> &PolarDistribution {
         &self.dist
     }

@@ -344,7 +344,7 @@ fn heliar_live_plays_a_video_file_headless() {
 fn the_vem_panel_decomposes_with_the_slider_s_light_count() {
     use heliar::live::vem::VemPanel;
     let vem = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/vem/outdoor");
-    let mut panel = VemPanel::open(&vem.join("frames"), Some(&vem.join("calib/fisheye.toml")), 64).unwrap();
+    let mut panel = VemPanel::open(&vem.join("frames"), Some(&vem.join("calib/fisheye.toml")), 64, 0.0).unwrap();
     panel.advance().unwrap();
     assert_eq!(panel.lights().len(), 64);
     // The synthetic outdoor sky has a sun well above the horizon: every light is in the upper

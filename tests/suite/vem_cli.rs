@@ -48,7 +48,9 @@ fn generated_sequence_to_json_lines() {
     for (i, v) in lines.iter().enumerate() {
         assert_eq!(v["frame"], i);
         assert_eq!(v["status"], "ok");
-        assert_eq!(v["delay_frames"], 4);
+        // Zero phase by default on files: each line's lights describe its own frame.
+        assert_eq!(v["delay_frames"], 0);
+        assert_eq!(v["describes_frame"], i);
         let lights = v["lights"].as_array().unwrap();
         assert_eq!(lights.len(), 24);
         for (k, l) in lights.iter().enumerate() {
@@ -61,6 +63,17 @@ fn generated_sequence_to_json_lines() {
         // The frame's power against the generator's truth (64-pixel fisheye): within 2%.
         let p = v["power"].as_f64().unwrap();
         assert!((p - truth[i]).abs() < 0.02 * truth[i], "frame {i}: {p} vs {}", truth[i]);
+    }
+    // The paper's causal filter: frame t's lights describe frame t − 4; the minimum-phase one
+    // (live's) describes frame t − 1.
+    for (mode, delay) in [("causal", 4usize), ("min-phase", 1)] {
+        let (ok, _, err) = heliar(&["vem", "--input", s(&d.join("frames")), "--calib", s(&d.join("calib/fisheye.toml")), "--lights", "24", "--temporal", mode, "--output", s(&out)]);
+        assert!(ok, "{err}");
+        assert!(err.contains("filter delay") && err.contains("causal"), "{err}");
+        for (i, l) in std::fs::read_to_string(&out).unwrap().lines().enumerate() {
+            let v: serde_json::Value = serde_json::from_str(l).unwrap();
+            assert_eq!((v["frame"].as_u64(), v["delay_frames"].as_u64(), v["describes_frame"].as_u64()), (Some(i as u64), Some(delay as u64), Some(i.saturating_sub(delay) as u64)));
+        }
     }
     std::fs::remove_dir_all(&dir).ok();
 }
@@ -222,5 +235,60 @@ fn dark_frames_skip_the_shadow_pass_with_a_reason() {
     assert!(report.contains("the lights carry no power (status dark)"), "{report}");
     let (ok, _, err) = heliar(&["vem", "--scene", "scenes/courtyard", "--input", s(&frames)]);
     assert!(!ok && err.contains("--output"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The lights of `heliar vem` on one equirect frame, and its stderr.
+fn lights_of(file: &Path, extra: &[&str], out: &Path) -> (Vec<(glam::Vec3, f64)>, String) {
+    let mut args = vec!["vem", "--input", s(file), "--lights", "64", "--output", s(out)];
+    args.extend_from_slice(extra);
+    let (ok, _, err) = heliar(&args);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(std::fs::read_to_string(out).unwrap().lines().next().unwrap()).unwrap();
+    let lights = v["lights"].as_array().unwrap().iter().map(|l| {
+        let d: Vec<f32> = l["dir"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap() as f32).collect();
+        (glam::Vec3::new(d[0], d[1], d[2]), l["rgb"][1].as_f64().unwrap())
+    });
+    (lights.collect(), err)
+}
+
+#[test]
+fn yaw_turns_a_rotated_equirect_map_back_and_the_layout_is_printed() {
+    use heliar::io::image::{ExrPrecision, LinearImage};
+    let dir = temp_dir("yaw");
+    // A sky with no symmetry in azimuth and a bright patch at azimuth 30°, elevation 40°.
+    let (w, h) = (720u32, 360u32);
+    let patch = glam::Vec3::new(30f32.to_radians().sin() * 40f32.to_radians().cos(), 40f32.to_radians().sin(), -30f32.to_radians().cos() * 40f32.to_radians().cos());
+    let sky = |x: u32, y: u32| {
+        let d = heliar::geometry::equirect::dir_from_texel_centre(x, y, w, h);
+        let g = 1.0 + d.y.max(0.0) + 0.5 * (d.x + 0.3 * d.z).max(0.0) + if d.dot(patch) > 0.995 { 200.0 } else { 0.0 };
+        [g, 0.8 * g, 0.6 * g]
+    };
+    LinearImage::from_fn(w, h, sky).write_exr(&dir.join("north.exr"), ExrPrecision::Float).unwrap();
+    let (base, err) = lights_of(&dir.join("north.exr"), &[], &dir.join("north.jsonl"));
+    assert!(err.contains("layout: 720×360 frames read as 2:1 equirect maps") && err.contains("north (−Z) at the centre column"), "{err}");
+    // Rotated by k columns: column x of the file shows what the north-up map has at x + k, so
+    // its centre column looks toward azimuth k·360°/W; --yaw that angle gives the same lights.
+    // One polar texel is 1° (360×90 map): the lights must agree within one texel.
+    for k in [90u32, 25, 697] {
+        let name = format!("k{k}.exr");
+        LinearImage::from_fn(w, h, |x, y| sky((x + k) % w, y)).write_exr(&dir.join(&name), ExrPrecision::Float).unwrap();
+        let yaw = format!("{}", k as f64 * 360.0 / w as f64);
+        let (turned, err) = lights_of(&dir.join(&name), &["--yaw", &yaw], &dir.join("k.jsonl"));
+        assert!(err.contains(&format!("--yaw {yaw}°")), "{err}");
+        assert_eq!(turned.len(), base.len());
+        let worst = base.iter().zip(&turned).map(|(a, b)| a.0.angle_between(b.0).to_degrees()).fold(0.0f32, f32::max);
+        let power = |l: &[(glam::Vec3, f64)]| l.iter().map(|x| x.1).sum::<f64>();
+        assert!(worst < 1.0, "k = {k}: a light moved {worst}°");
+        assert!((power(&turned) / power(&base) - 1.0).abs() < 1e-3, "k = {k}");
+        // Without the yaw the rotated map's lights are elsewhere.
+        if k == 90 {
+            let (plain, _) = lights_of(&dir.join(&name), &[], &dir.join("k.jsonl"));
+            let moved = base.iter().zip(&plain).map(|(a, b)| a.0.angle_between(b.0).to_degrees()).fold(0.0f32, f32::max);
+            assert!(moved > 10.0, "{moved}");
+        }
+    }
+    let (ok, _, err) = heliar(&["vem", "--input", s(&dir.join("north.exr")), "--yaw", "NaN", "--output", s(&dir.join("x.jsonl"))]);
+    assert!(!ok && err.contains("--yaw") && err.contains("finite"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }

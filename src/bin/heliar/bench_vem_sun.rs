@@ -96,6 +96,27 @@ fn print_peaks(maps: &[PolarMap]) {
     );
 }
 
+/// The temporal filters on the same sequence (N = 300, Havran): each output frame's lights
+/// against its own frame's map (`heliar::vem::eval::lag`).
+fn print_lag(maps: &[PolarMap], normals: &[glam::Vec3], refs: &[Vec<f64>]) -> Result<()> {
+    use heliar::vem::eval::lag::{lag_error, unfiltered_error};
+    use heliar::vem::fir::Temporal;
+    let cfg = |temporal| heliar::vem::VemConfig { lights: 300, temporal, ..Default::default() };
+    let mut t = Table::new(&["filter", "delay_frames", "err_mean_pct", "err_p95_pct", "err_max_pct"]);
+    let rows = [
+        ("none (unfiltered)", unfiltered_error(maps, &cfg(Temporal::Causal), normals, refs)),
+        ("zero phase (files)", lag_error(maps, cfg(Temporal::ZeroPhase), normals, refs)?),
+        ("minimum phase (live)", lag_error(maps, cfg(Temporal::MinimumPhase), normals, refs)?),
+        ("causal, the paper's", lag_error(maps, cfg(Temporal::Causal), normals, refs)?),
+    ];
+    for (name, e) in rows {
+        t.push(vec![name.into(), format!("{:.2}", e.delay_frames), format!("{:.3}", 100.0 * e.mean), format!("{:.3}", 100.0 * e.p95), format!("{:.3}", 100.0 * e.max)]);
+    }
+    println!("temporal filter: each output frame's lights (N = 300, Havran) against the integral of its own frame's map");
+    print!("{t}");
+    Ok(())
+}
+
 /// Runs the comparison and writes `csv`.
 pub fn sun_sweep(normals_wanted: usize, csv: &Path) -> Result<()> {
     let maps = sunny::polar_maps(360, 90, sunny::FRAMES);
@@ -126,6 +147,7 @@ pub fn sun_sweep(normals_wanted: usize, csv: &Path) -> Result<()> {
     );
     print!("{table}");
     print_peaks(&maps);
+    print_lag(&maps, &normals, &refs)?;
     table.write_csv(csv).with_context(|| format!("writing {}", csv.display()))?;
     println!("wrote {}", csv.display());
     Ok(())

@@ -68,6 +68,10 @@ pub struct LiveArgs {
     /// The VEM sequence's calibration (calib/fisheye.toml).
     #[arg(long, requires = "vem_input")]
     vem_calib: Option<PathBuf>,
+    /// Yaw of the VEM sequence, degrees (as `heliar vem --yaw`: the azimuth its north looks
+    /// toward; 2:1 frames are equirect maps with north at the centre column).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, requires = "vem_input")]
+    vem_yaw: f64,
     /// Initial light count of the VEM panel.
     #[arg(long, default_value_t = 64, requires = "vem_input")]
     vem_lights: usize,
@@ -147,7 +151,7 @@ mod imp {
         let title = format!("heliar live — {}", scene.manifest.name);
         let mut app = LiveApp::new(&title, session, other, input.photometry.clone(), input.clock.clone(), capture).quit_on(stop.clone());
         if let Some(v) = &a.vem_input {
-            let panel = heliar::live::vem::VemPanel::open(v, a.vem_calib.as_deref(), a.vem_lights)?;
+            let panel = heliar::live::vem::VemPanel::open(v, a.vem_calib.as_deref(), a.vem_lights, a.vem_yaw)?;
             // The VEM renderer shares the compositor's device: the objects can be lit by the
             // panel's lights over the feed (switchable in the panel).
             app.vem = Some(panel.with_overlay(VemOverlay::new(gpu, &scene, VemRenderConfig::default())?));

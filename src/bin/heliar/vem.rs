@@ -9,6 +9,7 @@ use heliar::render::vem::VemRenderConfig;
 use heliar::report::{JsonLines, Series, Table, line_plot_svg, median};
 use heliar::run::vem::{VemScene, VemStage, run_vem};
 use heliar::vem::VemConfig;
+use heliar::vem::fir::Temporal;
 use heliar::vem::sampling::SamplerKind;
 use heliar::vem::sampling::pattern::Pattern;
 use std::path::PathBuf;
@@ -37,6 +38,27 @@ impl From<SamplerArg> for SamplerKind {
     }
 }
 
+/// How the temporal filter runs, as named on the command line.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum TemporalArg {
+    /// Centred on the frame (default for files): frame t's lights describe frame t.
+    ZeroPhase,
+    /// The paper's causal FIR: frame t's lights describe frame t − 4 (at 21 Hz).
+    Causal,
+    /// The minimum-phase version (what `live` uses): causal with the least delay.
+    MinPhase,
+}
+
+impl From<TemporalArg> for Temporal {
+    fn from(t: TemporalArg) -> Self {
+        match t {
+            TemporalArg::ZeroPhase => Temporal::ZeroPhase,
+            TemporalArg::Causal => Temporal::Causal,
+            TemporalArg::MinPhase => Temporal::MinimumPhase,
+        }
+    }
+}
+
 #[derive(Args)]
 pub struct VemArgs {
     /// Folder of frames (.exr/.png, sorted by name) or one frame file.
@@ -46,6 +68,13 @@ pub struct VemArgs {
     /// and 4:1 frames polar maps, in the world frame.
     #[arg(long)]
     calib: Option<PathBuf>,
+    /// Yaw of the input, degrees: the azimuth (clockwise from north) its north looks toward.
+    /// Without a calibration a 2:1 frame is an equirect map with north (−Z) at the centre
+    /// column and east (+X) to the right, a 4:1 frame a polar map laid out the same way; give
+    /// the azimuth of a map's centre column here when it is not north. Lights are in the world
+    /// frame either way.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    yaw: f64,
     /// Number of lights (the set H).
     #[arg(long, default_value_t = 300)]
     lights: usize,
@@ -74,6 +103,10 @@ pub struct VemArgs {
     /// Capture rate in Hz (designs the temporal filter; the paper's taps at 21).
     #[arg(long, default_value_t = 21.0)]
     rate_hz: f64,
+    /// How the temporal filter runs: zero phase (footage: no lag), the paper's causal filter, or
+    /// its minimum-phase version (low delay).
+    #[arg(long, value_enum, default_value = "zero-phase")]
+    temporal: TemporalArg,
     /// Inverse transform.
     #[arg(long, value_enum, default_value = "havran")]
     sampler: SamplerArg,
@@ -139,13 +172,20 @@ pub fn run(a: VemArgs) -> Result<()> {
         clusters: a.clusters,
         glossy_lights: a.glossy_lights,
         peaks: a.peaks,
+        temporal: a.temporal.into(),
         ..VemConfig::default()
     };
     check_options(&a)?;
     let mut stage = VemStage::open(&a.input, a.calib.as_deref(), cfg)?;
     stage.input.max_invalid_fraction = a.max_invalid_fraction;
+    stage.input.set_yaw_deg(a.yaw).context("--yaw")?;
+    eprintln!("layout: {}", stage.input.layout()?);
     print_response(&stage);
-    let delay = stage.dec.filter_design().delay_frames();
+    let delay = stage.dec.delay_frames();
+    let group_delay = match stage.dec.config().temporal {
+        Temporal::ZeroPhase => 0.0,
+        _ => stage.dec.filter_design().group_delay_frames(),
+    };
     let mut scene = match (&a.scene, &a.output) {
         (Some(scene), Some(dir)) => {
             let rcfg = VemRenderConfig { shadow_slots: a.shadow_maps, tile: a.shadow_tile, culling: !a.no_culling, shadows: !a.no_shadows, ..Default::default() };
@@ -179,7 +219,12 @@ pub fn run(a: VemArgs) -> Result<()> {
         t.push(vec![format!("status {}", serde_json::to_value(s)?.as_str().unwrap_or("?")), n.to_string()]);
     }
     t.push(vec!["lights".into(), a.lights.to_string()]);
-    t.push(vec!["filter delay".into(), format!("{delay} frames ({:.3} s)", delay as f64 / a.rate_hz)]);
+    let kind = match stage.dec.config().temporal {
+        Temporal::ZeroPhase => "zero phase: each frame's lights describe that frame",
+        Temporal::Causal => "causal (the paper's)",
+        Temporal::MinimumPhase => "causal, minimum phase",
+    };
+    t.push(vec!["filter delay".into(), format!("{group_delay:.2} frames ({:.3} s; {kind})", group_delay / a.rate_hz)]);
     t.push(vec!["median decode + resample per frame".into(), format!("{:.3} ms", median(&stats.decode_ms))]);
     t.push(vec!["median decomposition per frame".into(), format!("{:.3} ms", median(&stats.decompose_ms))]);
     eprint!("{t}");
@@ -209,6 +254,9 @@ fn check_options(a: &VemArgs) -> Result<()> {
     }
     if a.shadow_maps == 0 || a.shadow_tile == 0 {
         bail!("--shadow-maps and --shadow-tile must be positive");
+    }
+    if !a.yaw.is_finite() {
+        bail!("--yaw {} must be a finite angle in degrees", a.yaw);
     }
     if !(0.0..=1.0).contains(&a.max_invalid_fraction) {
         bail!("--max-invalid-fraction {} must be in [0, 1]", a.max_invalid_fraction);

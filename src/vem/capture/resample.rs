@@ -12,6 +12,14 @@
 //! Pixels that are NaN, infinite or negative are left out of their texels' averages (the other
 //! taps are renormalised) and counted; a texel whose every tap is invalid becomes black and is
 //! counted too. Texels outside the lens's field of view are black and reported as uncovered.
+//!
+//! # Orientation
+//! Equirect and polar frames are in the crate's layout (crate docs, "Equirectangular maps"):
+//! row 0 the zenith, the centre column looking north (`−Z`), columns growing toward east (`+X`).
+//! A **yaw** ([`Resampler::with_yaw`]) is a rotation of the input about the up axis: the input's
+//! north (its centre column, or a fisheye's `−Z`) looks toward world azimuth `yaw`, clockwise
+//! from north. The world direction of azimuth `a` is read from the input at azimuth `a − yaw`,
+//! so the polar map, and every light taken from it, is in the world frame.
 
 use crate::camera::Camera;
 use crate::vem::polar::{PolarMap, dir_from_polar, polar_from_dir};
@@ -36,6 +44,13 @@ pub enum Projection {
     Equirect,
     /// A polar map in the world frame (this module's convention, width = 4 × height).
     Polar,
+}
+
+/// `d` turned about the up axis (`+Y`) by `rad` of azimuth, clockwise from north seen from
+/// above (north `−Z` → east `+X`): the direction of azimuth `a` goes to azimuth `a + rad`.
+pub fn rotate_azimuth(d: Vec3, rad: f32) -> Vec3 {
+    let (s, c) = rad.sin_cos();
+    Vec3::new(d.x * c - d.z * s, d.y, d.z * c + d.x * s)
 }
 
 impl Projection {
@@ -102,8 +117,16 @@ pub struct Resampler {
 
 impl Resampler {
     /// Precomputes the mapping from `source_width × source_height` frames to a
-    /// `polar_width × polar_height` polar map.
+    /// `polar_width × polar_height` polar map (no yaw).
     pub fn new(projection: &Projection, source_width: u32, source_height: u32, polar_width: u32, polar_height: u32) -> Self {
+        Self::with_yaw(projection, source_width, source_height, polar_width, polar_height, 0.0)
+    }
+
+    /// [`Resampler::new`] for an input turned by `yaw_deg` about the up axis (module docs,
+    /// "Orientation"): its north looks toward world azimuth `yaw_deg`. A non-finite yaw counts as
+    /// 0 (callers validate it: [`super::input::VemInput::set_yaw_deg`]).
+    pub fn with_yaw(projection: &Projection, source_width: u32, source_height: u32, polar_width: u32, polar_height: u32, yaw_deg: f64) -> Self {
+        let yaw = if yaw_deg.is_finite() { (-yaw_deg.rem_euclid(360.0)).to_radians() as f32 } else { 0.0 };
         let (sw, sh) = (source_width, source_height);
         let wraps = projection.wraps();
         let mut compact = vec![u32::MAX; (sw as usize) * (sh as usize)];
@@ -123,7 +146,7 @@ impl Resampler {
         for j in 0..polar_height {
             for i in 0..polar_width {
                 taps.clear();
-                let at = |x: f32, y: f32| projection.source(dir_from_polar(x, y, polar_width, polar_height), sw, sh);
+                let at = |x: f32, y: f32| projection.source(rotate_azimuth(dir_from_polar(x, y, polar_width, polar_height), yaw), sw, sh);
                 let (xc, yc) = (i as f32 + 0.5, j as f32 + 0.5);
                 // Local scale: source distance across the texel in x and y.
                 let span = |a: Option<DVec2>, b: Option<DVec2>| match (a, b) {

@@ -29,10 +29,12 @@ pub enum TemporalError {
     },
 }
 
-/// A symmetric (linear-phase) FIR low-pass with unit DC gain.
+/// An FIR low-pass with unit DC gain: symmetric (linear phase) as designed, or its
+/// minimum-phase version.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FirDesign {
-    /// The taps, symmetric, summing to 1.
+    /// The taps, summing to 1 (tap `k` weighs the frame `k` frames before the newest when the
+    /// filter runs causally).
     pub taps: Vec<f64>,
     /// The capture rate it is meant for.
     pub rate_hz: f64,
@@ -74,9 +76,28 @@ impl FirDesign {
         Ok(Self { taps: h.iter().map(|w| w / s).collect(), rate_hz })
     }
 
-    /// Delay in frames, `(taps − 1)/2`.
+    /// Delay in frames at DC, rounded: `(taps − 1)/2` for a linear-phase design, less for its
+    /// [`FirDesign::minimum_phase`] version.
     pub fn delay_frames(&self) -> usize {
-        (self.taps.len() - 1) / 2
+        self.group_delay_frames().round().max(0.0) as usize
+    }
+
+    /// Delay in frames at DC, the taps' centroid ([`super::min_phase::group_delay_dc`]).
+    pub fn group_delay_frames(&self) -> f64 {
+        super::min_phase::group_delay_dc(&self.taps)
+    }
+
+    /// The minimum-phase filter with this design's amplitude response (the low-delay causal
+    /// filter for live input, [`super::min_phase`]).
+    pub fn minimum_phase(&self) -> Result<Self, TemporalError> {
+        let taps = super::min_phase::minimum_phase(&self.taps).ok_or(TemporalError::NoConvergence { rate_hz: self.rate_hz })?;
+        Ok(Self { taps, rate_hz: self.rate_hz })
+    }
+
+    /// Whether the taps are symmetric (linear phase, zero phase when centred).
+    pub fn is_symmetric(&self) -> bool {
+        let n = self.taps.len();
+        (0..n / 2).all(|k| (self.taps[k] - self.taps[n - 1 - k]).abs() <= 1e-12 * (1.0 + self.taps[k].abs()))
     }
 
     /// Zero-phase amplitude response at `f_hz`.

@@ -1,6 +1,17 @@
 //! Temporal filtering of the lights (Havran §3.3): a linear-phase FIR low-pass on every light's
 //! direction (in 3D, then renormalised) and on the frame's total power.
 //!
+//! # Three ways to run it ([`Temporal`], issue 14 part 4)
+//! - **Zero phase** ([`CentredFilter`], recorded input: `heliar vem` on files, with or without
+//!   `--scene`): the symmetric taps centred on frame `t`, so frame `t`'s lights describe frame
+//!   `t`; the output for `t` waits until frame `t + m` is in, and the first and last `m` frames
+//!   use shortened symmetric windows.
+//! - **Causal** ([`LightFilter`] with the design's taps): the paper's, output for frame `t`
+//!   describes frame `t − m`.
+//! - **Minimum phase** ([`LightFilter`] with [`FirDesign::minimum_phase`], live input): the same
+//!   amplitude response with the least delay a causal filter of that length has
+//!   ([`min_phase`]; ≈ 1 frame at 21 Hz instead of 4).
+//!
 //! # How it works
 //! - **The paper's filter.** At 21 Hz capture the paper uses a 9-tap equiripple filter (order 8)
 //!   with `w₁ = w₉ = 0.06216`, `w₂ = w₈ = 0.01296`, `w₃ = w₇ = −0.13816`, `w₄ = w₆ = 0.28315`,
@@ -28,7 +39,11 @@
 //!   undershoot after a sudden rise from darkness). Each light carries `P_filtered / N` in
 //!   luminance, times its filtered colour (renormalised to unit luminance).
 
+mod centred;
 mod design;
+pub mod min_phase;
+
+pub use centred::CentredFilter;
 
 pub use design::{
     DESIGN_PASS_HZ, DESIGN_STOP_HZ, FirDesign, MAX_ORDER, PAPER_RATE_HZ, PAPER_RESPONSE_TOLERANCE, PAPER_TAPS_21HZ, TemporalError, amplitude,
@@ -37,6 +52,21 @@ pub use design::{
 use super::Light;
 use super::polar::luminance;
 use glam::Vec3;
+
+/// How the temporal filter runs (issue 14, part 4).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Temporal {
+    /// The design's symmetric taps centred on the frame ([`CentredFilter`]; recorded input):
+    /// frame `t`'s lights describe frame `t`, given out once frame `t + m` is in.
+    ZeroPhase,
+    /// The design's taps run causally, as in the paper ([`LightFilter`]): frame `t`'s lights
+    /// describe frame `t − m` (`m = 4` at 21 Hz).
+    #[default]
+    Causal,
+    /// The minimum-phase version of the design run causally (live input,
+    /// [`min_phase`]): the same amplitude response with the least delay.
+    MinimumPhase,
+}
 
 /// A filtered direction shorter than this is degenerate: the light holds its last good direction.
 pub const MIN_FILTERED_NORM: f32 = 0.25;
@@ -175,22 +205,26 @@ impl LightFilter {
                     c[ch] += r[ch] * w[slot];
                 }
             }
-            let norm = v.length();
-            let dir = if norm >= MIN_FILTERED_NORM && norm.is_finite() {
-                let d = v / norm;
-                self.last_good[k] = d;
-                d
-            } else {
-                held += 1;
-                self.last_good[k]
-            };
-            let c = c.map(|x| x.max(0.0));
-            let y = luminance(c);
-            let c = if y > 0.0 && y.is_finite() { c.map(|x| x / y) } else { self.rgb[k * len + self.head] };
-            out.push(Light { index: k as u32, dir, rgb: c.map(|x| x * per_light) });
+            let (light, was_held) = finish_light(k as u32, v, c, self.last_good[k], self.rgb[k * len + self.head], per_light);
+            held += usize::from(was_held);
+            self.last_good[k] = light.dir;
+            out.push(light);
         }
         held
     }
+}
+
+/// A filtered light from its weighted sum of directions `v` and of colours `c`: the direction
+/// renormalised (or `fallback_dir` when the sum is degenerate, reported by the flag), the colour
+/// clamped at 0 and brought to unit luminance (or `fallback_colour` if it has none), times
+/// `per_light`.
+fn finish_light(index: u32, v: Vec3, c: [f32; 3], fallback_dir: Vec3, fallback_colour: [f32; 3], per_light: f32) -> (Light, bool) {
+    let norm = v.length();
+    let (dir, held) = if norm >= MIN_FILTERED_NORM && norm.is_finite() { (v / norm, false) } else { (fallback_dir, true) };
+    let c = c.map(|x| x.max(0.0));
+    let y = luminance(c);
+    let c = if y > 0.0 && y.is_finite() { c.map(|x| x / y) } else { fallback_colour };
+    (Light { index, dir, rgb: c.map(|x| x * per_light) }, held)
 }
 
 #[cfg(test)]

@@ -28,6 +28,7 @@ pub mod havran;
 pub mod median_cut;
 pub mod pattern;
 pub mod standard;
+pub mod tempered;
 
 use super::polar::{PolarMap, luminance};
 use glam::{Vec2, Vec3};
