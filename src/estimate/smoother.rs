@@ -22,7 +22,7 @@
 //! **How fast a cloud is followed.** At 30 fps a frame's drift allowance (`q·(Pd + Pa)·√Δt`, about
 //! 6% of the light at the default `q` = 0.1) is several times the standard error of an N = 500
 //! estimate, so the gain is close to 1 and a cloud that covers the sun within 0.5 s is followed
-//! within a frame: `tests/cloud_lag.rs` measures a half-way lag of 0.02 frames with 1% pixel
+//! within a frame: `tests/suite/cloud_lag.rs` measures a half-way lag of 0.02 frames with 1% pixel
 //! noise and 0.13 frames with 10%, settled within 5% of the step on the frame of full cover, and
 //! holds it to at most 1 frame of lag and 2 frames of settling.
 //!

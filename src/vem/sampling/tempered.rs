@@ -11,7 +11,7 @@
 //! their power, so a sky beside a sun keeps enough lights for the surfaces turned from the sun.
 //! Equal-power sampling (Havran §3.1–3.3) is `γ = 1`.
 //!
-//! # Measured: not better (`tests/vem_allocation.rs`)
+//! # Measured: not better (`tests/suite/vem_allocation.rs`)
 //! The argument holds for lights at the centroids of fixed regions, not for lights that are
 //! samples: with unequal powers each light's error weighs in by its power, and on the synthetic
 //! skies at 180 × 45 (irradiance error at 64 upper normals, mean) `γ = ½` loses to equal power

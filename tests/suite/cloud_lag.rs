@@ -14,11 +14,9 @@
 //!
 //! Documented bounds (docs in `estimate::smoother`): half-way lag ≤ 1 frame, settling ≤ 2
 //! frames. Measured: half-way lag 0.02 frames (1% noise) and 0.13 frames (10%), settled on the
-//! frame of full cover in both (`cargo test --test cloud_lag -- --nocapture` prints them).
+//! frame of full cover in both (`cargo test --test suite cloud_lag:: -- --nocapture` prints them).
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use heliar::estimate::EstimatorConfig;
 use heliar::io::frames::{Linearizer, Response};
 use heliar::io::image::LinearImage;
