@@ -46,6 +46,24 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     heliar::io::write_atomic(path, bytes).with_context(|| format!("writing {}", path.display()))
 }
 
+/// The scene folder `path` lies in: the nearest folder above it (after resolving symlinks and
+/// `..`) that holds a `scene.toml`; `None` outside every scene.
+pub fn scene_around(path: &Path) -> Option<PathBuf> {
+    let resolved = heliar::io::guard::resolve(path);
+    resolved.ancestors().skip(1).find(|d| d.join(heliar::scene::MANIFEST_FILE).is_file()).map(Path::to_owned)
+}
+
+/// Checks a file the tool is about to write, with the guard every heliar command uses
+/// (`heliar::io::guard::OutputGuard`): it may not be one of `inputs` (or lie in an input folder
+/// as an existing file), nor overwrite an existing file of the scene it lies in
+/// ([`scene_around`]), unless `force` (`--force`). The scene edits the tool is for (the pose
+/// into the scene's camera file, the marks into its manifest) go through [`edit_scene`] instead
+/// and are not outputs.
+pub fn check_output(output: &Path, inputs: &[&Path], force: bool) -> Result<()> {
+    let scene = scene_around(output);
+    heliar::io::guard::OutputGuard::new(scene.as_deref(), inputs, force).check_file(output).map_err(anyhow::Error::new)
+}
+
 /// `rel` (a path of the scene at `dir`) relative to the scene folder after resolving symlinks and
 /// `..` (see `heliar::io::guard::resolve`); `None` when it resolves outside the folder.
 pub fn rel_inside(dir: &Path, rel: &Path) -> Option<PathBuf> {

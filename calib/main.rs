@@ -47,6 +47,10 @@ enum Command {
 struct UiArgs {
     /// Scene folder to open.
     scene: Option<PathBuf>,
+    /// Let Save and Export write over their inputs and over files of a scene (the scene edits
+    /// themselves, Save pose and marking, need no flag).
+    #[arg(long)]
+    force: bool,
 }
 
 fn main() {
@@ -58,7 +62,7 @@ fn main() {
         Command::Hdr(a) => hdr(a),
         Command::New(a) => new_scene(a),
         Command::Photometric(a) => photometric(a),
-        Command::Ui(a) => ui::run(a.scene),
+        Command::Ui(a) => ui::run(a.scene, a.force),
     };
     if let Err(e) = r {
         eprintln!("error: {e:#}");
@@ -92,7 +96,8 @@ struct IntrinsicsArgs {
     /// Camera file to write (its pose and response are kept when it exists).
     #[arg(long, short)]
     output: Option<PathBuf>,
-    /// Write the output even over one of the inputs.
+    /// Write the output even over one of the inputs or an existing file of a scene (e.g. a
+    /// scene's calib/camera.toml: `pose` and the app's Save edit a scene's camera file safely).
     #[arg(long)]
     force: bool,
 }
@@ -106,7 +111,7 @@ fn intrinsics(a: IntrinsicsArgs) -> Result<()> {
     };
     if let Some(out) = &a.output {
         let input = a.images.as_ref().or(a.video.as_ref()).map(PathBuf::as_path);
-        heliar::io::guard::OutputGuard::new(None, &input.into_iter().collect::<Vec<_>>(), a.force).check_file(out).context("--output")?;
+        edit::check_output(out, &input.into_iter().collect::<Vec<_>>(), a.force).context("--output")?;
     }
     let found = ops::intrinsics::collect_views(&source, &board)?;
     for skip in &found.skipped {
@@ -175,6 +180,14 @@ fn pose(a: PoseArgs) -> Result<()> {
     let k = &scene.camera.intrinsics;
     ops::pose::check_inside(k, &px, &a.pairs.display().to_string())?;
     ops::pose::check_pairs(&px, &world, &a.pairs.display().to_string())?;
+    if let Some(img) = &a.image {
+        // The overlay is drawn in the camera's pixels: a frame of another size is refused, not
+        // rescaled (its header is read, not its pixels).
+        let (w, h) = image::image_dimensions(img).with_context(|| format!("--image {}: not a readable image", img.display()))?;
+        if (w, h) != (k.width, k.height) {
+            bail!("--image {}: {w}×{h} but the camera calibration {} is {}×{} (give a frame of this camera)", img.display(), scene.camera_path.display(), k.width, k.height);
+        }
+    }
     if !a.dry_run {
         ops::pose::check_camera_inside(&a.scene, &scene, a.allow_outside_scene)?;
     }
@@ -184,7 +197,7 @@ fn pose(a: PoseArgs) -> Result<()> {
         let mut inputs: Vec<&std::path::Path> = vec![&a.pairs];
         inputs.extend(a.image.as_deref());
         inputs.extend(scene_files.iter().map(PathBuf::as_path));
-        heliar::io::guard::OutputGuard::new(None, &inputs, a.force).check_file(out).context("--overlay")?;
+        edit::check_output(out, &inputs, a.force).context("--overlay")?;
     }
     let fit = solve_pose(k, &px, &world)?;
     println!("{}", serde_json::to_string_pretty(&fit)?);
@@ -290,7 +303,7 @@ struct HdrArgs {
     /// Width of the stitched equirect map (height = width / 2).
     #[arg(long, default_value_t = 1024)]
     width: u32,
-    /// Write the outputs even over one of the inputs.
+    /// Write the outputs even over one of the inputs or an existing file of a scene.
     #[arg(long)]
     force: bool,
 }
@@ -301,9 +314,8 @@ fn hdr(a: HdrArgs) -> Result<()> {
         ops::hdr::check_times(&a.back, &a.times).context("--back/--times")?;
     }
     let inputs: Vec<&std::path::Path> = a.images.iter().chain(&a.back).map(PathBuf::as_path).chain(a.fisheye.as_deref()).collect();
-    let guard = heliar::io::guard::OutputGuard::new(None, &inputs, a.force);
-    guard.check_file(&a.output).context("--output")?;
-    guard.check_file(&ops::hdr::response_path(&a.output)).context("--output (the response beside it)")?;
+    edit::check_output(&a.output, &inputs, a.force).context("--output")?;
+    edit::check_output(&ops::hdr::response_path(&a.output), &inputs, a.force).context("--output (the response beside it)")?;
     let imgs = a.images.iter().map(|p| Rgb8::open(p)).collect::<Result<Vec<_>, _>>()?;
     let reflection = if a.reflection.is_empty() {
         None

@@ -77,6 +77,8 @@ pub struct HdrTab {
     pub output: String,
     /// What the last action said.
     pub messages: Messages,
+    /// Save even over an exposure or a file of a scene (`heliar-calib ui --force`).
+    pub force: bool,
     loaded: Option<Loaded>,
     job: Option<Job<(LinearImage, Vec<[f32; 3]>)>>,
     view: ImageView,
@@ -99,6 +101,7 @@ impl Default for HdrTab {
             result: None,
             output: "env.exr".into(),
             messages: Messages::default(),
+            force: false,
             loaded: None,
             job: None,
             view: ImageView::default(),
@@ -219,13 +222,18 @@ impl HdrTab {
         }
     }
 
-    /// Writes the EXR and the response CSV.
+    /// Writes the EXR and the response CSV; neither may overwrite an exposure or a file of a
+    /// scene unless [`HdrTab::force`] (the guard of `hdr -o`).
     pub fn save(&self) -> Result<String> {
         let m = self.result.as_ref().context("merge first")?;
         let out = PathBuf::from(self.output.trim());
         if !out.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
             bail!("the output '{}' must be an .exr file", out.display());
         }
+        let inputs: Vec<PathBuf> = self.rows.iter().map(|r| PathBuf::from(r.path.trim())).filter(|p| !p.as_os_str().is_empty()).collect();
+        let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
+        crate::edit::check_output(&out, &inputs, self.force).context("the output EXR")?;
+        crate::edit::check_output(&ops::response_path(&out), &inputs, self.force).context("the response CSV beside the output")?;
         let csv = ops::write_outputs(&out, &m.image, &m.response)?;
         Ok(format!("wrote {} and {}", out.display(), csv.display()))
     }

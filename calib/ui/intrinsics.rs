@@ -87,6 +87,8 @@ pub struct IntrinsicsTab {
     pub output: String,
     /// What the last action said.
     pub messages: Messages,
+    /// Save even over an input or a file of a scene (`heliar-calib ui --force`).
+    pub force: bool,
     work: Option<Work>,
     view: ImageView,
     picture: Option<(usize, Picture)>,
@@ -109,6 +111,7 @@ impl Default for IntrinsicsTab {
             result: None,
             output: "camera.toml".into(),
             messages: Messages::default(),
+            force: false,
             work: None,
             view: ImageView::default(),
             picture: None,
@@ -252,15 +255,23 @@ impl IntrinsicsTab {
             bail!("give the camera file to write");
         }
         let (w, h) = c.size;
+        let source = PathBuf::from(if self.from_video { self.video.trim() } else { self.folder.trim() });
+        let inputs: Vec<&Path> = [source.as_path()].into_iter().filter(|p| !p.as_os_str().is_empty()).collect();
         match &c.model {
             Calibration::Fisheye(f) => {
                 if !out.extension().is_some_and(|e| e == "json") {
                     bail!("a fisheye (Kannala–Brandt) calibration cannot go into a camera file (Brown–Conrady only); give a .json file for its report");
                 }
+                crate::edit::check_output(&out, &inputs, self.force)?;
                 crate::edit::write_atomic(&out, serde_json::to_string_pretty(&ops::fisheye_json(w, h, f))?.as_bytes())?;
                 Ok(format!("wrote {}", out.display()))
             }
             Calibration::Pinhole(p) => {
+                let scene_camera = scene.as_ref().is_some_and(|s| same_file(&s.camera_file(), &out));
+                if !scene_camera {
+                    // Not the open scene's camera file: an output like `intrinsics -o`.
+                    crate::edit::check_output(&out, &inputs, self.force)?;
+                }
                 let existing = ops::read_camera_file(&out)?;
                 let text = ops::camera_toml_with_intrinsics(existing.as_deref(), &out, w, h, p)?;
                 match scene.filter(|s| same_file(&s.camera_file(), &out)) {

@@ -115,6 +115,13 @@ pub struct CalibApp {
 }
 
 impl CalibApp {
+    /// The app with saves that may overwrite inputs and files of a scene (`ui --force`); by
+    /// default every Save and Export refuses to, as the subcommands do without `--force`.
+    pub fn with_force(mut self, force: bool) -> Self {
+        (self.intrinsics.force, self.pose.force, self.hdr.force) = (force, force, force);
+        self
+    }
+
     /// The app, with `scene` opened when given.
     pub fn new(scene: Option<&Path>) -> Self {
         let mut app = Self {
@@ -328,13 +335,14 @@ impl NewSceneForm {
     }
 }
 
-/// Opens the window (blocks until it is closed).
-pub fn run(scene: Option<PathBuf>) -> Result<()> {
+/// Opens the window (blocks until it is closed); `force`: saves may overwrite inputs and files
+/// of a scene.
+pub fn run(scene: Option<PathBuf>, force: bool) -> Result<()> {
     let options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default().with_inner_size([1400.0, 860.0]).with_title("heliar-calib"),
         renderer: eframe::Renderer::Wgpu,
         ..Default::default()
     };
-    eframe::run_native("heliar-calib", options, Box::new(move |_cc| Ok(Box::new(CalibApp::new(scene.as_deref())))))
+    eframe::run_native("heliar-calib", options, Box::new(move |_cc| Ok(Box::new(CalibApp::new(scene.as_deref()).with_force(force)))))
         .map_err(|e| anyhow!("cannot open the calibration window: {e} (the app needs a display; the subcommands intrinsics, pose, mark, hdr and new work without one)"))
 }

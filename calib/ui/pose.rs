@@ -12,7 +12,7 @@ use egui::{Color32, Stroke};
 use glam::{DVec2, DVec3};
 use heliar::opencv_calib::pose::{PoseFit, solve_pose};
 use heliar::camera::Camera;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// A click closer than this (screen points) to an image point selects or drags it.
 const GRAB_PT: f32 = 8.0;
@@ -59,6 +59,10 @@ pub struct PoseTab {
     pub show_current: bool,
     /// Pairs CSV for import and export.
     pub pairs_file: String,
+    /// Export even over the imported pairs or a file of a scene (`heliar-calib ui --force`).
+    pub force: bool,
+    /// The pairs file last imported (an input Export does not overwrite).
+    imported: Option<PathBuf>,
     /// What the last action said.
     pub messages: Messages,
     outline_cache: Option<(u64, Vec<[DVec3; 2]>, Vec<Vec<DVec2>>)>,
@@ -184,12 +188,15 @@ impl PoseTab {
         let (px, world) = ops::read_pairs(path)?;
         self.pairs = px.iter().zip(&world).map(|(p, w)| Pair { pixel: Some(*p), world: Some(*w), world_text: format!("{}, {}, {}", fmt_m(w.x), fmt_m(w.y), fmt_m(w.z)) }).collect();
         self.selected = None;
+        self.imported = Some(path.to_owned());
         Ok(format!("read {} pairs from {}", self.pairs.len(), path.display()))
     }
 
-    /// Writes the complete pairs as CSV (for `heliar-calib pose --pairs`).
+    /// Writes the complete pairs as CSV (for `heliar-calib pose --pairs`); not over the pairs
+    /// file they were imported from nor over a file of a scene, unless [`PoseTab::force`].
     pub fn export(&self, path: &Path) -> Result<String> {
         let (px, world) = self.complete_pairs()?;
+        crate::edit::check_output(path, &self.imported.iter().map(PathBuf::as_path).collect::<Vec<_>>(), self.force)?;
         crate::edit::write_atomic(path, ops::pairs_csv(&px, &world).as_bytes())?;
         Ok(format!("wrote {} pairs to {}", px.len(), path.display()))
     }

@@ -254,6 +254,19 @@ fn the_pose_tab_solves_the_courtyard_camera_and_saves_it() {
     assert!(h.state().pose.export(&csv).is_ok());
     let (px, world) = crate::ops::pose::read_pairs(&csv).unwrap();
     assert_eq!((px.len(), world.len()), (n, n));
+    // Once imported, the pairs file is an input: Export does not overwrite it, nor a file of the
+    // scene, unless the app was started with --force.
+    assert!(h.state_mut().pose.import(&csv).is_ok());
+    let before = std::fs::read(&csv).unwrap();
+    let e = format!("{:#}", h.state().pose.export(&csv).unwrap_err());
+    assert!(e.contains("pairs.csv") && e.contains("is the input") && e.contains("--force"), "{e}");
+    let manifest = dir.join("scene.toml");
+    let manifest_before = std::fs::read(&manifest).unwrap();
+    let e = format!("{:#}", h.state().pose.export(&manifest).unwrap_err());
+    assert!(e.contains("scene.toml") && e.contains("file of the scene") && e.contains("--force"), "{e}");
+    assert_eq!((std::fs::read(&csv).unwrap(), std::fs::read(&manifest).unwrap()), (before, manifest_before));
+    h.state_mut().pose.force = true;
+    assert!(h.state().pose.export(&csv).is_ok());
     std::fs::remove_dir_all(dir.parent().unwrap()).ok();
 }
 
@@ -363,6 +376,21 @@ fn the_intrinsics_tab_recovers_the_courtyard_lens_from_synthetic_boards() {
     assert!(errors(&h.state().intrinsics.messages).is_empty(), "{:?}", h.state().intrinsics.messages);
     let cf: heliar::scene::CameraFile = toml::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
     assert_eq!((cf.width, cf.height, cf.fx, cf.cx), (k.width, k.height, c.fx, c.cx));
+    // Not over one of the views (a file of the input folder), nor over the camera file of a scene
+    // that is not the open one, without --force.
+    let view = boards.join("v00.png");
+    let other = tmp.join("other");
+    std::fs::create_dir_all(other.join("calib")).unwrap();
+    std::fs::write(other.join("scene.toml"), "# a scene\n").unwrap();
+    std::fs::copy(&out, other.join("calib/camera.toml")).unwrap();
+    for (target, words) in [(view.clone(), ["v00.png", "overlaps the input"]), (other.join("calib/camera.toml"), ["camera.toml", "file of the scene"])] {
+        let before = std::fs::read(&target).unwrap();
+        h.state_mut().intrinsics.output = target.display().to_string();
+        click_button(&mut h, "Save camera file");
+        let e = errors(&h.state().intrinsics.messages).join(" ");
+        assert!(words.iter().all(|w| e.contains(w)) && e.contains("--force"), "{e}");
+        assert_eq!(std::fs::read(&target).unwrap(), before, "{} changed", target.display());
+    }
 
     // Fewer than three views in use: refused.
     for v in h.state_mut().intrinsics.views.iter_mut().skip(2) {
@@ -429,6 +457,21 @@ fn the_hdr_tab_merges_bracketed_exposures_and_saves_them() {
     let want = radiance(90, 32) / radiance(5, 32);
     assert!((ratio / want - 1.0).abs() < 0.05, "ratio {ratio} vs {want}");
     assert!(tmp.join("env.response.csv").exists());
+    // Not over a file of a scene (its environment map) without --force; with it, yes.
+    let scene = tmp.join("scene");
+    std::fs::create_dir_all(&scene).unwrap();
+    std::fs::write(scene.join("scene.toml"), "# a scene\n").unwrap();
+    std::fs::copy(&out, scene.join("env.exr")).unwrap();
+    let before = std::fs::read(scene.join("env.exr")).unwrap();
+    h.state_mut().hdr.output = scene.join("env.exr").display().to_string();
+    click_button(&mut h, "Save EXR + response");
+    let e = errors(&h.state().hdr.messages).join(" ");
+    assert!(e.contains("env.exr") && e.contains("file of the scene") && e.contains("--force"), "{e}");
+    assert_eq!(std::fs::read(scene.join("env.exr")).unwrap(), before);
+    assert!(!scene.join("env.response.csv").exists(), "the response was written beside a refused EXR");
+    h.state_mut().hdr.force = true;
+    click_button(&mut h, "Save EXR + response");
+    assert!(errors(&h.state().hdr.messages).is_empty(), "{:?}", h.state().hdr.messages);
     std::fs::remove_dir_all(&tmp).ok();
 }
 

@@ -69,9 +69,12 @@ pub fn resolve(path: &Path) -> PathBuf {
             }
             return out;
         }
-        match (head.file_name(), head.parent()) {
+        // A last component `..` has no file name; it is kept and applied after the existing
+        // ancestor is resolved (`out/missing/../scene.toml` is `out/scene.toml`).
+        let name = head.file_name().and_then(|n| n.to_str()).or_else(|| head.ends_with("..").then_some(".."));
+        match (name, head.parent()) {
             (Some(name), Some(parent)) => {
-                tail.push(name.to_str().unwrap_or_default());
+                tail.push(name);
                 head = parent;
             }
             _ => return abs,
@@ -163,6 +166,10 @@ mod tests {
         // The input itself, through `..` and through a symlink.
         assert!(matches!(g.check_file(&d.join("in.csv")), Err(GuardError::IsInput { .. })));
         assert!(matches!(g.check_file(&scene.join("../in.csv")), Err(GuardError::IsInput { .. })));
+        // `..` after a folder that does not exist (yet) is resolved too.
+        assert!(matches!(g.check_file(&d.join("missing/../in.csv")), Err(GuardError::IsInput { .. })));
+        assert!(matches!(g.check_file(&d.join("missing/deeper/../../scene/scene.toml")), Err(GuardError::SceneFile { .. })));
+        assert_eq!(resolve(&d.join("missing/../scene/new.toml")), resolve(&d).join("scene/new.toml"));
         #[cfg(unix)]
         {
             std::os::unix::fs::symlink(d.join("in.csv"), d.join("link.csv")).unwrap();

@@ -224,6 +224,7 @@ impl VemScene {
 
     /// [`VemScene::new`] for a scene already loaded.
     pub fn from_scene(scene: Scene, out_dir: &Path, cfg: VemRenderConfig, rate_hz: f64) -> Result<Self> {
+        check_footage_size(&scene)?;
         std::fs::create_dir_all(out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
         let gpu = Arc::new(Gpu::new(GpuOptions { samples: 1 })?);
         let adapter = gpu.describe();
@@ -245,19 +246,20 @@ impl VemScene {
         &self.adapter
     }
 
-    /// The frame's background: the scene's footage frame `i` when its first sequence has one
-    /// of the camera's size, else the VEM map seen through the camera (the ground below the
-    /// horizon).
+    /// The frame's background: the scene's footage frame `i` when its first sequence has one,
+    /// else (past the footage's end) the VEM map seen through the camera (the ground below the
+    /// horizon). A footage frame of another size than the camera's is an error naming the file
+    /// and both sizes (its header is checked before the pixels are decoded): it is never
+    /// rescaled nor silently replaced.
     fn background(&self, i: usize, stage: &VemStage, map: &PolarMap) -> Result<(LinearImage, &'static str)> {
         if let Some(seq) = self.scene.sequences.first()
             && let Some(path) = seq.files.get(i)
         {
-            let frame = Frame::load(path).with_context(|| format!("reading footage {}", path.display()))?;
-            let want = (self.scene.camera.intrinsics.width, self.scene.camera.intrinsics.height);
-            if (frame.width, frame.height) == want {
-                return Ok((seq.photometry.linearizer().linear_image(&frame), "footage"));
-            }
-            eprintln!("note: {} is {}×{}, not the camera's {}×{}: using the environment", path.display(), frame.width, frame.height, want.0, want.1);
+            let k = &self.scene.camera.intrinsics;
+            let frame = Frame::load_sized(path, k.width, k.height)
+                .map_err(anyhow::Error::new)
+                .with_context(|| format!("reading footage of sequence '{}' (the camera calibration {} is {}×{})", seq.name, self.scene.camera_path.display(), k.width, k.height))?;
+            return Ok((seq.photometry.linearizer().linear_image(&frame), "footage"));
         }
         let ground = ground_radiance(&stage.dec.region_lists().1.lights, self.overlay.renderer().config().ground_albedo);
         Ok((environment_background(map, &self.scene.camera, ground), "environment"))
@@ -424,5 +426,22 @@ fn write_frame(
         decompose_ms: f.decompose_ms,
         render,
     })?;
+    Ok(())
+}
+
+/// Every footage frame of the scene's first sequence (the backgrounds) has the camera's size:
+/// checked from the headers before anything is rendered or written, so a frame of another size
+/// (a 1×1 thumbnail, footage of another camera) stops the run at once, naming the file and both
+/// sizes, instead of being rescaled or replaced.
+fn check_footage_size(scene: &Scene) -> Result<()> {
+    let Some(seq) = scene.sequences.first() else { return Ok(()) };
+    let k = &scene.camera.intrinsics;
+    for path in &seq.files {
+        let (w, h) = crate::io::checked_header_size(path)?;
+        if (w, h) != (k.width, k.height) {
+            let e = crate::io::IoError::Size { path: path.clone(), got_w: w, got_h: h, want_w: k.width, want_h: k.height };
+            return Err(anyhow::Error::new(e).context(format!("footage of sequence '{}' (the camera calibration {} is {}×{})", seq.name, scene.camera_path.display(), k.width, k.height)));
+        }
+    }
     Ok(())
 }

@@ -299,6 +299,39 @@ fn probe_grids_over_the_cap_are_refused_before_allocation() {
     std::fs::remove_dir_all(&d).ok();
 }
 
+/// glTF buffers and images given as `data:` URIs longer than the loader's cap are refused before
+/// they are decoded, with an error naming the file, the field and the cap.
+#[test]
+fn gltf_data_uris_over_the_cap_are_refused() {
+    use heliar::scene::gltf::MAX_DATA_URI_BYTES;
+    let (d, scene) = scratch("gltf-data-cap");
+    let deep = scene.join("objects/deep");
+    std::fs::create_dir_all(&deep).unwrap();
+    edit(&scene.join("scene.toml"), "file = \"objects/statue.glb\"", "file = \"objects/deep/tri.gltf\"");
+    // One byte over the cap (the URI's text after `data:`; base64 of zero bytes).
+    let head = "application/octet-stream;base64,";
+    let over = format!("data:{head}{}", "A".repeat(MAX_DATA_URI_BYTES + 1 - head.len()));
+    let (json, bin) = triangle_gltf(&over);
+    std::fs::write(deep.join("tri.gltf"), &json).unwrap();
+    let cap = MAX_DATA_URI_BYTES.to_string();
+    let e = load_err(&d, &scene);
+    assert!(e.contains("tri.gltf") && e.contains("buffers[0].uri") && e.contains(&cap) && e.contains("cap"), "{}", &e[..e.len().min(400)]);
+    assert!(e.contains(&(MAX_DATA_URI_BYTES + 1).to_string()), "the URI's size is named: {}", &e[..e.len().min(400)]);
+    // The same for an image: the buffer is a file inside the scene, the image a huge data: URI.
+    std::fs::write(deep.join("tri.bin"), &bin).unwrap();
+    let (json, _) = triangle_gltf("tri.bin");
+    let with_image = json.replacen("\"buffers\"", &format!("\"images\":[{{\"uri\":\"data:image/png;base64,{}\"}}],\"buffers\"", "A".repeat(MAX_DATA_URI_BYTES)), 1);
+    std::fs::write(deep.join("tri.gltf"), with_image).unwrap();
+    let e = load_err(&d, &scene);
+    assert!(e.contains("tri.gltf") && e.contains("images[0].uri") && e.contains(&cap), "{}", &e[..e.len().min(400)]);
+    // The command line says the same, exits non-zero and leaves the scene alone.
+    let before = hashes(&d);
+    let (ok, err) = heliar(&["sun", "--scene", s(&scene), "--time", "2024-06-21T12:00:00+02:00"]);
+    assert!(!ok && err.contains("images[0].uri") && err.contains(&cap), "{}", &err[..err.len().min(400)]);
+    assert_eq!(hashes(&d), before);
+    std::fs::remove_dir_all(&d).ok();
+}
+
 #[test]
 fn messages_name_what_failed() {
     // A failed EXR write says it was the write, with the path and the OS's reason.

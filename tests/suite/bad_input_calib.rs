@@ -340,3 +340,43 @@ fn pose_checks_its_pairs_before_opencv() {
     }
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// Outputs the tool writes (`intrinsics -o`, `hdr -o` and its response, `pose --overlay`) do not
+/// overwrite an existing file of a scene without `--force`, whichever scene it is (the guard of
+/// every heliar command, with the scene found above the output); `pose --image` must be a frame
+/// of the camera's size.
+#[test]
+fn outputs_do_not_overwrite_files_of_a_scene() {
+    let d = scratch("scene-files");
+    let scene = small_scene(&d);
+    let imgs = bracket(&d);
+    std::fs::write(scene.join("env.exr"), b"the scene's environment map").unwrap();
+    std::fs::write(scene.join("notes.response.csv"), b"kept").unwrap();
+    let camera = scene.join("calib/camera.toml");
+    let boards = d.join("boards");
+    std::fs::create_dir_all(&boards).unwrap();
+    refused(&["intrinsics", "--images", s(&boards), "--board", "9x6", "--square-mm", "30", "-o", s(&camera)], &["--output", "camera.toml", "file of the scene", "--force"], &[&d]);
+    let times = "0.004,0.016,0.064";
+    refused(&["hdr", "--images", &join(&imgs), "--times", times, "-o", s(&scene.join("env.exr"))], &["--output", "env.exr", "file of the scene", "--force"], &[&d]);
+    // The response CSV beside a new EXR would land on a scene file.
+    refused(&["hdr", "--images", &join(&imgs), "--times", times, "-o", s(&scene.join("notes.exr"))], &["response", "notes.response.csv", "--force"], &[&d]);
+    assert!(!scene.join("notes.exr").exists());
+    // Through `..` from outside the scene it is the same file.
+    let sneaky = d.join("elsewhere/../scene/env.exr");
+    refused(&["hdr", "--images", &join(&imgs), "--times", times, "-o", s(&sneaky)], &["file of the scene"], &[&d]);
+    // pose --overlay onto a scene file that is not one of its inputs.
+    let pairs = true_pairs(&d);
+    let frame = bundled().join("frames/ldr/frame_000.png");
+    refused(&["pose", s(&scene), "--pairs", s(&pairs), "--image", s(&frame), "--overlay", s(&scene.join("env.exr")), "--dry-run"], &["--overlay", "env.exr", "file of the scene"], &[&d]);
+    // A 1×1 (or any other size) --image is refused before the pose is solved, naming both sizes.
+    let tiny = d.join("tiny.png");
+    image::save_buffer(&tiny, &[7u8; 3], 1, 1, image::ExtendedColorType::Rgb8).unwrap();
+    refused(&["pose", s(&scene), "--pairs", s(&pairs), "--image", s(&tiny)], &["tiny.png", "1×1", "320×240", "camera.toml"], &[&d]);
+    // New files beside the scene's are allowed, and --force overwrites on purpose (atomically).
+    let (ok, _, err) = calib(&["hdr", "--images", &join(&imgs), "--times", times, "-o", s(&scene.join("env2.exr"))]);
+    assert!(ok, "{err}");
+    let (ok, _, err) = calib(&["hdr", "--images", &join(&imgs), "--times", times, "-o", s(&scene.join("env.exr")), "--force"]);
+    assert!(ok, "{err}");
+    assert_ne!(std::fs::read(scene.join("env.exr")).unwrap(), b"the scene's environment map");
+    std::fs::remove_dir_all(&d).ok();
+}

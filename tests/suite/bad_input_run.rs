@@ -172,3 +172,23 @@ fn live_without_a_window_fails_on_frames_of_the_wrong_size_and_on_a_source_that_
     assert!(t.elapsed().as_secs_f64() < 60.0, "took {:?}", t.elapsed());
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// A footage frame of another size than the camera's (a 1×1 frame among the courtyard's):
+/// `vem --scene` refuses before rendering anything, naming the file and both sizes, instead of
+/// putting the environment (or a rescaled frame) behind the objects.
+#[test]
+fn vem_over_footage_refuses_a_frame_of_another_size() {
+    let (d, scene) = scene_copy("vem-size");
+    let small = scene.join("frames/hdr/frame_005.exr");
+    heliar::io::image::LinearImage::new(1, 1).write_exr(&small, heliar::io::image::ExrPrecision::Half).unwrap();
+    let capture = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/vem/outdoor");
+    let (before, before_capture) = (hashes(&scene), hashes(&capture));
+    let out = d.join("out");
+    let (ok, err) = heliar(&["vem", "--scene", s(&scene), "--input", s(&capture.join("frames")), "--calib", s(&capture.join("calib/fisheye.toml")), "--lights", "8", "--output", s(&out)]);
+    assert!(!ok, "a 1×1 footage frame gave exit 0: {err}");
+    assert!(err.contains("frame_005.exr") && err.contains("1×1") && err.contains("320×240") && err.contains("camera.toml"), "{err}");
+    assert!(!out.join("frame_0000.png").exists(), "frames were written before the refusal");
+    assert_eq!(hashes(&scene), before, "the refused run changed the scene");
+    assert_eq!(hashes(&capture), before_capture, "the refused run changed the capture");
+    std::fs::remove_dir_all(&d).ok();
+}
