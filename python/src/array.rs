@@ -27,9 +27,10 @@ fn frame_shape(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<(usize, usize)> {
 
 /// The values of a 3-d array in row-major order (any strides).
 fn values<T: numpy::Element + Copy>(a: &PyReadonlyArray3<'_, T>) -> Vec<T> {
+    // `as_slice` also accepts a Fortran-ordered array, whose memory order is not row-major.
     match a.as_slice() {
-        Ok(s) => s.to_vec(),
-        Err(_) => a.as_array().iter().copied().collect(),
+        Ok(s) if a.is_c_contiguous() => s.to_vec(),
+        _ => a.as_array().iter().copied().collect(),
     }
 }
 
