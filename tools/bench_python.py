@@ -24,6 +24,14 @@ from pathlib import Path
 import heliar
 import heliar.ray as hray
 
+def link_frames(src, dst):
+    """Frames are hard-linked (read only); everything else is copied (the manifest is edited)."""
+    if str(src).endswith((".exr", ".png")):
+        os.link(src, dst)
+    else:
+        shutil.copy2(src, dst)
+
+
 REPO = Path(__file__).resolve().parents[1]
 SCENE = REPO / "scenes" / "courtyard"
 
@@ -52,7 +60,7 @@ def binding_overhead(args):
 
 def long_scene(tmp: Path, repeat: int) -> tuple:
     root = tmp / "courtyard"
-    shutil.copytree(SCENE, root, ignore=shutil.ignore_patterns("frames", "reference"))
+    shutil.copytree(SCENE, root, ignore=shutil.ignore_patterns("reference", "baked"), copy_function=link_frames)
     d = root / "frames" / "long"
     d.mkdir(parents=True)
     src = sorted((SCENE / "frames" / "hdr").glob("*.exr"))

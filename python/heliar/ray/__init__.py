@@ -187,6 +187,7 @@ def run_chunk(heliar: str, scene: str, chunk: Chunk, warmup: Optional[int], extr
         stderr=subprocess.PIPE,
         text=True,
         preexec_fn=_die_with_parent,
+        start_new_session=True,  # no controlling terminal: never stopped by terminal job control
     )
     wall = time.time() - t0
     if proc.returncode != 0:

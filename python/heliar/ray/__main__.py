@@ -22,9 +22,10 @@ def main(argv=None) -> int:
     a.add_argument("--max-retries", type=int, default=3, help="Ray task retries when a worker dies (default 3)")
     a.add_argument("--threads-per-task", type=int, default=1, help="RAYON_NUM_THREADS and LP_NUM_THREADS of each chunk (default 1; 0: unset)")
     a.add_argument("--no-progress", action="store_true", help="no progress bar")
-    a.add_argument("augment_args", nargs=argparse.REMAINDER, help="after --: more `heliar augment` options for every chunk (e.g. -- --samples 1 --format png)")
-    args = ap.parse_args(argv)
-    extra = [x for x in args.augment_args if x != "--"] if args.augment_args else []
+    a.epilog = "Options after -- go to every `heliar augment` (e.g. -- --samples 1 --format png)."
+    argv = list(sys.argv[1:] if argv is None else argv)
+    extra = argv[argv.index("--") + 1 :] if "--" in argv else []
+    args = ap.parse_args(argv[: argv.index("--")] if "--" in argv else argv)
     try:
         summary = augment(
             args.scene,
