@@ -1,7 +1,7 @@
 """Notebook-style example: estimate the sun (Pd) and sky (Pa) of the bundled courtyard sequence
 from Python and plot them against the scene's truth.
 
-    bash tools/pytest.sh --co -q          # or: pip install ./python (builds the bindings)
+    pip install ./python                  # or, in a venv: maturin develop -m python/Cargo.toml
     python examples/estimate_plot.py [--sequence ldr] [--plot out/estimate.png]
 
 Without matplotlib the values are printed only.
@@ -10,6 +10,7 @@ Without matplotlib the values are printed only.
 # %% Set-up
 import argparse
 import csv
+from datetime import datetime
 from pathlib import Path
 
 import heliar
@@ -54,7 +55,8 @@ try:
 except ImportError:
     print("matplotlib is not installed: no plot (pip install matplotlib)")
 else:
-    t = [10.0 * i for i in range(len(rows))]  # the bundled sequences run at 0.1 fps
+    t0 = datetime.fromisoformat(rows[0].time)
+    t = [(datetime.fromisoformat(e.time) - t0).total_seconds() for e in rows]
     fig, ax = plt.subplots(figsize=(7, 3.5))
     ax.plot(t, [luma(e.pd) for e in rows], "o-", label="Pd (sun)")
     ax.plot(t, [luma(e.pa) for e in rows], "s-", label="Pa (sky)")
