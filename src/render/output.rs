@@ -49,21 +49,8 @@ pub fn write_frame(
     photometry: &Photometry,
 ) -> Result<(), IoError> {
     let (w, h) = (image.width, image.height);
-    let same = |i: usize| {
-        let (o, v) = (image.data[i], video.rgba[i]);
-        (0..3).all(|c| (o[c] - v[c]).abs() <= precision * v[c].abs())
-    };
     match kind {
-        OutputKind::Exr => {
-            let mut out = LinearImage::new(w, h);
-            for i in 0..out.data.len() {
-                out.data[i] = match (&input.data, same(i)) {
-                    (FrameData::Hdr(img), true) => img.data[i],
-                    _ => image.data[i].map(|c| c * photometry.exposure),
-                };
-            }
-            out.write_exr(path, ExrPrecision::Half)
-        }
+        OutputKind::Exr => camera_linear(image, precision, video, input, photometry).write_exr(path, ExrPrecision::Half),
         OutputKind::Png => {
             let (bits, out) = encode_codes(image, precision, video, input, photometry);
             let res = if bits == 16 {
@@ -76,6 +63,24 @@ pub fn write_frame(
             res.map_err(|source| IoError::Png { path: path.to_owned(), source })
         }
     }
+}
+
+/// `image` (scene radiance) as camera-linear values (radiance × exposure, the units of HDR
+/// footage), what an EXR output holds: pixels the compositor left unchanged keep the input's own
+/// values (HDR input).
+pub fn camera_linear(image: &LinearImage, precision: f32, video: &VideoFrame, input: &Frame, photometry: &Photometry) -> LinearImage {
+    let same = |i: usize| {
+        let (o, v) = (image.data[i], video.rgba[i]);
+        (0..3).all(|c| (o[c] - v[c]).abs() <= precision * v[c].abs())
+    };
+    let mut out = LinearImage::new(image.width, image.height);
+    for i in 0..out.data.len() {
+        out.data[i] = match (&input.data, same(i)) {
+            (FrameData::Hdr(img), true) => img.data[i],
+            _ => image.data[i].map(|c| c * photometry.exposure),
+        };
+    }
+    out
 }
 
 /// `image` (scene radiance) as integer codes through the camera response: pixels the compositor

@@ -1,0 +1,117 @@
+"""Measurements of issue 17 §3 (docs/measurements.md, "Python and Ray"):
+
+1. the Python binding's overhead per frame against the command line: wall time of
+   `Estimator.estimate` and `Compositor.composite` minus the library's own timers inside them
+   (`estimate_ms`, `composite_ms` + relight), against the frame time of `heliar augment`;
+2. throughput on the bundled HDR clip repeated REPEAT times: one `heliar augment` process, Ray
+   with 1 worker and Ray with 2 workers (chunks of CHUNK frames), frames per second and the
+   overhead per chunk (its wall time minus its frames at the one-process rate).
+
+    target/venv/bin/python tools/bench_python.py [--repeat 4] [--chunk 12] [--heliar target/debug/heliar]
+"""
+
+import argparse
+import json
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import heliar
+import heliar.ray as hray
+
+def link_frames(src, dst):
+    """Frames are hard-linked (read only); everything else is copied (the manifest is edited)."""
+    if str(src).endswith((".exr", ".png")):
+        os.link(src, dst)
+    else:
+        shutil.copy2(src, dst)
+
+
+REPO = Path(__file__).resolve().parents[1]
+SCENE = REPO / "scenes" / "courtyard"
+
+
+def binding_overhead(args):
+    scene = heliar.Scene.load(SCENE)
+    est, comp = scene.estimator(sequence="hdr"), scene.compositor(sequence="hdr", samples=args.samples)
+    files, times = scene.frame_files("hdr"), scene.frame_times("hdr")
+    rows = []
+    for rep in range(2):
+        for path, t in zip(files, times):
+            frame = heliar.read_frame(path)
+            t0 = time.perf_counter()
+            e = est.estimate(frame, t)
+            t1 = time.perf_counter()
+            _, report = comp.composite(frame, e)
+            t2 = time.perf_counter()
+            if rep == 1:  # the second pass: no first-frame traces
+                inside = e.estimate_ms + report["composite_ms"] + report["relight"]["ms"]
+                rows.append(((t2 - t0) * 1e3, inside, (t1 - t0) * 1e3 - e.estimate_ms))
+        est = scene.estimator(sequence="hdr")  # the second pass starts the smoothing afresh
+    wall = statistics.median(r[0] for r in rows)
+    over = statistics.median(r[0] - r[1] for r in rows)
+    return {"python_wall_ms_median": wall, "library_ms_median": statistics.median(r[1] for r in rows), "overhead_ms_median": over, "estimate_overhead_ms_median": statistics.median(r[2] for r in rows)}
+
+
+def long_scene(tmp: Path, repeat: int) -> tuple:
+    root = tmp / "courtyard"
+    shutil.copytree(SCENE, root, ignore=shutil.ignore_patterns("reference", "baked"), copy_function=link_frames)
+    d = root / "frames" / "long"
+    d.mkdir(parents=True)
+    src = sorted((SCENE / "frames" / "hdr").glob("*.exr"))
+    for k in range(repeat):
+        for i, f in enumerate(src):
+            os.link(f, d / f"frame_{k * len(src) + i:05d}.exr")
+    with (root / "scene.toml").open("a") as f:
+        f.write('\n[[sequences]]\nname = "long"\ndir = "frames/long"\nstart = "2024-06-21T15:30:00+02:00"\nfps = 0.1\n')
+    return root, d, repeat * len(src)
+
+
+def throughput(args, exe):
+    out = {}
+    with tempfile.TemporaryDirectory(dir=REPO / "target") as tmp:
+        tmp = Path(tmp)
+        scene, clip, n = long_scene(tmp, args.repeat)
+        extra = ["--samples", str(args.samples)]
+        subprocess.run([exe, "bake", str(scene)], check=True, capture_output=True)
+        env = dict(os.environ, RAYON_NUM_THREADS="1", LP_NUM_THREADS="1")
+        t0 = time.time()
+        subprocess.run([exe, "augment", str(scene), "--input", str(clip), "--output", str(tmp / "one"), *extra], check=True, capture_output=True, env=env)
+        one = time.time() - t0
+        out["frames"] = n
+        out["one_process"] = {"wall_s": one, "fps": n / one}
+        import ray
+
+        for workers in (1, 2):
+            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+            s = hray.augment(str(scene), [str(clip)], str(tmp / f"ray{workers}"), chunk_frames=args.chunk, extra_args=extra, heliar=exe, progress=False)
+            ray.shutdown()
+            per_frame = one / n
+            overhead = [w - args.chunk * per_frame for w in s["chunk_wall_s"]]
+            out[f"ray_{workers}"] = {"wall_s": s["wall_s"], "fps": n / s["wall_s"], "chunks": s["chunks"], "bake_s": s["bake_s"], "merge_s": s["merge_s"], "chunk_wall_s": s["chunk_wall_s"], "overhead_per_chunk_s_median": statistics.median(overhead)}
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--repeat", type=int, default=4)
+    ap.add_argument("--chunk", type=int, default=12)
+    ap.add_argument("--samples", type=int, default=4)
+    ap.add_argument("--heliar", default=None)
+    ap.add_argument("--skip-ray", action="store_true")
+    args = ap.parse_args()
+    exe = hray.find_heliar(args.heliar or str(REPO / "target" / "debug" / "heliar"))
+    res = {"binding": binding_overhead(args)}
+    print(json.dumps(res, indent=2), flush=True)
+    if not args.skip_ray:
+        res["throughput"] = throughput(args, exe)
+    print(json.dumps(res, indent=2))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
