@@ -137,13 +137,22 @@ impl Drop for OutputLock {
     }
 }
 
-/// True when process `pid` exists (Linux: its `/proc` entry; elsewhere every holder counts as
-/// alive, so a stale lock must be removed by hand).
+/// True when process `pid` runs (Linux: its `/proc` entry, not a zombie; elsewhere every holder
+/// counts as alive, so a stale lock must be removed by hand). A killed run whose parent died too
+/// (a Ray worker, a job runner) can stay a zombie when nothing reaps it: it writes nothing more,
+/// so its lock is stale.
 fn process_alive(pid: u32) -> bool {
     if pid == std::process::id() {
         return true;
     }
-    if cfg!(target_os = "linux") { Path::new(&format!("/proc/{pid}")).exists() } else { true }
+    if !cfg!(target_os = "linux") {
+        return true;
+    }
+    match std::fs::read_to_string(format!("/proc/{pid}/stat")) {
+        // The state is the first field after the command name, which ends at the last ')'.
+        Ok(stat) => !matches!(stat.rsplit_once(')').and_then(|(_, rest)| rest.trim_start().chars().next()), Some('Z' | 'X')),
+        Err(_) => false,
+    }
 }
 
 /// Writes output frames: files in a folder, or a video.
@@ -277,5 +286,32 @@ impl StageTime {
         self.total_s = sum / 1e3;
         self.mean_ms = sum / n;
         self.median_ms = if self.samples.is_empty() { 0.0 } else { median(&self.samples) };
+    }
+}
+
+#[cfg(all(test, target_os = "linux"))]
+mod tests {
+    use super::process_alive;
+    use std::process::Command;
+    use std::time::{Duration, Instant};
+
+    #[test]
+    fn a_running_process_holds_its_lock_and_a_zombie_does_not() {
+        let mut running = Command::new("sleep").arg("30").spawn().expect("sleep");
+        assert!(process_alive(running.id()));
+        let mut done = Command::new("true").spawn().expect("true");
+        let stat = format!("/proc/{}/stat", done.id());
+        // Not reaped yet: `/proc` keeps the entry, in state Z, until `wait`.
+        let t = Instant::now();
+        while !std::fs::read_to_string(&stat).is_ok_and(|s| s.rsplit_once(')').is_some_and(|(_, r)| r.trim_start().starts_with('Z'))) {
+            assert!(t.elapsed() < Duration::from_secs(10), "`true` did not exit");
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        assert!(std::path::Path::new(&stat).exists(), "the zombie still has its /proc entry");
+        assert!(!process_alive(done.id()), "a zombie holds no lock");
+        done.wait().expect("reap");
+        assert!(!process_alive(done.id()));
+        running.kill().ok();
+        running.wait().ok();
     }
 }
