@@ -2,10 +2,9 @@
 //! asserts an error (or a non-zero exit), a message that names the file or option and the field,
 //! and that no file of the scene or of the inputs changed (hashed before and after).
 
+use crate::common::{hashes, heliar_status as heliar, s};
 use heliar::scene::Scene;
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 fn bundled() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/courtyard")
@@ -34,33 +33,6 @@ fn edit(path: &Path, from: &str, to: &str) {
     let s = std::fs::read_to_string(path).unwrap();
     assert!(s.contains(from), "{} has no '{from}'", path.display());
     std::fs::write(path, s.replacen(from, to, 1)).unwrap();
-}
-
-/// Hashes of every file under `dir`.
-fn hashes(dir: &Path) -> BTreeMap<PathBuf, blake3::Hash> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![dir.to_owned()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap().flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                out.insert(p.clone(), blake3::hash(&std::fs::read(&p).unwrap()));
-            }
-        }
-    }
-    out
-}
-
-/// `heliar ARGS`: (success, stderr).
-fn heliar(args: &[&str]) -> (bool, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_heliar")).args(args).output().unwrap();
-    (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 /// Loads `scene` expecting an error; checks that nothing under `root` changed.

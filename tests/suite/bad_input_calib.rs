@@ -5,7 +5,7 @@
 //! changed (hashed before and after).
 #![cfg(feature = "opencv")]
 
-use std::collections::BTreeMap;
+use crate::common::{hashes, s};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -34,29 +34,9 @@ fn small_scene(d: &Path) -> PathBuf {
     scene
 }
 
-/// Hashes of every file under `dir` (or of the file `dir`).
-fn hashes(dir: &Path) -> BTreeMap<PathBuf, blake3::Hash> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![dir.to_owned()];
-    while let Some(d) = stack.pop() {
-        if d.is_file() {
-            out.insert(d.clone(), blake3::hash(&std::fs::read(&d).unwrap()));
-            continue;
-        }
-        for e in std::fs::read_dir(&d).unwrap().flatten() {
-            stack.push(e.path());
-        }
-    }
-    out
-}
-
 fn calib(args: &[&str]) -> (bool, String, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_heliar-calib")).args(args).current_dir(env!("CARGO_MANIFEST_DIR")).output().unwrap();
     (out.status.success(), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 /// Runs `args`, expecting a refusal whose message holds every one of `words`, with `watched`

@@ -3,6 +3,7 @@
 //! exit (or an error), a message that names the file or frame, and that no input or scene file
 //! changed (hashed before and after).
 
+use crate::common::{hashes, heliar_status as heliar, s};
 use heliar::geometry::raycast::RayScene;
 use heliar::gpu::{Gpu, GpuOptions};
 use heliar::render::{Compositor, CompositorConfig};
@@ -12,7 +13,6 @@ use heliar::run::outdoor::OutdoorStage;
 use heliar::run::session::OutdoorSession;
 use heliar::run::source::{InputOptions, resolve_input};
 use heliar::scene::Scene;
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::Arc;
@@ -46,32 +46,6 @@ fn scene_copy(name: &str) -> (PathBuf, PathBuf) {
     let scene = d.join("courtyard");
     copy_dir(&bundled(), &scene);
     (d, scene)
-}
-
-/// Hashes of every file under `dir`.
-fn hashes(dir: &Path) -> BTreeMap<PathBuf, blake3::Hash> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![dir.to_owned()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap().flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                out.insert(p.clone(), blake3::hash(&std::fs::read(&p).unwrap()));
-            }
-        }
-    }
-    out
-}
-
-fn heliar(args: &[&str]) -> (bool, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_heliar")).args(args).output().unwrap();
-    (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 #[test]

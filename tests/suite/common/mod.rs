@@ -183,3 +183,31 @@ pub fn scratch_courtyard(name: &str) -> std::path::PathBuf {
     std::fs::write(dst.join("scene.toml"), &m[..cut]).expect("manifest");
     dst
 }
+
+/// Hashes of every file under `dir` (or of the file `dir`): the bad-input suites compare them
+/// before and after a command to show that it changed no input.
+pub fn hashes(dir: &std::path::Path) -> std::collections::BTreeMap<std::path::PathBuf, blake3::Hash> {
+    let mut out = std::collections::BTreeMap::new();
+    let mut stack = vec![dir.to_owned()];
+    while let Some(d) = stack.pop() {
+        if d.is_file() {
+            out.insert(d.clone(), blake3::hash(&std::fs::read(&d).unwrap()));
+            continue;
+        }
+        for e in std::fs::read_dir(&d).unwrap().flatten() {
+            stack.push(e.path());
+        }
+    }
+    out
+}
+
+/// `heliar ARGS`: (success, stderr).
+pub fn heliar_status(args: &[&str]) -> (bool, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_heliar")).args(args).output().unwrap();
+    (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+/// A path as `&str` for an argument list.
+pub fn s(p: &std::path::Path) -> &str {
+    p.to_str().unwrap()
+}
