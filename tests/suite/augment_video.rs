@@ -238,3 +238,88 @@ fn copy_dir(from: &Path, to: &Path) {
         if p.is_dir() { copy_dir(&p, &to.join(e.file_name())) } else { std::fs::copy(&p, to.join(e.file_name())).map(|_| ()).unwrap() }
     }
 }
+
+/// A report line without its timings, the compositor's work accounting (a chunk's first frame
+/// pays for the replayed ones) and the output's path.
+fn comparable(v: &serde_json::Value) -> serde_json::Value {
+    use serde_json::Value;
+    match v {
+        Value::Object(m) => Value::Object(
+            m.iter()
+                .filter(|(k, _)| !(k.ends_with("_ms") || ["ms", "timings", "restored", "receivers_computed", "transfer_traced", "output"].contains(&k.as_str())))
+                .map(|(k, v)| (k.clone(), comparable(v)))
+                .collect(),
+        ),
+        Value::Array(a) => Value::Array(a.iter().map(comparable).collect()),
+        x => x.clone(),
+    }
+}
+
+#[test]
+fn video_chunks_merge_into_the_sequential_video() {
+    let d = scratch("merge");
+    let input = d.join("in.mkv");
+    courtyard_video(&input, 5.0, 1);
+    let run = |out: &Path, frames: Option<&str>| {
+        let mut a = vec!["augment", "scenes/courtyard", "--input", input.to_str().unwrap(), "--output", out.to_str().unwrap(), "--start", START, "--exposure", "3.5"];
+        if let Some(f) = frames {
+            a.extend(["--frames", f]);
+        }
+        let (ok, err) = heliar(&a);
+        assert!(ok, "{err}");
+    };
+    let (whole, a, b) = (d.join("whole.mkv"), d.join("chunks/000-005.mkv"), d.join("chunks/005-012.mkv"));
+    run(&whole, None);
+    run(&a, Some("0..5"));
+    run(&b, Some("5..12"));
+    // `heliar frames` counts what planning needs: the decoded frames of a video.
+    let out = Command::new(env!("CARGO_BIN_EXE_heliar")).args(["frames", input.to_str().unwrap()]).output().unwrap();
+    let info: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!((info["kind"].as_str(), info["frames"].as_u64(), info["fps"].as_f64()), (Some("video"), Some(12), Some(5.0)), "{info}");
+    // Given out of order; merged into a video.
+    let merged = d.join("merged.mkv");
+    let (ok, err) = heliar(&["merge", b.to_str().unwrap(), a.to_str().unwrap(), "--output", merged.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    let ((got, fps), (want, _)) = (read_all(&merged), read_all(&whole));
+    assert_eq!(got.len(), 12);
+    assert!((fps - 5.0).abs() < 1e-6, "frame rate {fps}");
+    // FFV1 is lossless, and the chunks replayed the whole history: code for code the sequential run.
+    for (k, (g, w)) in got.iter().zip(&want).enumerate() {
+        assert!(g == w, "frame {k} differs from the sequential run's");
+    }
+    let (lm, lw) = (report_lines(&d.join("merged.report.jsonl")), report_lines(&d.join("whole.report.jsonl")));
+    assert_eq!(lm.len(), 12);
+    for (m, w) in lm.iter().zip(&lw) {
+        assert_eq!(comparable(m), comparable(w));
+    }
+    assert!(lm[7]["output"].as_str().unwrap().ends_with("merged.mkv frame 7"), "{}", lm[7]["output"]);
+    let s: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.join("merged.summary.json")).unwrap()).unwrap();
+    assert_eq!(s["frames_written"], 12);
+    // Into another container: the same frame count and rate (MPEG-4 is lossy: not compared code for code).
+    let mp4 = d.join("merged.mp4");
+    let (ok, err) = heliar(&["merge", a.to_str().unwrap(), b.to_str().unwrap(), "--output", mp4.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    let (got, fps) = read_all(&mp4);
+    assert_eq!(got.len(), 12);
+    assert!((fps - 5.0).abs() < 1e-3, "frame rate {fps}");
+    // Videos do not merge into a folder, nor folders into a video; nothing is written.
+    let (ok, err) = heliar(&["merge", a.to_str().unwrap(), b.to_str().unwrap(), "--output", d.join("folder").to_str().unwrap()]);
+    assert!(!ok && err.contains("000-005.mkv") && err.contains("is a video"), "{err}");
+    assert!(!d.join("folder/report.jsonl").exists());
+    // A chunk whose video lost frames (its report lists 7) is named.
+    let short = d.join("chunks/short/005-012.mkv");
+    std::fs::create_dir_all(short.parent().unwrap()).unwrap();
+    let mut sink = VideoSink::create(&short, 5.0, 320, 240).unwrap();
+    for f in read_all(&b).0.iter().take(3) {
+        sink.write_rgb8(f).unwrap();
+    }
+    sink.finish().unwrap();
+    for suffix in ["report.jsonl", "summary.json"] {
+        std::fs::copy(d.join(format!("chunks/005-012.{suffix}")), d.join(format!("chunks/short/005-012.{suffix}"))).unwrap();
+    }
+    let bad = d.join("bad.mkv");
+    let (ok, err) = heliar(&["merge", a.to_str().unwrap(), short.to_str().unwrap(), "--output", bad.to_str().unwrap()]);
+    assert!(!ok && err.contains("short/005-012.mkv") && err.contains("ends after 3 frames"), "{err}");
+    assert!(!bad.exists(), "a failed merge leaves no video");
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -10,6 +10,7 @@ mod bench_vem;
 mod bench_vem_sun;
 mod common;
 mod estimate;
+mod frames;
 mod live;
 mod merge;
 mod sun;
@@ -47,8 +48,10 @@ enum Command {
     Vem(vem::VemArgs),
     /// Composite the scene's virtual objects into a frame sequence (estimate → relight → composite).
     Augment(augment::AugmentArgs),
-    /// Join the output folders of `augment --frames` chunks into one (report, summary, frames).
+    /// Join the outputs of `augment --frames` chunks into one (report, summary, frames or video).
     Merge(merge::MergeArgs),
+    /// How many frames a folder or video holds (JSON), for planning chunks.
+    Frames(frames::FramesArgs),
     /// Composite live: a camera, stream or file played as one, in a window (feature `opencv`).
     Live(live::LiveArgs),
 }
@@ -67,6 +70,7 @@ fn main() {
         Command::Augment(a) => augment::run(a),
         Command::Live(a) => live::run(a),
         Command::Merge(a) => merge::run(a),
+        Command::Frames(a) => frames::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -1,5 +1,5 @@
-//! `heliar merge`: the output folders of `heliar augment --frames A..B` chunks joined into one
-//! (see `heliar::run::augment::merge`).
+//! `heliar merge`: the outputs of `heliar augment --frames A..B` chunks joined into one: folders
+//! into a folder, videos into a video (see `heliar::run::augment::merge`).
 
 use anyhow::Result;
 use clap::Args;
@@ -8,10 +8,12 @@ use std::path::PathBuf;
 
 #[derive(Args)]
 pub struct MergeArgs {
-    /// The chunks' output folders, in any order (they are sorted by their first frame).
+    /// The chunks' output folders or video files, in any order (they are sorted by their first
+    /// frame). Video chunks are best written lossless (`.mkv`).
     #[arg(required = true)]
     chunks: Vec<PathBuf>,
-    /// The merged folder: report.jsonl, summary.json and the frames (hard links, else copies).
+    /// The merged folder (report.jsonl, summary.json and the frames: hard links, else copies), or
+    /// the merged video (`.mkv`, `.mp4`, `.avi`, with OUT.report.jsonl and OUT.summary.json).
     #[arg(long)]
     output: PathBuf,
     /// Write even where the output would overwrite a chunk.
