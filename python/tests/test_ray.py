@@ -153,3 +153,31 @@ def test_the_module_command_line(clips, sequential, heliar_bin, tmp_path):
     s = json.loads(p.stdout)
     assert (s["chunks"], s["chunks_run"], s["frames"]) == (2, 2, 3)
     assert_same_outputs(out / "c", sequential / "c")
+
+
+def test_a_video_clip_is_chunked_and_merged_into_the_sequential_video(ray_local, clips, run_cli, heliar_bin, tmp_path):
+    """A video clip: counted by `heliar frames`, run as lossless .mkv chunks, merged by `heliar
+    merge` into one video whose report equals a sequential run's (the frames' codes are compared
+    by the Rust test augment_video::video_chunks_merge_into_the_sequential_video)."""
+    scene, _ = clips
+    footage = tmp_path / "street.mkv"  # any 320×240 video is footage: here the augmented LDR frames
+    run_cli("augment", scene, "--input", scene / "frames" / "ldr", "--output", footage, "--max-frames", "6", *FAST)
+    extra = [*FAST, "--start", "2024-06-21T15:30:00+02:00", "--exposure", "3.5"]
+    want = tmp_path / "sequential.mkv"
+    run_cli("augment", scene, "--input", footage, "--output", want, *extra)
+    p = hray.plan(str(scene), [str(footage)], str(tmp_path / "ray"), CHUNK, heliar_bin)
+    assert [(c.first, c.end, Path(c.out).name) for c in p.chunks] == [(0, 4, "000000-000004.mkv"), (4, 6, "000004-000006.mkv")]
+    s = hray.augment(str(scene), [str(footage)], str(tmp_path / "ray"), chunk_frames=CHUNK, extra_args=extra, heliar=heliar_bin, progress=False)
+    assert (s["chunks"], s["chunks_run"], s["frames"], s["clips_merged"]) == (2, 2, 6, ["street"])
+    got = tmp_path / "ray" / "street.mkv"
+    assert json.loads(run_cli("frames", got).stdout)["frames"] == 6
+    a, b = read_jsonl(tmp_path / "ray" / "street.report.jsonl"), read_jsonl(tmp_path / "sequential.report.jsonl")
+    assert [x.pop("output").split(" frame ")[1] for x in a] == [y.pop("output").split(" frame ")[1] for y in b]
+    for x, y in zip(a, b):
+        if x["passes"].pop("restored", None) or y["passes"].pop("restored", None):
+            for z in (x, y):
+                z["passes"].pop("transfer_traced")
+                z["passes"].pop("receivers_computed")
+    assert [strip_timings(x) for x in a] == [strip_timings(x) for x in b]
+    again = hray.augment(str(scene), [str(footage)], str(tmp_path / "ray"), chunk_frames=CHUNK, extra_args=extra, heliar=heliar_bin, progress=False)
+    assert (again["chunks_run"], again["clips_merged"]) == (0, [])

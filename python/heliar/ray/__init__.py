@@ -1,13 +1,17 @@
 """Many clips, many machines: ``heliar augment`` chunks as Ray tasks.
 
 ``python -m heliar.ray augment SCENE --inputs CLIP... --output DIR [--chunk-frames N]`` plans every
-clip (a folder of frames) as chunks of N frames, runs each chunk as one Ray task that calls
+clip (a folder of frames, or a video file) as chunks of N frames, runs each chunk as one Ray task that calls
 ``heliar augment --frames A..B [--warmup K] --resume`` (the Rust command stays the single
 implementation), merges each chunked clip with ``heliar merge`` and writes one summary.
 
-- **Layout**: ``DIR/CLIP/`` holds each clip's frames, ``report.jsonl`` and ``summary.json`` (the
-  merged chunks, or the clip's own run when it is one chunk); chunks are written under
+- **Layout**: ``DIR/CLIP/`` holds each folder clip's frames, ``report.jsonl`` and ``summary.json``
+  (the merged chunks, or the clip's own run when it is one chunk); chunks are written under
   ``DIR/chunks/CLIP/A-B/``; ``DIR/summary.json`` is the run's summary.
+- **Video clips** (``.mp4``, ``.mkv``, …) are counted with ``heliar frames`` (decoded to the end),
+  chunked into lossless ``DIR/chunks/CLIP/A-B.mkv`` videos and merged into one video
+  ``DIR/CLIP.EXT`` (the input's container when heliar writes it, ``.mp4``/``.mkv``/``.avi``, else
+  ``.mkv``), with ``CLIP.report.jsonl`` and ``CLIP.summary.json`` beside it.
 - **Idempotent**: a chunk whose ``summary.json`` says it wrote all its frames (not interrupted,
   no error) gets a ``DONE`` marker and is never run again; an unfinished one is continued
   (``--resume``), so a re-run resumes and a second run of a finished job does nothing.
@@ -32,6 +36,8 @@ from pathlib import Path
 from typing import Dict, List, Optional, Sequence
 
 FRAME_EXTENSIONS = (".png", ".exr")
+VIDEO_EXTENSIONS = (".mp4", ".mkv", ".avi", ".mov", ".webm", ".m4v", ".mpg", ".mpeg", ".ts")
+WRITABLE_VIDEO = (".mp4", ".mkv", ".avi")
 DONE_MARKER = "DONE"
 PID_FILE = "worker.pid"
 
@@ -81,10 +87,37 @@ def find_heliar(explicit: Optional[str] = None) -> str:
     )
 
 
-def count_frames(clip: Path) -> int:
-    """Frames of a folder clip (``.png``/``.exr`` files, as ``heliar augment`` lists them)."""
+def is_video(path: Path) -> bool:
+    """A video file by its extension (as ``heliar augment`` decides)."""
+    return Path(path).suffix.lower() in VIDEO_EXTENSIONS
+
+
+def summary_path(out: Path) -> Path:
+    """An output's summary: inside a folder, beside a video (``OUT.summary.json``)."""
+    out = Path(out)
+    return out.with_name(out.stem + ".summary.json") if is_video(out) else out / "summary.json"
+
+
+def marker_path(out: Path, name: str) -> Path:
+    """A marker of an output (``DONE``, the worker's pid): inside a folder, beside a video."""
+    out = Path(out)
+    return out.with_name(f"{out.name}.{name}") if is_video(out) else out / name
+
+
+def count_frames(clip: Path, heliar: Optional[str] = None) -> int:
+    """Frames of a clip: a folder's ``.png``/``.exr`` files (as ``heliar augment`` lists them), or
+    a video's decoded frames (``heliar frames CLIP``; needs the binary)."""
+    clip = Path(clip)
+    if clip.is_file() and is_video(clip):
+        proc = subprocess.run([find_heliar(heliar), "frames", str(clip)], stdin=subprocess.DEVNULL, capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise ValueError(proc.stderr.strip().removeprefix("error: ") or f"{clip}: heliar frames failed")
+        n = int(json.loads(proc.stdout)["frames"])
+        if n == 0:
+            raise ValueError(f"{clip}: the video has no frames")
+        return n
     if not clip.is_dir():
-        raise ValueError(f"{clip}: not a folder of frames (video clips are not chunked yet; give folders)")
+        raise ValueError(f"{clip}: neither a folder of frames nor a video file ({', '.join(VIDEO_EXTENSIONS)})")
     n = sum(1 for p in clip.iterdir() if p.suffix.lower() in FRAME_EXTENSIONS and p.is_file())
     if n == 0:
         raise ValueError(f"{clip}: no .png or .exr frames")
@@ -95,7 +128,8 @@ def clip_names(inputs: Sequence[str]) -> List[str]:
     """A distinct output name per clip: the folder's name, numbered when names repeat."""
     names: List[str] = []
     for p in inputs:
-        base = Path(p).resolve().name or "clip"
+        path = Path(p).resolve()
+        base = (path.stem if is_video(path) else path.name) or "clip"
         name, k = base, 2
         while name in names:
             name, k = f"{base}-{k}", k + 1
@@ -103,17 +137,20 @@ def clip_names(inputs: Sequence[str]) -> List[str]:
     return names
 
 
-def plan(scene: str, inputs: Sequence[str], output: str, chunk_frames: Optional[int] = None) -> Plan:
-    """Splits every clip into chunks of ``chunk_frames`` (default: one chunk per clip)."""
+def plan(scene: str, inputs: Sequence[str], output: str, chunk_frames: Optional[int] = None, heliar: Optional[str] = None) -> Plan:
+    """Splits every clip into chunks of ``chunk_frames`` (default: one chunk per clip). Video clips
+    are counted with the ``heliar`` binary (see :func:`count_frames`)."""
     if chunk_frames is not None and chunk_frames < 1:
         raise ValueError(f"--chunk-frames {chunk_frames}: must be at least 1")
     out = Path(output).resolve()
     p = Plan(scene=str(Path(scene).resolve()), output=str(out))
     for clip, name in zip(inputs, clip_names(inputs)):
         path = Path(clip).resolve()
-        n = count_frames(path)
+        n = count_frames(path, heliar)
         size = chunk_frames or n
-        target = out / name
+        video = is_video(path)
+        ext = path.suffix.lower() if path.suffix.lower() in WRITABLE_VIDEO else ".mkv"
+        target = out / f"{name}{ext}" if video else out / name
         if n <= size:
             p.chunks.append(Chunk(name, str(path), str(target), 0, n, whole=True))
             p.clips[name] = {"input": str(path), "frames": n, "output": str(target), "chunks": 1}
@@ -121,15 +158,18 @@ def plan(scene: str, inputs: Sequence[str], output: str, chunk_frames: Optional[
         k = 0
         for a in range(0, n, size):
             b = min(a + size, n)
-            p.chunks.append(Chunk(name, str(path), str(out / "chunks" / name / f"{a:06d}-{b:06d}"), a, b))
+            folder = out / "chunks" / name / f"{a:06d}-{b:06d}"
+            # Lossless chunks: the merge decodes them, so they must not lose anything.
+            p.chunks.append(Chunk(name, str(path), str(folder.with_name(folder.name + ".mkv") if video else folder), a, b))
             k += 1
         p.clips[name] = {"input": str(path), "frames": n, "output": str(target), "chunks": k}
     return p
 
 
-def read_summary(folder: Path) -> Optional[dict]:
+def read_summary(out: Path) -> Optional[dict]:
+    """The summary of an output folder or video, if it is readable."""
     try:
-        return json.loads((folder / "summary.json").read_text())
+        return json.loads(summary_path(out).read_text())
     except (OSError, ValueError):
         return None
 
@@ -137,7 +177,7 @@ def read_summary(folder: Path) -> Optional[dict]:
 def finished(chunk: Chunk) -> bool:
     """True when the chunk's output is complete: its marker, or a summary that says so."""
     out = Path(chunk.out)
-    if (out / DONE_MARKER).is_file():
+    if marker_path(out, DONE_MARKER).is_file():
         return True
     s = read_summary(out)
     return bool(s) and s.get("frames_written") == chunk.frames and not s.get("interrupted") and not s.get("error")
@@ -172,8 +212,8 @@ def run_chunk(heliar: str, scene: str, chunk: Chunk, warmup: Optional[int], extr
     out = Path(chunk.out)
     if finished(chunk):
         return {"chunk": asdict(chunk), "ran": False}
-    out.mkdir(parents=True, exist_ok=True)
-    _write_atomic(out / PID_FILE, f"{os.getpid()}\n")
+    (out.parent if is_video(out) else out).mkdir(parents=True, exist_ok=True)
+    _write_atomic(marker_path(out, PID_FILE), f"{os.getpid()}\n")
     env = dict(os.environ)
     if threads:
         env.setdefault("RAYON_NUM_THREADS", str(threads))
@@ -194,8 +234,8 @@ def run_chunk(heliar: str, scene: str, chunk: Chunk, warmup: Optional[int], extr
         tail = "\n".join(proc.stderr.strip().splitlines()[-5:])
         raise ChunkFailed(f"chunk {chunk.name}: heliar augment exited with {proc.returncode}: {tail}")
     if not finished(chunk):
-        raise ChunkFailed(f"chunk {chunk.name}: heliar augment ended without writing its {chunk.frames} frames ({out / 'summary.json'})")
-    _write_atomic(out / DONE_MARKER, json.dumps({"frames": [chunk.first, chunk.end], "wall_s": wall}) + "\n")
+        raise ChunkFailed(f"chunk {chunk.name}: heliar augment ended without writing its {chunk.frames} frames ({summary_path(out)})")
+    _write_atomic(marker_path(out, DONE_MARKER), json.dumps({"frames": [chunk.first, chunk.end], "wall_s": wall}) + "\n")
     s = read_summary(out) or {}
     return {"chunk": asdict(chunk), "ran": True, "wall_s": wall, "frames_this_run": s.get("frames_this_run", 0)}
 
@@ -205,13 +245,13 @@ def merge_clip(heliar: str, p: Plan, name: str) -> bool:
     info = p.clips[name]
     target = Path(info["output"])
     s = read_summary(target)
-    if (target / DONE_MARKER).is_file() and s and s.get("frames_written") == info["frames"]:
+    if marker_path(target, DONE_MARKER).is_file() and s and s.get("frames_written") == info["frames"]:
         return False
     dirs = [c.out for c in p.chunks if c.clip == name]
     proc = subprocess.run([heliar, "merge", *dirs, "--output", str(target)], stdin=subprocess.DEVNULL, capture_output=True, text=True)
     if proc.returncode != 0:
         raise ChunkFailed(f"merging {name}: {proc.stderr.strip()}")
-    _write_atomic(target / DONE_MARKER, json.dumps({"frames": [0, info["frames"]], "chunks": len(dirs)}) + "\n")
+    _write_atomic(marker_path(target, DONE_MARKER), json.dumps({"frames": [0, info["frames"]], "chunks": len(dirs)}) + "\n")
     return True
 
 
@@ -265,7 +305,7 @@ def augment(
     import ray
 
     exe = find_heliar(heliar)
-    p = plan(scene, inputs, output, chunk_frames)
+    p = plan(scene, inputs, output, chunk_frames, exe)
     Path(p.output).mkdir(parents=True, exist_ok=True)
     t0 = time.time()
     bake(exe, p.scene)
