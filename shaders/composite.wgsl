@@ -46,7 +46,9 @@
 @group(0) @binding(8) var virtual_layer: texture_2d<f32>;
 @group(0) @binding(9) var masks: texture_2d<f32>;
 @group(0) @binding(10) var canvas_sampler: sampler;
-@group(0) @binding(11) var<uniform> lighting: Lighting;
+// A storage buffer, not a uniform: lavapipe recompiles (and leaks) a shader whose branches read
+// uniforms on every bind (issue 12; tests/suite/uniform_branches.rs).
+@group(0) @binding(11) var<storage, read> lighting: Lighting;
 
 @vertex
 fn vs_main(@builtin(vertex_index) index: u32) -> FullscreenOut {

@@ -12,8 +12,10 @@
 #include "common/sh.wgsl"
 
 // Group 0, binding 0 is the camera (common/object.wgsl).
-@group(0) @binding(1) var<uniform> lighting: Lighting;
-@group(0) @binding(2) var<uniform> probe_grid: ProbeGridHeader;
+// Storage buffers, not a uniform: lavapipe recompiles (and leaks) a shader whose branches read
+// uniforms on every bind (issue 12; tests/suite/uniform_branches.rs).
+@group(0) @binding(1) var<storage, read> lighting: Lighting;
+@group(0) @binding(2) var<storage, read> probe_grid: ProbeGridHeader;
 // 9 coefficients per probe, rgb in xyz.
 @group(0) @binding(3) var<storage, read> probe_coeffs: array<vec4<f32>>;
 // 1 for a valid probe, 0 for one inside real geometry.

@@ -16,7 +16,9 @@ struct Material {
 
 @group(0) @binding(0) var<uniform> camera: Camera;
 
-@group(1) @binding(0) var<uniform> material: Material;
+// A storage buffer, not a uniform: lavapipe recompiles (and leaks) a shader whose branches read
+// uniforms on every bind (issue 12; tests/suite/uniform_branches.rs).
+@group(1) @binding(0) var<storage, read> material: Material;
 @group(1) @binding(1) var base_color_texture: texture_2d<f32>;
 @group(1) @binding(2) var base_color_sampler: sampler;
 

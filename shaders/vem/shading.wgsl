@@ -15,7 +15,9 @@
 #include "common/vem_lights.wgsl"
 
 // Group 0, binding 0 is the camera (common/object.wgsl).
-@group(0) @binding(1) var<uniform> frame: VemFrame;
+// A storage buffer, not a uniform: its counts steer loops and branches, and lavapipe recompiles
+// (and leaks) a shader whose branches read uniforms on every bind (issue 12).
+@group(0) @binding(1) var<storage, read> frame: VemFrame;
 @group(0) @binding(2) var<storage, read> h_lights: array<VemLight>;
 @group(0) @binding(3) var<storage, read> h_lists: array<u32>;
 @group(0) @binding(4) var<storage, read> l_lights: array<VemLight>;

@@ -6,7 +6,7 @@
 //! window surface; only the target format differs.
 
 use super::RenderError;
-use crate::gpu::canvas::{texture_entry, uniform_entry};
+use crate::gpu::canvas::{storage_entry, texture_entry};
 use crate::gpu::shaders;
 
 /// Texture bindings of the composite pass, in `shaders/composite.wgsl` order.
@@ -33,7 +33,7 @@ pub fn layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
         ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
         count: None,
     });
-    entries.push(uniform_entry(TEXTURE_BINDINGS + 1, wgpu::ShaderStages::FRAGMENT));
+    entries.push(storage_entry(TEXTURE_BINDINGS + 1));
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("composite"), entries: &entries })
 }
 

@@ -34,7 +34,7 @@ impl GpuProbes {
             device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage: usage | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false })
         };
         let g = Self {
-            header: mk("probe header", std::mem::size_of::<ProbeGridHeader>() as u64, wgpu::BufferUsages::UNIFORM),
+            header: mk("probe header", std::mem::size_of::<ProbeGridHeader>() as u64, wgpu::BufferUsages::STORAGE),
             coeffs: mk("probe coefficients", probes * 9 * 16, wgpu::BufferUsages::STORAGE),
             valid: mk("probe validity", probes * 4, wgpu::BufferUsages::STORAGE),
             probes,

@@ -35,8 +35,8 @@ impl VirtualShading {
             label: Some("shading frame"),
             entries: &[
                 uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT),
-                uniform_entry(1, wgpu::ShaderStages::FRAGMENT),
-                uniform_entry(2, wgpu::ShaderStages::FRAGMENT),
+                storage_entry(1),
+                storage_entry(2),
                 storage_entry(3),
                 storage_entry(4),
                 texture_entry(5, false),

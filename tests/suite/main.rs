@@ -22,6 +22,7 @@ mod irradiance_volume;
 mod live;
 mod scene_errors;
 mod shader_validation;
+mod uniform_branches;
 mod vem_allocation;
 mod vem_cli;
 mod vem_render;

@@ -88,7 +88,7 @@ impl Uniforms {
         let lighting_buf = d.create_buffer(&wgpu::BufferDescriptor {
             label: Some("lighting"),
             size: std::mem::size_of::<LightingUniform>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         let camera_bg = d.create_bind_group(&wgpu::BindGroupDescriptor {

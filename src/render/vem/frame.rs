@@ -160,7 +160,8 @@ impl VemRenderer {
         let storage = |label: &str, bytes: &[u8]| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: bytes, usage: wgpu::BufferUsages::STORAGE })
         };
-        let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some("vem frame"), contents: bytemuck::bytes_of(&frame.uniform), usage: wgpu::BufferUsages::UNIFORM });
+        // Read-only storage like the rest: the shader branches on these values (issue 12).
+        let uniform = storage("vem frame", bytemuck::bytes_of(&frame.uniform));
         let h_lights = storage("vem H lights", &light_bytes(&frame.h_lights));
         let h_lists = storage("vem H lists", bytemuck::cast_slice(&frame.h_words));
         let l_lights = storage("vem L lights", &light_bytes(&frame.l_lights));

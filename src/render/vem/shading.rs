@@ -138,7 +138,7 @@ fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
         label: Some("vem shading frame"),
         entries: &[
             uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT),
-            uniform_entry(1, wgpu::ShaderStages::FRAGMENT),
+            storage_entry(1),
             storage_entry(2),
             storage_entry(3),
             storage_entry(4),
