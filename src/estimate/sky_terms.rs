@@ -35,16 +35,21 @@ use glam::Vec3;
 use rayon::prelude::*;
 use std::f32::consts::PI;
 
-/// Per pool entry, which directions of the set leave the proxy.
+/// Per pool entry, which directions of the set leave the proxy, and the terms that do not
+/// depend on the sun.
 pub struct SkyTerms {
     config: SkyTermsConfig,
     set: CosineSet,
     /// Per entry, one bit per direction of `set` (in `set.around(n)` order).
     open: Vec<Vec<u64>>,
+    /// Per entry, `E_uniform` (the uniform sky's irradiance through the open directions).
+    e_uniform: Vec<f32>,
+    /// Per entry, `ρ/π·ρ_t/π·E_below` (the terrain's light per unit `Pa`).
+    terrain: Vec<Vec3>,
 }
 
-/// The sky terms of one sun: per entry, the ambient coefficient and the extra direct one.
-#[derive(Clone, Debug, Default)]
+/// The terms of one sun: per entry, the ambient coefficient and the extra direct one.
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct SunSky {
     /// `ρ/π·(c + E_shape − E_uniform + ρ_t/π·E_below)` per channel.
     pub a: Vec<[f32; 3]>,
@@ -52,6 +57,26 @@ pub struct SunSky {
     pub a_overcast: Vec<[f32; 3]>,
     /// `ρ/π·ρ_t/π·max(l_y,0)·E_below` per channel.
     pub b: Vec<[f32; 3]>,
+}
+
+/// The sky's radiance for one sun, normalised to unit irradiance on an open horizontal surface.
+#[derive(Clone, Debug)]
+pub struct SkyShapeFn {
+    /// `None`: the uniform sky.
+    hosek: Option<(HosekSky, [f32; 3])>,
+}
+
+impl SkyShapeFn {
+    /// Radiance toward `d` per unit `Pa`, per channel.
+    fn eval(&self, d: Vec3) -> [f32; 3] {
+        match &self.hosek {
+            None => [1.0 / PI; 3],
+            Some((sky, norm)) => {
+                let r = sky.radiance_rgb(d);
+                [r[0] * norm[0], r[1] * norm[1], r[2] * norm[2]]
+            }
+        }
+    }
 }
 
 impl SkyTerms {
@@ -62,7 +87,7 @@ impl SkyTerms {
             return Ok(None);
         }
         let set = CosineSet::fibonacci(config.directions)?;
-        let open = (0..pool.len())
+        let open: Vec<Vec<u64>> = (0..pool.len())
             .into_par_iter()
             .map(|k| {
                 let (p, n) = (pool.point[k], pool.normal[k]);
@@ -75,14 +100,32 @@ impl SkyTerms {
                 bits
             })
             .collect();
-        Ok(Some(Self { config: config.clone(), set, open }))
+        let w = set.weight();
+        let rho_t = Vec3::from(config.terrain_albedo) / PI;
+        let (e_uniform, terrain) = (0..pool.len())
+            .map(|k| {
+                let (mut e_uniform, mut below) = (0.0f32, 0u32);
+                for (j, d) in set.around(pool.normal[k]).enumerate() {
+                    if open[k][j / 64] & (1 << (j % 64)) == 0 {
+                        continue;
+                    }
+                    if d.y < 0.0 {
+                        below += 1;
+                    } else {
+                        e_uniform += 1.0 / PI;
+                    }
+                }
+                (e_uniform * w, pool.albedo[k] / PI * rho_t * (below as f32 * w))
+            })
+            .unzip();
+        Ok(Some(Self { config: config.clone(), set, open, e_uniform, terrain }))
     }
 
-    /// The terms for the sun toward `l` (a sun below the horizon: the sky's shape for a sun on
-    /// the horizon, no sun on the terrain).
-    pub fn for_sun(&self, pool: &Pool, l: Vec3, above_horizon: bool) -> Result<SunSky, SkyError> {
-        let shape: Box<dyn Fn(Vec3) -> [f32; 3] + Sync> = match self.config.shape {
-            SkyShape::Uniform => Box::new(|_| [1.0 / PI; 3]),
+    /// The sky's shape for the sun toward `l` (a sun below the horizon: the shape for a sun on
+    /// the horizon at its azimuth).
+    pub fn shape(&self, l: Vec3) -> Result<SkyShapeFn, SkyError> {
+        match self.config.shape {
+            SkyShape::Uniform => Ok(SkyShapeFn { hosek: None }),
             SkyShape::HosekWilkie => {
                 let ground = self.config.terrain_albedo.map(|v| v.clamp(0.0, 1.0) as f64);
                 let sky = HosekSky::new(l, self.config.turbidity, ground)?;
@@ -90,45 +133,47 @@ impl SkyTerms {
                 if norm.iter().any(|v| !v.is_finite()) {
                     return Err(SkyError::Parameter { field: "estimator.sky", reason: "gives a sky without light", value: self.config.turbidity });
                 }
-                Box::new(move |d| {
-                    let r = sky.radiance_rgb(d);
-                    [r[0] * norm[0], r[1] * norm[1], r[2] * norm[2]]
-                })
+                Ok(SkyShapeFn { hosek: Some((sky, norm)) })
             }
-        };
+        }
+    }
+
+    /// The ambient coefficient `a` of the entries in `range` under `shape` (the only term of a
+    /// [`SunSky`] that costs a quadrature per entry).
+    pub fn ambient(&self, pool: &Pool, shape: &SkyShapeFn, range: std::ops::Range<usize>) -> Vec<[f32; 3]> {
         let w = self.set.weight();
-        let rho_t = Vec3::from(self.config.terrain_albedo) / PI;
-        let sun_y = if above_horizon { l.y.max(0.0) } else { 0.0 };
-        let per: Vec<([f32; 3], [f32; 3], [f32; 3])> = (0..pool.len())
+        range
             .into_par_iter()
             .map(|k| {
-                let (mut e_shape, mut e_uniform, mut below) = (Vec3::ZERO, 0.0f32, 0u32);
+                let mut e_shape = Vec3::ZERO;
                 for (j, d) in self.set.around(pool.normal[k]).enumerate() {
-                    if self.open[k][j / 64] & (1 << (j % 64)) == 0 {
-                        continue;
-                    }
-                    if d.y < 0.0 {
-                        below += 1;
-                    } else {
-                        e_shape += Vec3::from(shape(d));
-                        e_uniform += 1.0 / PI;
+                    if self.open[k][j / 64] & (1 << (j % 64)) != 0 && d.y >= 0.0 {
+                        e_shape += Vec3::from(shape.eval(d));
                     }
                 }
-                let (e_shape, e_uniform, e_below) = (e_shape * w, e_uniform * w, below as f32 * w);
                 let rho = pool.albedo[k] / PI;
-                let terrain = rho * rho_t * e_below;
-                let a = Vec3::from(pool.a[k]) + rho * (e_shape - Vec3::splat(e_uniform)) + terrain;
-                let a_overcast = Vec3::from(pool.a[k]) + terrain;
-                (a.to_array(), a_overcast.to_array(), (terrain * sun_y).to_array())
+                let a = Vec3::from(pool.a[k]) + rho * (e_shape * w - Vec3::splat(self.e_uniform[k])) + self.terrain[k];
+                a.to_array()
             })
-            .collect();
-        let mut out = SunSky::default();
-        for (a, ao, b) in per {
-            out.a.push(a);
-            out.a_overcast.push(ao);
-            out.b.push(b);
-        }
-        Ok(out)
+            .collect()
+    }
+
+    /// The terms of the sun toward `l` from the ambient coefficients `a` of all entries (from
+    /// [`Self::ambient`], possibly for an earlier sun while a new one is traced: see
+    /// `estimate::rebuild`); the direct term is the frame's.
+    pub fn assemble(&self, pool: &Pool, a: Vec<[f32; 3]>, l: Vec3, above_horizon: bool) -> SunSky {
+        let sun_y = if above_horizon { l.y.max(0.0) } else { 0.0 };
+        let a_overcast = (0..pool.len()).map(|k| (Vec3::from(pool.a[k]) + self.terrain[k]).to_array()).collect();
+        let b = self.terrain.iter().map(|t| (*t * sun_y).to_array()).collect();
+        SunSky { a, a_overcast, b }
+    }
+
+    /// The terms for the sun toward `l` (a sun below the horizon: the sky's shape for a sun on
+    /// the horizon, no sun on the terrain).
+    pub fn for_sun(&self, pool: &Pool, l: Vec3, above_horizon: bool) -> Result<SunSky, SkyError> {
+        let shape = self.shape(l)?;
+        let a = self.ambient(pool, &shape, 0..pool.len());
+        Ok(self.assemble(pool, a, l, above_horizon))
     }
 }
 

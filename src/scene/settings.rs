@@ -27,6 +27,10 @@ pub struct EstimatorConfig {
     pub sun_bounce: bool,
     /// Rebuild sun visibility when the sun has moved more than this, degrees.
     pub sun_rebuild_deg: f64,
+    /// Paths per frame of the sun-bounce and sky re-trace after a sun move (sky quadrature
+    /// directions count as `estimate::rebuild::SKY_DIRECTIONS_PER_PATH` per path); the
+    /// previous values serve until it completes. 0: the whole re-trace in the frame that needs it.
+    pub trace_paths_per_frame: u64,
     /// Fewer usable samples than this give status `too_few_samples`.
     pub min_samples: usize,
     /// Condition numbers above this give status `sun_not_separable`. The condition number
@@ -75,6 +79,10 @@ pub struct SkyTermsConfig {
     pub directions: usize,
 }
 
+/// Default `[estimator] trace_paths_per_frame`: the sun-bounce and sky re-trace after a sun move
+/// within about 30 ms a frame at 320×240 (measured in `heliar bench estimate --knob moving-sun`).
+pub const ESTIMATOR_TRACE_PATHS_PER_FRAME: u64 = 1 << 15;
+
 /// Turbidity range of the Hosek–Wilkie model.
 pub const SKY_TURBIDITY_RANGE: (f64, f64) = (1.0, 10.0);
 
@@ -116,6 +124,7 @@ impl Default for EstimatorConfig {
             bounce: TransportQuality { paths: 256, max_bounces: 3 },
             sun_bounce: true,
             sun_rebuild_deg: 0.25,
+            trace_paths_per_frame: ESTIMATOR_TRACE_PATHS_PER_FRAME,
             min_samples: 30,
             max_condition: 12.0,
             no_sun_ratio: 0.05,
