@@ -40,10 +40,12 @@ use std::f32::consts::PI;
 use std::ops::Range;
 use std::time::Instant;
 
-/// Sky quadrature directions that cost about as much as one bounce path (measured on the
-/// courtyard: a Hošek–Wilkie radiance per direction against a path of up to three bounces with
-/// its shadow rays); used to size slices when both slow terms are traced.
-pub const SKY_DIRECTIONS_PER_PATH: u64 = 8;
+/// Sky quadrature directions that cost about as much as one bounce path; used to size slices
+/// when both slow terms are traced. Measured on the winter courtyard (`bench estimate --knob
+/// moving-sun`): a whole pool's sky term ≈ 30 ms against ≈ 800 ms for its 256-path bounce,
+/// ≈ 10 path-equivalents per entry of 512 directions (the sky's radiance is evaluated once
+/// per shared normal, `sky_terms`).
+pub const SKY_DIRECTIONS_PER_PATH: u64 = 64;
 
 /// What the sun-dependent terms read: the estimator's fixed inputs.
 pub struct Inputs<'a> {

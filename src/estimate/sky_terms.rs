@@ -30,7 +30,7 @@ use crate::geometry::raycast::RayScene;
 use crate::scene::settings::{SkyShape, SkyTermsConfig};
 use crate::sky::SkyError;
 use crate::sky::hosek::HosekSky;
-use crate::sky::quadrature::{CosineSet, hemisphere_integral};
+use crate::sky::quadrature::{CosineSet, hemisphere_integral_rgb};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::f32::consts::PI;
@@ -78,6 +78,40 @@ impl SkyShapeFn {
         }
     }
 }
+
+/// The sky's radiance along the quadrature directions of the normals that several entries share
+/// (`None` for a direction below the horizon, where the sky has none).
+struct NormalRadiance {
+    values: std::collections::HashMap<[u32; 3], Vec<Option<Vec3>>>,
+}
+
+impl NormalRadiance {
+    /// Evaluates `shape` for every normal shared by at least [`SHARED_NORMAL_MIN`] entries of
+    /// `range`.
+    fn new(set: &CosineSet, shape: &SkyShapeFn, pool: &Pool, range: std::ops::Range<usize>) -> Self {
+        let mut count: std::collections::HashMap<[u32; 3], usize> = std::collections::HashMap::new();
+        for k in range {
+            *count.entry(pool.normal[k].to_array().map(f32::to_bits)).or_default() += 1;
+        }
+        let shared: Vec<[u32; 3]> = count.into_iter().filter(|&(_, c)| c >= SHARED_NORMAL_MIN).map(|(n, _)| n).collect();
+        let values = shared
+            .into_par_iter()
+            .map(|bits| {
+                let n = Vec3::from_array(bits.map(f32::from_bits));
+                (bits, set.around(n).map(|d| (d.y >= 0.0).then(|| Vec3::from(shape.eval(d)))).collect())
+            })
+            .collect();
+        Self { values }
+    }
+
+    /// The radiances along the directions around `n`, when `n` is shared.
+    fn of(&self, n: Vec3) -> Option<&Vec<Option<Vec3>>> {
+        self.values.get(&n.to_array().map(f32::to_bits))
+    }
+}
+
+/// Entries that must share a normal before its sky radiances are evaluated once for all.
+const SHARED_NORMAL_MIN: usize = 2;
 
 impl SkyTerms {
     /// Traces the visibility of every pool entry; `None` when the configuration is Jensen's
@@ -129,7 +163,8 @@ impl SkyTerms {
             SkyShape::HosekWilkie => {
                 let ground = self.config.terrain_albedo.map(|v| v.clamp(0.0, 1.0) as f64);
                 let sky = HosekSky::new(l, self.config.turbidity, ground)?;
-                let norm: [f32; 3] = std::array::from_fn(|c| (1.0 / hemisphere_integral(|d| sky.radiance_rgb(d.as_vec3())[c] as f64)) as f32);
+                let integral = hemisphere_integral_rgb(|d| sky.radiance_rgb(d.as_vec3()).map(f64::from));
+                let norm: [f32; 3] = integral.map(|v| (1.0 / v) as f32);
                 if norm.iter().any(|v| !v.is_finite()) {
                     return Err(SkyError::Parameter { field: "estimator.sky", reason: "gives a sky without light", value: self.config.turbidity });
                 }
@@ -139,16 +174,33 @@ impl SkyTerms {
     }
 
     /// The ambient coefficient `a` of the entries in `range` under `shape` (the only term of a
-    /// [`SunSky`] that costs a quadrature per entry).
+    /// [`SunSky`] that depends on the sun and costs a quadrature per entry).
+    ///
+    /// Entries on one plane of the proxy share their normal, hence their quadrature directions
+    /// and the sky's radiance along them: that radiance is evaluated once per distinct normal
+    /// ([`NormalRadiance`]) and each entry sums it over its open directions in the same order,
+    /// so the result is the per-entry evaluation's bit for bit, at a fraction of its cost.
     pub fn ambient(&self, pool: &Pool, shape: &SkyShapeFn, range: std::ops::Range<usize>) -> Vec<[f32; 3]> {
         let w = self.set.weight();
+        let radiance = NormalRadiance::new(&self.set, shape, pool, range.clone());
         range
             .into_par_iter()
             .map(|k| {
                 let mut e_shape = Vec3::ZERO;
-                for (j, d) in self.set.around(pool.normal[k]).enumerate() {
-                    if self.open[k][j / 64] & (1 << (j % 64)) != 0 && d.y >= 0.0 {
-                        e_shape += Vec3::from(shape.eval(d));
+                match radiance.of(pool.normal[k]) {
+                    Some(values) => {
+                        for (j, v) in values.iter().enumerate() {
+                            if self.open[k][j / 64] & (1 << (j % 64)) != 0 && let Some(v) = v {
+                                e_shape += *v;
+                            }
+                        }
+                    }
+                    None => {
+                        for (j, d) in self.set.around(pool.normal[k]).enumerate() {
+                            if self.open[k][j / 64] & (1 << (j % 64)) != 0 && d.y >= 0.0 {
+                                e_shape += Vec3::from(shape.eval(d));
+                            }
+                        }
                     }
                 }
                 let rho = pool.albedo[k] / PI;
@@ -245,5 +297,25 @@ mod tests {
         let u = SkyTermsConfig { shape: SkyShape::Uniform, ..cfg };
         let su = SkyTerms::build(&p, &scene, &u).unwrap().unwrap().for_sun(&p, sun, true).unwrap();
         assert!((su.a[0][0] - 1.0).abs() < 1e-3 && (su.a[1][0] - 0.7).abs() < 0.01, "{:?}", su.a);
+    }
+
+    /// Entries that share a normal read the sky's radiance from one evaluation per normal; the
+    /// result equals evaluating it per entry (a range of one entry shares nothing) bit for bit.
+    #[test]
+    fn shared_normals_give_the_per_entry_values_bit_for_bit() {
+        let scene = open_scene();
+        let wall = Vec3::new(0.6, 0.0, -0.8);
+        let tilted = Vec3::new(0.3, 0.9, -0.2).normalize();
+        let normals = [Vec3::Y, wall, Vec3::Y, tilted, wall, Vec3::Y];
+        let p = pool(&normals, &[1.0, 0.5, 1.0, 0.9, 0.5, 1.0]);
+        let terms = SkyTerms::build(&p, &scene, &SkyTermsConfig { terrain_albedo: [0.3; 3], ..SkyTermsConfig::default() }).unwrap().unwrap();
+        let shape = terms.shape(Vec3::new(0.2, 0.4, -1.0).normalize()).unwrap();
+        let shared = terms.ambient(&p, &shape, 0..p.len());
+        for k in 0..p.len() {
+            let alone = terms.ambient(&p, &shape, k..k + 1);
+            assert_eq!(shared[k].map(f32::to_bits), alone[0].map(f32::to_bits), "entry {k}");
+        }
+        // A slice in the middle gives the same values as the whole.
+        assert_eq!(terms.ambient(&p, &shape, 2..5), shared[2..5].to_vec());
     }
 }
