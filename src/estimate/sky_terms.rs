@@ -18,7 +18,8 @@
 //! `E_below` the irradiance per unit radiance from directions below the horizon (the terrain,
 //! `L_t = ρ_t/π·(Pa + max(l_y,0)·Pd)`, [`crate::sky::terrain`]). Both unknowns stay linear, so the
 //! solver is unchanged. Visibility along the set is traced once per pool entry; a new sun only
-//! re-evaluates the sky.
+//! re-evaluates the sky, once per distinct normal of the pool ([`SkyTerms::ambient`]), and after
+//! a sun move in slices across frames with the sun bounce (`estimate::rebuild`).
 //!
 //! **Overcast.** A clear-sky shape is wrong under cloud, whose sky is close to uniform. After a
 //! frame whose smoothed `Pd` is below `no_sun_ratio` of `Pa` (status `no_direct_sun`), the next

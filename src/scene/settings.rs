@@ -80,8 +80,8 @@ pub struct SkyTermsConfig {
 }
 
 /// Default `[estimator] trace_paths_per_frame`: the sun-bounce and sky re-trace after a sun move
-/// within about 30 ms a frame at 320×240 (measured in `heliar bench estimate --knob moving-sun`).
-pub const ESTIMATOR_TRACE_PATHS_PER_FRAME: u64 = 1 << 15;
+/// within about 15 ms of tracing a frame at 320×240 (`heliar bench estimate --knob moving-sun`).
+pub const ESTIMATOR_TRACE_PATHS_PER_FRAME: u64 = 1 << 14;
 
 /// Turbidity range of the Hosek–Wilkie model.
 pub const SKY_TURBIDITY_RANGE: (f64, f64) = (1.0, 10.0);
