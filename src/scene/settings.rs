@@ -27,9 +27,8 @@ pub struct EstimatorConfig {
     pub sun_bounce: bool,
     /// Rebuild sun visibility when the sun has moved more than this, degrees.
     pub sun_rebuild_deg: f64,
-    /// Paths per frame of the sun-bounce and sky re-trace after a sun move (sky quadrature
-    /// directions count as `estimate::rebuild::SKY_DIRECTIONS_PER_PATH` per path); the
-    /// previous values serve until it completes. 0: the whole re-trace in the frame that needs it.
+    /// Paths per frame of the sun-bounce re-trace after a sun move (`estimate::rebuild`); the
+    /// previous bounce serves until it completes. 0: the whole re-trace in the frame that needs it.
     pub trace_paths_per_frame: u64,
     /// Fewer usable samples than this give status `too_few_samples`.
     pub min_samples: usize,
@@ -79,8 +78,8 @@ pub struct SkyTermsConfig {
     pub directions: usize,
 }
 
-/// Default `[estimator] trace_paths_per_frame`: the sun-bounce and sky re-trace after a sun move
-/// within about 15 ms of tracing a frame at 320×240 (`heliar bench estimate --knob moving-sun`).
+/// Default `[estimator] trace_paths_per_frame`: the sun-bounce re-trace after a sun move within
+/// about 15 ms a frame at 320×240 (`heliar bench estimate --knob moving-sun`).
 pub const ESTIMATOR_TRACE_PATHS_PER_FRAME: u64 = 1 << 14;
 
 /// Turbidity range of the Hosek–Wilkie model.
