@@ -20,6 +20,7 @@
 //! Thresholds are named constants or [`EstimatorConfig`] fields, documented where defined.
 
 pub mod pool;
+pub mod rebuild;
 mod report;
 mod gather;
 mod decide;
@@ -68,6 +69,9 @@ pub struct Estimator {
     map: PixelMap,
     pool: Pool,
     sun: Option<SunState>,
+    /// The sun-dependent terms across frames ([`rebuild`]), and the last frame's work on them.
+    sun_terms: rebuild::SunTerms,
+    sun_timings: rebuild::SunTimings,
     smoother: Smoother,
     detector: ChangeDetector,
     last_split: Option<[f64; 3]>,
@@ -145,6 +149,8 @@ impl Estimator {
             map,
             pool,
             sun: None,
+            sun_terms: rebuild::SunTerms::default(),
+            sun_timings: rebuild::SunTimings::default(),
             smoother: Smoother::default(),
             detector: ChangeDetector::default(),
             last_split: None,
@@ -214,20 +220,32 @@ impl Estimator {
         Ok((pos, self.geo.sun_dir_in_world(&pos)))
     }
 
-    /// Makes sure the sun state matches `dir`; returns whether it was rebuilt.
+    /// The sky terms served with the current sun state (`None` for Jensen's sky).
+    pub fn sun_sky(&self) -> Option<&sky_terms::SunSky> {
+        self.sun_sky.as_ref()
+    }
+
+    /// The last frame's work on the sun-dependent terms (see [`rebuild`]).
+    pub fn sun_timings(&self) -> rebuild::SunTimings {
+        self.sun_timings
+    }
+
+    /// A re-trace of the bounce and sky terms in progress: its sun and the fraction done.
+    pub fn retrace_progress(&self) -> Option<(Vec3, f64)> {
+        self.sun_terms.retrace_progress(self.pool.len())
+    }
+
+    /// Moves the sun-dependent terms on to `dir` ([`rebuild`]); returns whether the direct
+    /// terms were rebuilt.
     fn ensure_sun(&mut self, dir: Vec3, above: bool) -> Result<bool, EstimateError> {
-        let stale = match &self.sun {
-            None => true,
-            Some(s) => {
-                s.above_horizon != above
-                    || (above && (s.dir.dot(dir).clamp(-1.0, 1.0).acos().to_degrees() as f64) > self.config.sun_rebuild_deg)
-            }
-        };
-        if stale {
-            self.sun = Some(SunState::build(&self.map, &self.pool, &self.scene, dir, above, &self.config));
-            self.sun_sky = self.sky.as_ref().map(|s| s.for_sun(&self.pool, dir, above)).transpose().map_err(EstimateError::Sky)?;
+        let inp = rebuild::Inputs { map: &self.map, pool: &self.pool, scene: &self.scene, cfg: &self.config, sky: self.sky.as_ref() };
+        let (timings, served) = self.sun_terms.update(&inp, dir, above).map_err(EstimateError::Sky)?;
+        if let Some((state, sky)) = served {
+            self.sun = Some(state);
+            self.sun_sky = sky;
         }
-        Ok(stale)
+        self.sun_timings = timings;
+        Ok(timings.direct_rebuilt)
     }
 
     /// Estimates the lighting of one frame. `index` seeds the frame's draw.
@@ -245,7 +263,7 @@ impl Estimator {
             crate::io::frames::FrameData::Hdr(_) => HDR_NOISE_FLOOR_REL,
         };
         let rebuilt = self.ensure_sun(dir, above)?;
-        let sun_rebuild_ms = if rebuilt { self.sun.as_ref().map_or(0.0, |s| s.build_ms) } else { 0.0 };
+        let sun_rebuild_ms = self.sun_timings.total_ms();
         let t_start = std::time::Instant::now();
 
         let mut rng = SmallRng::seed_from_u64(self.config.seed ^ (index as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));

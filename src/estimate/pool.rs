@@ -14,9 +14,12 @@
 //! 3. **Sun state** (when the sun has moved more than `sun_rebuild_deg`). For each pool entry:
 //!    sun visibility `s` (a shadow ray), `max(n·l, 0)`, the optional sun-bounce factor, and a
 //!    shadow-boundary test: the entry is left out when any of the 16 pixels on the square rings at
-//!    Chebyshev radius `edge_margin_px` and half of it differs from it in sun visibility.
+//!    Chebyshev radius `edge_margin_px` and half of it differs from it in sun visibility. The
+//!    bounce follows the sun in slices across frames ([`super::rebuild`]), so a sun move never
+//!    stalls a frame.
 
 use super::EstimatorConfig;
+use super::rebuild::{DirectTerms, Inputs, SlowTerms, assemble};
 use crate::geometry::ambient::{TransportQuality, transport};
 use crate::geometry::raycast::RayScene;
 use crate::camera::View;
@@ -30,7 +33,7 @@ pub const CREASE_DEG: f32 = 10.0;
 /// Off-plane distance, relative to the viewing distance, that makes a depth edge.
 pub const OFF_PLANE_REL: f32 = 0.01;
 /// Pixels whose ray sees nothing.
-const NO_HIT: u32 = u32::MAX;
+pub(super) const NO_HIT: u32 = u32::MAX;
 /// `max(n·l, 0)` below which a sunlit sample does not count as lit for the LMedS pairing.
 pub const LIT_COS_MIN: f32 = 0.05;
 
@@ -232,7 +235,7 @@ impl Pool {
 /// samples from each class (or all of the smaller class and the rest from the other), a
 /// stratified draw that keeps both `Pd` and `Pa` well determined even when shadow covers a small
 /// part of the view.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct SunState {
     /// Sun direction this state was built for.
     pub dir: Vec3,
@@ -248,7 +251,7 @@ pub struct SunState {
     pub valid_unlit: Vec<u32>,
     /// Entries left out as near a shadow boundary.
     pub near_shadow_boundary: usize,
-    /// Wall time to build, ms.
+    /// Wall time of the frame's work on the sun-dependent terms that produced it, ms.
     pub build_ms: f64,
 }
 
@@ -271,74 +274,15 @@ impl SunState {
 }
 
 impl SunState {
-    /// Builds the state for sun direction `l` (unit, toward the sun).
+    /// Builds the state for sun direction `l` (unit, toward the sun) whole: the direct terms
+    /// and the bounce of every entry for `l` (a frame's state comes from `super::rebuild`, which
+    /// may serve an earlier sun's bounce while it re-traces; once it has, it equals this).
     pub fn build(map: &PixelMap, pool: &Pool, scene: &RayScene, l: Vec3, above_horizon: bool, cfg: &EstimatorConfig) -> Self {
         let t0 = std::time::Instant::now();
-        let (w, h) = (map.width as i64, map.height as i64);
-        let r = cfg.edge_margin_px as i64;
-        let r2 = (r + 1) / 2;
-        let visible = |i: usize| -> bool {
-            map.tri[i] != NO_HIT && map.normal[i].dot(l) > 0.0 && scene.sees_direction(map.point[i], map.normal[i], l)
-        };
-        let per_entry: Vec<([f32; 3], bool, bool)> = (0..pool.len())
-            .into_par_iter()
-            .map(|k| {
-                if !above_horizon {
-                    return ([0.0; 3], false, true);
-                }
-                let px = pool.pixel[k] as usize;
-                let n = pool.normal[k];
-                let cos = n.dot(l).max(0.0);
-                let s = visible(px);
-                // Shadow-boundary test on two square rings.
-                let (x0, y0) = ((px as i64) % w, (px as i64) / w);
-                let mut boundary = false;
-                'rings: for rad in [r, r2] {
-                    if rad == 0 {
-                        continue;
-                    }
-                    for (dx, dy) in [(-1, -1), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)] {
-                        let (x, y) = (x0 + dx * rad, y0 + dy * rad);
-                        if x < 0 || y < 0 || x >= w || y >= h {
-                            continue;
-                        }
-                        if visible((y * w + x) as usize) != s {
-                            boundary = true;
-                            break 'rings;
-                        }
-                    }
-                }
-                let bounce = if cfg.sun_bounce {
-                    transport(scene, pool.point[k], n, Some(l), cfg.bounce, cfg.seed.wrapping_add(px as u64) ^ 0xb0b0).b
-                } else {
-                    Vec3::ZERO
-                };
-                let direct = if s { cos } else { 0.0 };
-                let coef = pool.albedo[k] * (Vec3::splat(direct) + bounce) / PI;
-                ([coef.x, coef.y, coef.z], s && cos >= LIT_COS_MIN, !boundary)
-            })
-            .collect();
-        let mut st = SunState {
-            dir: l,
-            above_horizon,
-            b: Vec::with_capacity(pool.len()),
-            lit: Vec::with_capacity(pool.len()),
-            valid_lit: Vec::new(),
-            valid_unlit: Vec::new(),
-            near_shadow_boundary: 0,
-            build_ms: 0.0,
-        };
-        for (k, (b, lit, ok)) in per_entry.into_iter().enumerate() {
-            st.b.push(b);
-            st.lit.push(lit);
-            if ok && lit {
-                st.valid_lit.push(k as u32);
-            } else if ok {
-                st.valid_unlit.push(k as u32);
-            } else {
-                st.near_shadow_boundary += 1;
-            }
-        }
+        let inp = Inputs { map, pool, scene, cfg, sky: None };
+        let (direct, _, _) = DirectTerms::trace(&inp, l, above_horizon);
+        let (slow, _) = SlowTerms::full(&inp, l, above_horizon);
+        let mut st = assemble(pool, &direct, &slow.bounce);
         st.build_ms = t0.elapsed().as_secs_f64() * 1e3;
         st
     }

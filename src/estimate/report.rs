@@ -136,7 +136,8 @@ pub struct FrameEstimate {
     pub change: ChangeReason,
     /// True when this frame rebuilt sun visibility.
     pub sun_rebuilt: bool,
-    /// Time of the sun-visibility rebuild, ms (0 when not rebuilt).
+    /// Time spent on the sun-dependent terms this frame, ms: the rebuild of sun visibility
+    /// and any slice of the bounce and sky re-trace (`estimate::rebuild`); 0 when none.
     pub sun_rebuild_ms: f64,
     /// Time of the per-frame estimate (sampling and fit, excluding decode and rebuild), ms.
     pub estimate_ms: f64,

@@ -18,7 +18,8 @@
 //! `E_below` the irradiance per unit radiance from directions below the horizon (the terrain,
 //! `L_t = ρ_t/π·(Pa + max(l_y,0)·Pd)`, [`crate::sky::terrain`]). Both unknowns stay linear, so the
 //! solver is unchanged. Visibility along the set is traced once per pool entry; a new sun only
-//! re-evaluates the sky.
+//! re-evaluates the sky, once per distinct normal of the pool ([`SkyTerms::ambient`]): ≈ 11 ms
+//! for the courtyard's 4096 entries instead of ≈ 330 ms per entry (`estimate::rebuild`).
 //!
 //! **Overcast.** A clear-sky shape is wrong under cloud, whose sky is close to uniform. After a
 //! frame whose smoothed `Pd` is below `no_sun_ratio` of `Pa` (status `no_direct_sun`), the next
@@ -30,21 +31,26 @@ use crate::geometry::raycast::RayScene;
 use crate::scene::settings::{SkyShape, SkyTermsConfig};
 use crate::sky::SkyError;
 use crate::sky::hosek::HosekSky;
-use crate::sky::quadrature::{CosineSet, hemisphere_integral};
+use crate::sky::quadrature::{CosineSet, hemisphere_integral_rgb};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::f32::consts::PI;
 
-/// Per pool entry, which directions of the set leave the proxy.
+/// Per pool entry, which directions of the set leave the proxy, and the terms that do not
+/// depend on the sun.
 pub struct SkyTerms {
     config: SkyTermsConfig,
     set: CosineSet,
     /// Per entry, one bit per direction of `set` (in `set.around(n)` order).
     open: Vec<Vec<u64>>,
+    /// Per entry, `E_uniform` (the uniform sky's irradiance through the open directions).
+    e_uniform: Vec<f32>,
+    /// Per entry, `ρ/π·ρ_t/π·E_below` (the terrain's light per unit `Pa`).
+    terrain: Vec<Vec3>,
 }
 
-/// The sky terms of one sun: per entry, the ambient coefficient and the extra direct one.
-#[derive(Clone, Debug, Default)]
+/// The terms of one sun: per entry, the ambient coefficient and the extra direct one.
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct SunSky {
     /// `ρ/π·(c + E_shape − E_uniform + ρ_t/π·E_below)` per channel.
     pub a: Vec<[f32; 3]>,
@@ -54,6 +60,60 @@ pub struct SunSky {
     pub b: Vec<[f32; 3]>,
 }
 
+/// The sky's radiance for one sun, normalised to unit irradiance on an open horizontal surface.
+#[derive(Clone, Debug)]
+pub struct SkyShapeFn {
+    /// `None`: the uniform sky.
+    hosek: Option<(HosekSky, [f32; 3])>,
+}
+
+impl SkyShapeFn {
+    /// Radiance toward `d` per unit `Pa`, per channel.
+    fn eval(&self, d: Vec3) -> [f32; 3] {
+        match &self.hosek {
+            None => [1.0 / PI; 3],
+            Some((sky, norm)) => {
+                let r = sky.radiance_rgb(d);
+                [r[0] * norm[0], r[1] * norm[1], r[2] * norm[2]]
+            }
+        }
+    }
+}
+
+/// The sky's radiance along the quadrature directions of the normals that several entries share
+/// (`None` for a direction below the horizon, where the sky has none).
+struct NormalRadiance {
+    values: std::collections::HashMap<[u32; 3], Vec<Option<Vec3>>>,
+}
+
+impl NormalRadiance {
+    /// Evaluates `shape` for every normal shared by at least [`SHARED_NORMAL_MIN`] entries of
+    /// `range`.
+    fn new(set: &CosineSet, shape: &SkyShapeFn, pool: &Pool, range: std::ops::Range<usize>) -> Self {
+        let mut count: std::collections::HashMap<[u32; 3], usize> = std::collections::HashMap::new();
+        for k in range {
+            *count.entry(pool.normal[k].to_array().map(f32::to_bits)).or_default() += 1;
+        }
+        let shared: Vec<[u32; 3]> = count.into_iter().filter(|&(_, c)| c >= SHARED_NORMAL_MIN).map(|(n, _)| n).collect();
+        let values = shared
+            .into_par_iter()
+            .map(|bits| {
+                let n = Vec3::from_array(bits.map(f32::from_bits));
+                (bits, set.around(n).map(|d| (d.y >= 0.0).then(|| Vec3::from(shape.eval(d)))).collect())
+            })
+            .collect();
+        Self { values }
+    }
+
+    /// The radiances along the directions around `n`, when `n` is shared.
+    fn of(&self, n: Vec3) -> Option<&Vec<Option<Vec3>>> {
+        self.values.get(&n.to_array().map(f32::to_bits))
+    }
+}
+
+/// Entries that must share a normal before its sky radiances are evaluated once for all.
+const SHARED_NORMAL_MIN: usize = 2;
+
 impl SkyTerms {
     /// Traces the visibility of every pool entry; `None` when the configuration is Jensen's
     /// (uniform sky, black terrain), whose `a` is the pool's own.
@@ -62,7 +122,7 @@ impl SkyTerms {
             return Ok(None);
         }
         let set = CosineSet::fibonacci(config.directions)?;
-        let open = (0..pool.len())
+        let open: Vec<Vec<u64>> = (0..pool.len())
             .into_par_iter()
             .map(|k| {
                 let (p, n) = (pool.point[k], pool.normal[k]);
@@ -75,60 +135,97 @@ impl SkyTerms {
                 bits
             })
             .collect();
-        Ok(Some(Self { config: config.clone(), set, open }))
-    }
-
-    /// The terms for the sun toward `l` (a sun below the horizon: the sky's shape for a sun on
-    /// the horizon, no sun on the terrain).
-    pub fn for_sun(&self, pool: &Pool, l: Vec3, above_horizon: bool) -> Result<SunSky, SkyError> {
-        let shape: Box<dyn Fn(Vec3) -> [f32; 3] + Sync> = match self.config.shape {
-            SkyShape::Uniform => Box::new(|_| [1.0 / PI; 3]),
-            SkyShape::HosekWilkie => {
-                let ground = self.config.terrain_albedo.map(|v| v.clamp(0.0, 1.0) as f64);
-                let sky = HosekSky::new(l, self.config.turbidity, ground)?;
-                let norm: [f32; 3] = std::array::from_fn(|c| (1.0 / hemisphere_integral(|d| sky.radiance_rgb(d.as_vec3())[c] as f64)) as f32);
-                if norm.iter().any(|v| !v.is_finite()) {
-                    return Err(SkyError::Parameter { field: "estimator.sky", reason: "gives a sky without light", value: self.config.turbidity });
-                }
-                Box::new(move |d| {
-                    let r = sky.radiance_rgb(d);
-                    [r[0] * norm[0], r[1] * norm[1], r[2] * norm[2]]
-                })
-            }
-        };
-        let w = self.set.weight();
-        let rho_t = Vec3::from(self.config.terrain_albedo) / PI;
-        let sun_y = if above_horizon { l.y.max(0.0) } else { 0.0 };
-        let per: Vec<([f32; 3], [f32; 3], [f32; 3])> = (0..pool.len())
-            .into_par_iter()
+        let w = set.weight();
+        let rho_t = Vec3::from(config.terrain_albedo) / PI;
+        let (e_uniform, terrain) = (0..pool.len())
             .map(|k| {
-                let (mut e_shape, mut e_uniform, mut below) = (Vec3::ZERO, 0.0f32, 0u32);
-                for (j, d) in self.set.around(pool.normal[k]).enumerate() {
-                    if self.open[k][j / 64] & (1 << (j % 64)) == 0 {
+                let (mut e_uniform, mut below) = (0.0f32, 0u32);
+                for (j, d) in set.around(pool.normal[k]).enumerate() {
+                    if open[k][j / 64] & (1 << (j % 64)) == 0 {
                         continue;
                     }
                     if d.y < 0.0 {
                         below += 1;
                     } else {
-                        e_shape += Vec3::from(shape(d));
                         e_uniform += 1.0 / PI;
                     }
                 }
-                let (e_shape, e_uniform, e_below) = (e_shape * w, e_uniform * w, below as f32 * w);
-                let rho = pool.albedo[k] / PI;
-                let terrain = rho * rho_t * e_below;
-                let a = Vec3::from(pool.a[k]) + rho * (e_shape - Vec3::splat(e_uniform)) + terrain;
-                let a_overcast = Vec3::from(pool.a[k]) + terrain;
-                (a.to_array(), a_overcast.to_array(), (terrain * sun_y).to_array())
+                (e_uniform * w, pool.albedo[k] / PI * rho_t * (below as f32 * w))
             })
-            .collect();
-        let mut out = SunSky::default();
-        for (a, ao, b) in per {
-            out.a.push(a);
-            out.a_overcast.push(ao);
-            out.b.push(b);
+            .unzip();
+        Ok(Some(Self { config: config.clone(), set, open, e_uniform, terrain }))
+    }
+
+    /// The sky's shape for the sun toward `l` (a sun below the horizon: the shape for a sun on
+    /// the horizon at its azimuth).
+    pub fn shape(&self, l: Vec3) -> Result<SkyShapeFn, SkyError> {
+        match self.config.shape {
+            SkyShape::Uniform => Ok(SkyShapeFn { hosek: None }),
+            SkyShape::HosekWilkie => {
+                let ground = self.config.terrain_albedo.map(|v| v.clamp(0.0, 1.0) as f64);
+                let sky = HosekSky::new(l, self.config.turbidity, ground)?;
+                let integral = hemisphere_integral_rgb(|d| sky.radiance_rgb(d.as_vec3()).map(f64::from));
+                let norm: [f32; 3] = integral.map(|v| (1.0 / v) as f32);
+                if norm.iter().any(|v| !v.is_finite()) {
+                    return Err(SkyError::Parameter { field: "estimator.sky", reason: "gives a sky without light", value: self.config.turbidity });
+                }
+                Ok(SkyShapeFn { hosek: Some((sky, norm)) })
+            }
         }
-        Ok(out)
+    }
+
+    /// The ambient coefficient `a` of the entries in `range` under `shape` (the only term of a
+    /// [`SunSky`] that depends on the sun and costs a quadrature per entry).
+    ///
+    /// Entries on one plane of the proxy share their normal, hence their quadrature directions
+    /// and the sky's radiance along them: that radiance is evaluated once per distinct normal
+    /// ([`NormalRadiance`]) and each entry sums it over its open directions in the same order,
+    /// so the result is the per-entry evaluation's bit for bit, at a fraction of its cost.
+    pub fn ambient(&self, pool: &Pool, shape: &SkyShapeFn, range: std::ops::Range<usize>) -> Vec<[f32; 3]> {
+        let w = self.set.weight();
+        let radiance = NormalRadiance::new(&self.set, shape, pool, range.clone());
+        range
+            .into_par_iter()
+            .map(|k| {
+                let mut e_shape = Vec3::ZERO;
+                match radiance.of(pool.normal[k]) {
+                    Some(values) => {
+                        for (j, v) in values.iter().enumerate() {
+                            if self.open[k][j / 64] & (1 << (j % 64)) != 0 && let Some(v) = v {
+                                e_shape += *v;
+                            }
+                        }
+                    }
+                    None => {
+                        for (j, d) in self.set.around(pool.normal[k]).enumerate() {
+                            if self.open[k][j / 64] & (1 << (j % 64)) != 0 && d.y >= 0.0 {
+                                e_shape += Vec3::from(shape.eval(d));
+                            }
+                        }
+                    }
+                }
+                let rho = pool.albedo[k] / PI;
+                let a = Vec3::from(pool.a[k]) + rho * (e_shape * w - Vec3::splat(self.e_uniform[k])) + self.terrain[k];
+                a.to_array()
+            })
+            .collect()
+    }
+
+    /// The terms of the sun toward `l` from the ambient coefficients `a` of all entries (from
+    /// [`Self::ambient`]).
+    pub fn assemble(&self, pool: &Pool, a: Vec<[f32; 3]>, l: Vec3, above_horizon: bool) -> SunSky {
+        let sun_y = if above_horizon { l.y.max(0.0) } else { 0.0 };
+        let a_overcast = (0..pool.len()).map(|k| (Vec3::from(pool.a[k]) + self.terrain[k]).to_array()).collect();
+        let b = self.terrain.iter().map(|t| (*t * sun_y).to_array()).collect();
+        SunSky { a, a_overcast, b }
+    }
+
+    /// The terms for the sun toward `l` (a sun below the horizon: the sky's shape for a sun on
+    /// the horizon, no sun on the terrain).
+    pub fn for_sun(&self, pool: &Pool, l: Vec3, above_horizon: bool) -> Result<SunSky, SkyError> {
+        let shape = self.shape(l)?;
+        let a = self.ambient(pool, &shape, 0..pool.len());
+        Ok(self.assemble(pool, a, l, above_horizon))
     }
 }
 
@@ -200,5 +297,25 @@ mod tests {
         let u = SkyTermsConfig { shape: SkyShape::Uniform, ..cfg };
         let su = SkyTerms::build(&p, &scene, &u).unwrap().unwrap().for_sun(&p, sun, true).unwrap();
         assert!((su.a[0][0] - 1.0).abs() < 1e-3 && (su.a[1][0] - 0.7).abs() < 0.01, "{:?}", su.a);
+    }
+
+    /// Entries that share a normal read the sky's radiance from one evaluation per normal; the
+    /// result equals evaluating it per entry (a range of one entry shares nothing) bit for bit.
+    #[test]
+    fn shared_normals_give_the_per_entry_values_bit_for_bit() {
+        let scene = open_scene();
+        let wall = Vec3::new(0.6, 0.0, -0.8);
+        let tilted = Vec3::new(0.3, 0.9, -0.2).normalize();
+        let normals = [Vec3::Y, wall, Vec3::Y, tilted, wall, Vec3::Y];
+        let p = pool(&normals, &[1.0, 0.5, 1.0, 0.9, 0.5, 1.0]);
+        let terms = SkyTerms::build(&p, &scene, &SkyTermsConfig { terrain_albedo: [0.3; 3], ..SkyTermsConfig::default() }).unwrap().unwrap();
+        let shape = terms.shape(Vec3::new(0.2, 0.4, -1.0).normalize()).unwrap();
+        let shared = terms.ambient(&p, &shape, 0..p.len());
+        for k in 0..p.len() {
+            let alone = terms.ambient(&p, &shape, k..k + 1);
+            assert_eq!(shared[k].map(f32::to_bits), alone[0].map(f32::to_bits), "entry {k}");
+        }
+        // A slice in the middle gives the same values as the whole.
+        assert_eq!(terms.ambient(&p, &shape, 2..5), shared[2..5].to_vec());
     }
 }

@@ -27,6 +27,12 @@ pub struct EstimatorConfig {
     pub sun_bounce: bool,
     /// Rebuild sun visibility when the sun has moved more than this, degrees.
     pub sun_rebuild_deg: f64,
+    /// Paths per frame of the sun-bounce re-trace after a sun move (`estimate::rebuild`); the
+    /// previous bounce serves until it completes. 0 (default): the whole re-trace in the frame
+    /// that needs it (≈ 0.7 s at 320×240, once per ~65 s of 30 fps footage; offline runs keep
+    /// their outputs and the bounce never lags); `heliar live` uses
+    /// [`ESTIMATOR_TRACE_PATHS_PER_FRAME`] unless told otherwise.
+    pub trace_paths_per_frame: u64,
     /// Fewer usable samples than this give status `too_few_samples`.
     pub min_samples: usize,
     /// Condition numbers above this give status `sun_not_separable`. The condition number
@@ -75,6 +81,10 @@ pub struct SkyTermsConfig {
     pub directions: usize,
 }
 
+/// The estimator's sliced budget of the live window (and of `heliar bench estimate --knob
+/// moving-sun`): the sun-bounce re-trace after a sun move within about 15 ms a frame at 320×240.
+pub const ESTIMATOR_TRACE_PATHS_PER_FRAME: u64 = 1 << 14;
+
 /// Turbidity range of the Hosek–Wilkie model.
 pub const SKY_TURBIDITY_RANGE: (f64, f64) = (1.0, 10.0);
 
@@ -116,6 +126,7 @@ impl Default for EstimatorConfig {
             bounce: TransportQuality { paths: 256, max_bounces: 3 },
             sun_bounce: true,
             sun_rebuild_deg: 0.25,
+            trace_paths_per_frame: 0,
             min_samples: 30,
             max_condition: 12.0,
             no_sun_ratio: 0.05,

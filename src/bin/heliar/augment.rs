@@ -169,6 +169,11 @@ pub struct AugmentArgs {
     /// values serve (0: the whole re-trace in one frame, which stalls it for seconds).
     #[arg(long, default_value_t = heliar::render::TRACE_PATHS_PER_FRAME)]
     trace_paths_per_frame: u64,
+    /// Paths per frame of the estimator's sun-bounce re-trace after the sun has moved 0.25°,
+    /// done a slice per frame while the previous bounce serves (default: `[estimator]
+    /// trace_paths_per_frame`, 0 = whole in the frame; the live window slices by default).
+    #[arg(long)]
+    estimator_trace_paths_per_frame: Option<u64>,
     /// Columns of the contact sheet.
     #[arg(long, default_value_t = 4)]
     sheet_columns: u32,
@@ -208,7 +213,10 @@ fn parse_frames(s: &str) -> Result<std::ops::Range<usize>, String> {
 }
 
 pub fn run(a: AugmentArgs) -> Result<()> {
-    let (scene, ray) = load_scene(&a.scene)?;
+    let (mut scene, ray) = load_scene(&a.scene)?;
+    if let Some(n) = a.estimator_trace_paths_per_frame {
+        scene.estimator.trace_paths_per_frame = n;
+    }
     let input = resolve_input(
         &scene,
         &InputOptions { input: Some(a.input.clone()), sequence: a.sequence.clone(), start: a.start.clone(), fps: a.fps, exposure: a.exposure, ..Default::default() },

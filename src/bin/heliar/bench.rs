@@ -43,6 +43,9 @@ enum Knob {
     Sky,
     /// Quadrature directions of the sky and terrain terms: 32 … 1024.
     SkyDirections,
+    /// Time per frame when the sun moves past `sun_rebuild_deg` every frame, with the bounce and
+    /// sky re-trace whole and sliced (`--frames`, `--sun-step-s`), and the error of each.
+    MovingSun,
 }
 
 #[derive(Args)]
@@ -65,6 +68,12 @@ struct EstimateSweep {
     /// SVG plot of error against time per frame (log–log).
     #[arg(long)]
     plot: Option<PathBuf>,
+    /// `moving-sun`: frames of the fast-sun sequence.
+    #[arg(long, default_value_t = 48)]
+    frames: usize,
+    /// `moving-sun`: seconds between the fast-sun sequence's frame times.
+    #[arg(long, default_value_t = 120.0)]
+    sun_step_s: f64,
     /// Write the outputs even over a file of the scene.
     #[arg(long)]
     force: bool,
@@ -164,6 +173,7 @@ fn knob_configs(knob: Knob, base: &EstimatorConfig) -> Vec<(String, EstimatorCon
                 (n.to_string(), c)
             })
             .collect(),
+        Knob::MovingSun => Vec::new(),
     }
 }
 
@@ -183,6 +193,9 @@ pub fn run(a: BenchArgs) -> Result<()> {
     }
     let k = &scene.camera.intrinsics;
     let frames: Vec<Frame> = seq.files.iter().map(|p| Frame::load_sized(p, k.width, k.height)).collect::<Result<_, _>>()?;
+    if let Knob::MovingSun = s.knob {
+        return crate::bench_estimate_sun::run(&scene, ray, &seq, &frames, s.frames.max(2), s.sun_step_s, &s.csv);
+    }
     let configs = knob_configs(s.knob, &scene.estimator);
     let knob_name = match s.knob {
         Knob::Samples => "samples",
@@ -191,6 +204,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
         Knob::PoolSize => "pool_size",
         Knob::Sky => "sky",
         Knob::SkyDirections => "sky_directions",
+        Knob::MovingSun => "moving_sun",
     };
     let pb = frame_bar(configs.len(), &format!("sweep {knob_name}"));
     let mut table = Table::new(&[
@@ -212,7 +226,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
         let t = match s.knob {
             Knob::Samples => median(&r.ms),
             Knob::AmbientPaths | Knob::PoolSize | Knob::Sky | Knob::SkyDirections => r.setup_ms,
-            Knob::BouncePaths => median(&r.rebuild_ms),
+            Knob::BouncePaths | Knob::MovingSun => median(&r.rebuild_ms),
         };
         pd_pts.push((t, 100.0 * mean(&r.errs_pd)));
         pa_pts.push((t, 100.0 * mean(&r.errs_pa)));
@@ -238,7 +252,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
         let x_label = match s.knob {
             Knob::Samples => "median estimate time per frame (ms)",
             Knob::AmbientPaths | Knob::PoolSize | Knob::Sky | Knob::SkyDirections => "estimator set-up time (ms)",
-            Knob::BouncePaths => "sun-visibility rebuild time (ms)",
+            Knob::BouncePaths | Knob::MovingSun => "sun-visibility rebuild time (ms)",
         };
         let series = vec![
             Series { name: "Pd mean error".into(), points: pd_pts, reference: false },

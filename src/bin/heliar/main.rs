@@ -3,6 +3,7 @@
 mod bake;
 mod augment;
 mod bench;
+mod bench_estimate_sun;
 mod bench_irradiance;
 mod bench_render;
 mod bench_render_sun;
