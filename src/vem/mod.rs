@@ -49,7 +49,7 @@ pub mod sampling;
 
 use glam::Vec3;
 use sampling::pattern::Pattern;
-use polar::PolarMap;
+use polar::{PolarMap, luminance};
 use regions::{RegionLists, RegionSet};
 use sampling::{PolarDistribution, SamplerKind};
 use serde::Serialize;
@@ -138,6 +138,9 @@ pub struct Decomposer {
     lists: RegionLists,
     glossy: Option<(glossy::GlossyRegions, RegionLists)>,
     peaks: peaks::PeakTracker,
+    /// The coherent cut's tables and per-node axes (kept from frame to frame).
+    cut: sampling::coherent_cut::CoherentCut,
+    cut_lights: Vec<Light>,
 }
 
 impl Decomposer {
@@ -165,6 +168,8 @@ impl Decomposer {
             lists: RegionLists::default(),
             glossy,
             peaks: peaks::PeakTracker::new(),
+            cut: sampling::coherent_cut::CoherentCut::new(),
+            cut_lights: Vec::new(),
             cfg,
         })
     }
@@ -276,6 +281,15 @@ impl Decomposer {
         if status == Status::Ok && self.cfg.sampler == SamplerKind::MedianCut {
             // Median cut has no sample identity for the FIR to follow: its lights go unfiltered.
             unfiltered = Some(sampling::median_cut::median_cut_lights(map, n));
+        } else if status == Status::Ok && self.cfg.sampler == SamplerKind::CoherentCut {
+            // One light per leaf, index = leaf index: the FIR follows each leaf. Every leaf holds
+            // P/n, so the filter's equal sharing keeps each leaf's power; the colour goes in per
+            // unit luminance.
+            self.cut.lights(map, n, &mut self.cut_lights);
+            self.raw.extend(self.cut_lights.iter().map(|l| {
+                let y = luminance(l.rgb);
+                (l.dir, if y > 0.0 && y.is_finite() { l.rgb.map(|c| c / y) } else { [1.0; 3] })
+            }));
         } else if status == Status::Ok {
             for k in 0..n {
                 if let Some(r) = self.dist.sample(self.cfg.sampler, sampling::pattern::sample(self.cfg.pattern, k)) {
@@ -365,6 +379,12 @@ impl Decomposer {
 /// Unfiltered lights of one map: `n` samples of `kind`, each with power `P/n` (what one frame
 /// gives before the temporal filter). Empty for a black map.
 pub fn lights_of_map(map: &PolarMap, kind: SamplerKind, pattern: Pattern, n: usize) -> Vec<Light> {
+    // The cuts build their own summed-area tables: no CDFs needed.
+    match kind {
+        SamplerKind::MedianCut => return sampling::median_cut::median_cut_lights(map, n),
+        SamplerKind::CoherentCut => return sampling::coherent_cut::coherent_cut_lights(map, n),
+        _ => {}
+    }
     let dist = PolarDistribution::new(map);
     lights_of_distribution(&dist, map, kind, pattern, n)
 }
@@ -376,6 +396,9 @@ pub fn lights_of_distribution(dist: &PolarDistribution, map: &PolarMap, kind: Sa
     }
     if kind == SamplerKind::MedianCut {
         return sampling::median_cut::median_cut_lights(map, n);
+    }
+    if kind == SamplerKind::CoherentCut {
+        return sampling::coherent_cut::coherent_cut_lights(map, n);
     }
     let p = (dist.integral() / n as f64) as f32;
     (0..n)
