@@ -25,7 +25,7 @@ pub struct Decomposer {
 #[pymethods]
 impl Decomposer {
     /// `lights`: N equal-power lights (default 300). `sampler`: "havran" (default),
-    /// "havran-centres", "standard" or "median-cut". `rate_hz`: capture rate the temporal
+    /// "havran-centres", "standard", "median-cut" or "coherent-cut". `rate_hz`: capture rate the temporal
     /// filter is designed for (default the paper's 21 Hz). `clusters`: cluster the lights into
     /// at most this many. `peaks`: give the sun and other compact peaks lights of their own.
     /// `relax`: relaxed Halton samples (the paper's), else plain Halton.
@@ -37,7 +37,8 @@ impl Decomposer {
             "havran-centres" => SamplerKind::HavranCentres,
             "standard" => SamplerKind::Standard,
             "median-cut" => SamplerKind::MedianCut,
-            o => return Err(PyValueError::new_err(format!("sampler '{o}': expected one of havran, havran-centres, standard, median-cut"))),
+            "coherent-cut" => SamplerKind::CoherentCut,
+            o => return Err(PyValueError::new_err(format!("sampler '{o}': expected one of havran, havran-centres, standard, median-cut, coherent-cut"))),
         };
         let pattern = if relax { Pattern::RelaxedHalton } else { Pattern::Halton };
         let cfg = VemConfig { lights, sampler, pattern, rate_hz, clusters, peaks, ..VemConfig::default() };

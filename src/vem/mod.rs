@@ -226,19 +226,20 @@ impl Decomposer {
         if self.cfg.temporal == Temporal::ZeroPhase {
             match (&pending.unfiltered, pending.status) {
                 (_, Status::Dark) => self.centred.push_dark(),
-                (Some(_), _) => self.centred.push(self.dist.integral(), &[]),
-                (None, _) => self.centred.push(self.dist.integral(), &self.raw),
+                (Some(_), _) => self.centred.push(pending.power, &[]),
+                (None, _) => self.centred.push(pending.power, &self.raw),
             }
             self.pending.push_back(pending);
             return if self.centred.ready() { self.emit_centred() } else { None };
         }
+        let power = pending.power;
         let step = match (pending.status, pending.unfiltered.take()) {
             (Status::Dark, _) => self.filter.step_dark(&mut self.filtered),
             (_, Some(lights)) => {
                 self.filtered = lights;
-                fir::FilterStep { power: self.dist.integral(), held: 0 }
+                fir::FilterStep { power, held: 0 }
             }
-            _ => self.filter.step(self.dist.integral(), &self.raw, &mut self.filtered),
+            _ => self.filter.step(power, &self.raw, &mut self.filtered),
         };
         Some(self.finish(pending, step))
     }
@@ -274,18 +275,26 @@ impl Decomposer {
             map
         };
         let n = n - self.peaks.peaks().len();
-        let sanitized = self.dist.rebuild(map);
-        let status = if self.dist.is_empty() && self.peaks.peaks().is_empty() { Status::Dark } else { Status::Ok };
+        let coherent = self.cfg.sampler == SamplerKind::CoherentCut;
+        // The coherent cut's summed-area tables give the power: no CDFs for it.
+        let (sanitized, power, power_rgb) = if coherent {
+            self.cut.rebuild(map);
+            (self.cut.invalid_texels(), self.cut.total(), self.cut.total_rgb())
+        } else {
+            let s = self.dist.rebuild(map);
+            (s, self.dist.integral(), self.dist.integral_rgb())
+        };
+        let status = if !(power > 0.0) && self.peaks.peaks().is_empty() { Status::Dark } else { Status::Ok };
         self.raw.clear();
         let mut unfiltered = None;
         if status == Status::Ok && self.cfg.sampler == SamplerKind::MedianCut {
             // Median cut has no sample identity for the FIR to follow: its lights go unfiltered.
             unfiltered = Some(sampling::median_cut::median_cut_lights(map, n));
-        } else if status == Status::Ok && self.cfg.sampler == SamplerKind::CoherentCut {
+        } else if status == Status::Ok && coherent {
             // One light per leaf, index = leaf index: the FIR follows each leaf. Every leaf holds
             // P/n, so the filter's equal sharing keeps each leaf's power; the colour goes in per
             // unit luminance.
-            self.cut.lights(map, n, &mut self.cut_lights);
+            self.cut.lights_of_tables(n, &mut self.cut_lights);
             self.raw.extend(self.cut_lights.iter().map(|l| {
                 let y = luminance(l.rgb);
                 (l.dir, if y > 0.0 && y.is_finite() { l.rgb.map(|c| c / y) } else { [1.0; 3] })
@@ -301,8 +310,8 @@ impl Decomposer {
             frame,
             status,
             sanitized,
-            power_rgb: self.dist.integral_rgb(),
-            power: self.dist.integral(),
+            power_rgb,
+            power,
             peaks: self.peaks.peaks().to_vec(),
             unfiltered,
         }
@@ -370,7 +379,8 @@ impl Decomposer {
     }
 
     /// The distribution of the last frame pushed (with the zero-phase filter, `m` frames after
-    /// the one whose lights are out).
+    /// the one whose lights are out). Not built with the coherent cut (which needs no CDFs):
+    /// then empty.
     pub fn distribution(&self) -> &PolarDistribution {
         &self.dist
     }

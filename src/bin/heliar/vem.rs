@@ -25,6 +25,9 @@ pub enum SamplerArg {
     Standard,
     /// Debevec's median cut (a baseline: lights of unequal power, not temporally filtered).
     MedianCut,
+    /// The temporally coherent median cut: equal-energy leaves of a fixed kd-tree, stable
+    /// indices, temporally filtered (not progressive: adding lights moves the others).
+    CoherentCut,
 }
 
 impl From<SamplerArg> for SamplerKind {
@@ -34,6 +37,7 @@ impl From<SamplerArg> for SamplerKind {
             SamplerArg::HavranCentres => SamplerKind::HavranCentres,
             SamplerArg::Standard => SamplerKind::Standard,
             SamplerArg::MedianCut => SamplerKind::MedianCut,
+            SamplerArg::CoherentCut => SamplerKind::CoherentCut,
         }
     }
 }

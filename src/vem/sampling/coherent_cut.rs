@@ -127,25 +127,28 @@ impl CoherentCut {
         let mut invalid = 0;
         for j in 0..h {
             let (st, ct, dw) = self.rows[j];
-            let (mut r, mut g, mut b, mut y, mut ys, mut yc) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
+            let (y_prev, y_cur) = self.sat_y.split_at_mut((j + 1) * stride);
+            let (y_prev, y_cur) = (&y_prev[j * stride + 1..], &mut y_cur[1..stride]);
+            let (s_prev, s_cur) = self.sat6.split_at_mut((j + 1) * stride);
+            let (s_prev, s_cur) = (&s_prev[j * stride + 1..], &mut s_cur[1..stride]);
             let row = &map.data[j * w..(j + 1) * w];
-            for (i, p) in row.iter().enumerate() {
+            // Running row sums (of radiance; ΔΩ and the row's sin θ, cos θ applied per entry).
+            let mut acc = [0.0f64; 6];
+            for ((((p, &(sp, mcp)), yp), yc), (sp6, sc6)) in row.iter().zip(&self.cols).zip(y_prev).zip(y_cur.iter_mut()).zip(s_prev.iter().zip(s_cur.iter_mut())) {
                 if is_valid(p) {
                     let l = luminance(*p) as f64;
-                    let (sp, mcp) = self.cols[i];
-                    r += p[0] as f64;
-                    g += p[1] as f64;
-                    b += p[2] as f64;
-                    y += l;
-                    ys += l * sp;
-                    yc += l * mcp;
+                    acc[0] += p[0] as f64;
+                    acc[1] += p[1] as f64;
+                    acc[2] += p[2] as f64;
+                    acc[3] += l * sp;
+                    acc[4] += l;
+                    acc[5] += l * mcp;
                 } else {
                     invalid += 1;
                 }
-                let (at, up) = ((j + 1) * stride + i + 1, j * stride + i + 1);
-                self.sat_y[at] = self.sat_y[up] + y * dw;
-                let u = self.sat6[up];
-                self.sat6[at] = [u[0] + r * dw, u[1] + g * dw, u[2] + b * dw, u[3] + ys * st * dw, u[4] + y * ct * dw, u[5] + yc * st * dw];
+                *yc = yp + acc[4] * dw;
+                let (a, b) = (dw, st * dw);
+                *sc6 = [sp6[0] + acc[0] * a, sp6[1] + acc[1] * a, sp6[2] + acc[2] * a, sp6[3] + acc[3] * b, sp6[4] + acc[4] * ct * dw, sp6[5] + acc[5] * b];
             }
         }
         self.invalid = invalid;
@@ -219,15 +222,24 @@ impl CoherentCut {
         let theta = 0.5 * (r.y0 + r.y1) * FRAC_PI_2 / self.height as f64;
         let wide = (r.x1 - r.x0) * TAU / self.width as f64 * theta.sin();
         let tall = (r.y1 - r.y0) * FRAC_PI_2 / self.height as f64;
+        static H: std::sync::OnceLock<f64> = std::sync::OnceLock::new();
+        let hy = *H.get_or_init(|| std::env::var("HYST").ok().and_then(|v| v.parse().ok()).unwrap_or(AXIS_HYSTERESIS));
         let a = match self.axis[v] {
-            AXIS_X if tall > AXIS_HYSTERESIS * wide => AXIS_Y,
-            AXIS_Y if wide > AXIS_HYSTERESIS * tall => AXIS_X,
+            AXIS_X if tall > hy * wide => AXIS_Y,
+            AXIS_Y if wide > hy * tall => AXIS_X,
             AXIS_NONE if wide >= tall => AXIS_X,
             AXIS_NONE => AXIS_Y,
             a => a,
         };
         self.axis[v] = a;
         a
+    }
+
+    /// The row index and weight of coordinate `y` (or column and weight of `x` with `n = W`).
+    #[inline]
+    fn cell(v: f64, n: usize) -> (usize, f64) {
+        let k = (v.max(0.0) as usize).min(n - 1);
+        (k, (v - k as f64).clamp(0.0, 1.0))
     }
 
     /// The cut of `r` across `axis` with energy `target` below it (of `e`, the energy of `r`);
@@ -237,20 +249,33 @@ impl CoherentCut {
         if !(e > 0.0) {
             return lo + (hi - lo) * frac;
         }
-        // Energy below c: S(c, ·) differences along the other axis, minus those at lo.
-        let below = |c: f64| {
-            if axis == AXIS_X {
-                self.sy(c, r.y1) - self.sy(c, r.y0) - self.sy(r.x0, r.y1) + self.sy(r.x0, r.y0)
-            } else {
-                self.sy(r.x1, c) - self.sy(r.x0, c) - self.sy(r.x1, r.y0) + self.sy(r.x0, r.y0)
-            }
+        let stride = self.width + 1;
+        let sat = &self.sat_y;
+        // The other axis' two bounds as (cell, weight): the energy below an integer knot c is
+        // S(c, b1) − S(c, b0) − (the same at lo), S linear in the other coordinate.
+        let (other, n_other) = if axis == AXIS_X { ((r.y0, r.y1), self.height) } else { ((r.x0, r.x1), self.width) };
+        let (b0, b1) = (Self::cell(other.0, n_other), Self::cell(other.1, n_other));
+        let at_knot = |c: usize| {
+            let s = |(k, f): (usize, f64)| {
+                let (a, b) = if axis == AXIS_X { (sat[k * stride + c], sat[(k + 1) * stride + c]) } else { (sat[c * stride + k], sat[c * stride + k + 1]) };
+                a + f * (b - a)
+            };
+            s(b1) - s(b0)
         };
+        // Strip energy at a real coordinate: linear between its knots.
+        let strip = |v: f64| {
+            let (k, f) = Self::cell(v, if axis == AXIS_X { self.width } else { self.height });
+            let (a, b) = (at_knot(k), at_knot(k + 1));
+            a + f * (b - a)
+        };
+        let s_lo = strip(lo);
+        let below = |c: f64| strip(c) - s_lo;
         // Knots: lo, the texel boundaries strictly inside, hi. First knot with below ≥ target.
         let (k0, k1) = (lo.floor() as i64 + 1, hi.ceil() as i64 - 1);
         let (mut a, mut b) = (k0, k1 + 1); // search [k0, k1]; k1 + 1 stands for hi
         while a < b {
             let m = a + (b - a) / 2;
-            if below(m as f64) >= target { b = m } else { a = m + 1 }
+            if at_knot(m as usize) - s_lo >= target { b = m } else { a = m + 1 }
         }
         let right = if a > k1 { hi } else { a as f64 };
         let left = if a <= k0 { lo } else { (a - 1) as f64 };
