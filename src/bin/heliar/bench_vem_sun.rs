@@ -166,10 +166,28 @@ pub fn sun_sweep(normals_wanted: usize, csv: &Path) -> Result<()> {
     // Upper hemisphere: fold the uniform sphere normals up.
     let normals: Vec<glam::Vec3> = random_normals(normals_wanted.max(64), 777).into_iter().map(|n| glam::Vec3::new(n.x, n.y.abs().max(1e-3), n.z).normalize()).collect();
     let refs: Vec<Vec<f64>> = maps.iter().map(|m| reference_irradiance(&IrradianceReference::new(m, 2), &normals)).collect();
+    let table = variant_table(&maps, &normals, &refs, &VARIANTS);
+    println!(
+        "sun-dominated sequence ({} frames, Hošek–Wilkie T = {}, sun {:.0}% of the power, a cloud crossing it): unfiltered lights per frame, error against the brute-force integral at {} upper-hemisphere normals, median time per frame (one core), excess flicker",
+        maps.len(),
+        sunny::TURBIDITY,
+        100.0 * sunny::SUN_SHARE,
+        normals.len()
+    );
+    print!("{table}");
+    print_peaks(&maps);
+    print_lag(&maps, &normals, &refs)?;
+    table.write_csv(csv).with_context(|| format!("writing {}", csv.display()))?;
+    println!("wrote {}", csv.display());
+    other_sequences(&normals)
+}
+
+/// The error, time, flicker and motion table of `variants` on one sequence.
+fn variant_table(maps: &[PolarMap], normals: &[glam::Vec3], refs: &[Vec<f64>], variants: &[(&str, SamplerKind, bool)]) -> Table {
     let mut table = Table::new(&["lights", "variant", "err_mean_pct", "err_p95_pct", "err_max_pct", "ms_per_frame", "excess_flicker_rms_pct", "motion_median_deg", "motion_p95_deg"]);
     for &n in &COUNTS {
-        for &(name, kind, peaks) in &VARIANTS {
-            let r = measure(&maps, &normals, &refs, kind, peaks, n);
+        for &(name, kind, peaks) in variants {
+            let r = measure(maps, normals, refs, kind, peaks, n);
             table.push(vec![
                 n.to_string(),
                 name.into(),
@@ -183,17 +201,34 @@ pub fn sun_sweep(normals_wanted: usize, csv: &Path) -> Result<()> {
             ]);
         }
     }
-    println!(
-        "sun-dominated sequence ({} frames, Hošek–Wilkie T = {}, sun {:.0}% of the power, a cloud crossing it): unfiltered lights per frame, error against the brute-force integral at {} upper-hemisphere normals, median time per frame (one core), excess flicker",
-        maps.len(),
-        sunny::TURBIDITY,
-        100.0 * sunny::SUN_SHARE,
-        normals.len()
-    );
-    print!("{table}");
-    print_peaks(&maps);
-    print_lag(&maps, &normals, &refs)?;
-    table.write_csv(csv).with_context(|| format!("writing {}", csv.display()))?;
-    println!("wrote {}", csv.display());
+    table
+}
+
+/// The same measures on the sequences of the plain `bench vem` (`heliar::vem::eval::synth`):
+/// outdoor (a sun crossed by a cloud, drifting clouds), overcast (the same without the sun) and
+/// indoor (a lamp flickering at 115 Hz and a window), [`OTHER_FRAMES`] frames each.
+fn other_sequences(normals: &[glam::Vec3]) -> Result<()> {
+    use heliar::vem::eval::synth::{self, OutdoorSky};
+    const OTHER: [(&str, SamplerKind, bool); 5] = [
+        ("havran", SamplerKind::Havran, false),
+        ("median_cut", SamplerKind::MedianCut, false),
+        ("coherent_cut", SamplerKind::CoherentCut, false),
+        ("median_cut+peaks", SamplerKind::MedianCut, true),
+        ("coherent_cut+peaks", SamplerKind::CoherentCut, true),
+    ];
+    let render = |env: &dyn Environment| synth::render_polar(env, 360, 90, 2);
+    let sequences: [(&str, Vec<PolarMap>); 3] = [
+        ("outdoor", (0..OTHER_FRAMES).map(|k| render(&synth::outdoor(k, synth::RATE_HZ))).collect()),
+        ("overcast", (0..OTHER_FRAMES).map(|k| render(&OutdoorSky { sun_irradiance: [0.0; 3], ..synth::outdoor(k, synth::RATE_HZ) })).collect()),
+        ("indoor", (0..OTHER_FRAMES).map(|k| render(&synth::indoor_lamp(k, synth::RATE_HZ))).collect()),
+    ];
+    for (name, maps) in &sequences {
+        let refs: Vec<Vec<f64>> = maps.iter().map(|m| reference_irradiance(&IrradianceReference::new(m, 2), normals)).collect();
+        println!("{name} sequence ({} frames, `heliar::vem::eval::synth`): the same measures", maps.len());
+        print!("{}", variant_table(maps, normals, &refs, &OTHER));
+    }
     Ok(())
 }
+
+/// Frames of each of [`other_sequences`]' sequences.
+const OTHER_FRAMES: usize = 24;
