@@ -10,7 +10,11 @@
 //!    a fisheye HDR (EXR) or LDR (PNG) frame with a Kannala–Brandt calibration and a photometric
 //!    response, or an equirect or polar HDR frame, is linearised and resampled into the polar
 //!    `(θ, φ)` map of the upper hemisphere in the world frame ([`polar`]; 360 × 90 by default).
-//! 2. **Decomposition** ([`sampling`], [`sampling::pattern`]; Havran §3.1–3.2): the PDF luminance × sin θ,
+//! 2. **Decomposition** ([`sampling`]): by default the coherent median cut
+//!    ([`sampling::coherent_cut`]): a fixed equal-energy kd-tree over the map, one light of
+//!    power `P/N` per leaf at its energy centroid, the leaf's index as the light's identity
+//!    (not progressive: changing `N` shifts the lights a little). With `--sampler havran`
+//!    ([`sampling::pattern`]; Havran §3.1–3.2): the PDF luminance × sin θ,
 //!    its CDFs, and the continuous inverse transform of fixed relaxed Halton samples give `N`
 //!    directions; every light carries `P/N` of the frame's power `P` and keeps its index (its
 //!    Halton sample) from frame to frame. The light count can change at any frame without moving
@@ -193,7 +197,9 @@ impl Decomposer {
         }
     }
 
-    /// Changes the light count from the next frame on (existing lights do not move).
+    /// Changes the light count from the next frame on. With the inverse transforms (Havran,
+    /// standard) existing lights do not move; with the coherent cut they keep their indices but
+    /// shift a little (the tree's energy fractions change), and median cut starts over.
     pub fn set_lights(&mut self, n: usize) -> Result<(), VemError> {
         let cfg = VemConfig { lights: n, ..self.cfg.clone() };
         cfg.validate()?;
