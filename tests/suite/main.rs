@@ -24,6 +24,7 @@ mod scene_errors;
 mod shader_validation;
 mod vem_allocation;
 mod vem_cli;
+mod vem_coherent_cut;
 mod vem_render;
 mod vem_sequences;
 mod vem_stiff;

@@ -348,5 +348,92 @@ pub fn coherent_cut_lights(map: &PolarMap, n: usize) -> Vec<Light> {
 }
 
 #[cfg(test)]
-#[path = "coherent_cut_tests.rs"]
-mod tests;
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    fn power(l: &[Light]) -> [f64; 3] {
+        let mut p = [0.0; 3];
+        for x in l {
+            for c in 0..3 {
+                p[c] += x.rgb[c] as f64;
+            }
+        }
+        p
+    }
+
+    fn angle(a: Vec3, b: Vec3) -> f64 {
+        (a.dot(b).clamp(-1.0, 1.0) as f64).acos()
+    }
+
+    #[test]
+    fn leaf_indices_are_a_bijection_and_a_new_light_takes_the_next_index() {
+        for n in [1usize, 2, 3, 7, 64, 300, 1000] {
+            let mut idx: Vec<u32> = (n..2 * n).map(leaf_index).collect();
+            idx.sort_unstable();
+            assert_eq!(idx, (0..n as u32).collect::<Vec<_>>(), "n={n}");
+            // N → N + 1 splits leaf N into 2N (same index) and 2N + 1 (index N).
+            assert_eq!(leaf_index(2 * n), leaf_index(n));
+            assert_eq!(leaf_index(2 * n + 1), n as u32);
+        }
+    }
+
+    #[test]
+    fn a_uniform_map_gives_exactly_n_leaves_of_equal_power_summing_to_the_map() {
+        // Closed form: every leaf holds P/N of the solid-angle-weighted power P = Σ L·ΔΩ (2π·L for a
+        // constant L; the texel sum is exact up to f32 solid angles, 1e-5).
+        let map = PolarMap::from_fn(360, 90, |_| [2.0, 1.0, 0.5]);
+        let want = map.total_power();
+        assert!((want[0] - 2.0 * std::f64::consts::TAU).abs() < 1e-4 * want[0]);
+        for n in [1usize, 7, 64, 128, 300] {
+            let l = coherent_cut_lights(&map, n);
+            assert_eq!(l.len(), n);
+            assert!(l.iter().enumerate().all(|(k, x)| x.index == k as u32));
+            let got = power(&l);
+            for c in 0..3 {
+                assert!((got[c] - want[c]).abs() < 1e-6 * want[c], "n={n} channel {c}: {} vs {}", got[c], want[c]);
+            }
+            for x in &l {
+                // Cuts are continuous, so the leaves are equal to f64 rounding (f32 output: 1e-5).
+                assert!((x.rgb[0] as f64 - want[0] / n as f64).abs() < 1e-5 * want[0] / n as f64, "n={n}: {:?}", x.rgb);
+                assert!(x.dir.y >= 0.0 && (x.dir.length() - 1.0).abs() < 1e-5);
+            }
+        }
+    }
+
+    #[test]
+    fn a_single_bright_texel_holds_every_leaf_at_its_direction() {
+        // All the energy is in one texel, so every equal-energy leaf lies inside it and its centroid
+        // is the texel's direction; N = 1 is the one light at that texel.
+        let mut map = PolarMap::new(360, 90);
+        let (i, j) = (123u32, 40u32);
+        map.data[(j * 360 + i) as usize] = [50.0, 40.0, 30.0];
+        let dw = map.row_solid_angle(j) as f64;
+        for n in [1usize, 7, 64] {
+            let l = coherent_cut_lights(&map, n);
+            assert_eq!(l.len(), n);
+            for x in &l {
+                assert!(angle(x.dir, map.texel_dir(i, j)) < 1e-3, "n={n}: {:?}", x.dir);
+            }
+            let p = power(&l);
+            assert!((p[0] - 50.0 * dw).abs() < 1e-6 * 50.0 * dw, "n={n}: {p:?}");
+        }
+        assert!(coherent_cut_lights(&PolarMap::new(36, 9), 8).is_empty());
+        assert!(coherent_cut_lights(&map, 0).is_empty());
+    }
+
+    #[test]
+    fn the_energy_of_a_fractional_rectangle_is_exact_for_a_piecewise_constant_map() {
+        // Closed form: half of texel (5, 3) and all of texel (6, 3), each of its own value.
+        let mut map = PolarMap::new(12, 6);
+        map.data[3 * 12 + 5] = [1.0; 3];
+        map.data[3 * 12 + 6] = [3.0; 3];
+        let mut cut = CoherentCut::new();
+        cut.rebuild(&map);
+        let e = cut.energy(&Rect { x0: 5.5, y0: 3.0, x1: 7.0, y1: 4.0 });
+        let dw = map.row_solid_angle(3) as f64;
+        assert!((e - (0.5 + 3.0) * dw).abs() < 1e-9, "{e} vs {}", 3.5 * dw);
+        let e = cut.energy(&Rect { x0: 5.0, y0: 3.25, x1: 6.0, y1: 3.75 });
+        assert!((e - 0.5 * dw).abs() < 1e-9);
+    }
+}
