@@ -138,7 +138,7 @@ class Decomposer:
     def __init__(
         self,
         lights: int = 300,
-        sampler: str = "havran",
+        sampler: str = "coherent-cut",
         rate_hz: float = 21.0,
         clusters: Optional[int] = None,
         peaks: bool = False,

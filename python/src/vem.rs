@@ -24,20 +24,21 @@ pub struct Decomposer {
 
 #[pymethods]
 impl Decomposer {
-    /// `lights`: N equal-power lights (default 300). `sampler`: "havran" (default),
-    /// "havran-centres", "standard" or "median-cut". `rate_hz`: capture rate the temporal
+    /// `lights`: N equal-power lights (default 300). `sampler`: "coherent-cut"
+    /// (default), "havran", "havran-centres", "standard" or "median-cut". `rate_hz`: capture rate the temporal
     /// filter is designed for (default the paper's 21 Hz). `clusters`: cluster the lights into
     /// at most this many. `peaks`: give the sun and other compact peaks lights of their own.
     /// `relax`: relaxed Halton samples (the paper's), else plain Halton.
     #[new]
-    #[pyo3(signature = (lights=300, sampler="havran", rate_hz=heliar::vem::fir::PAPER_RATE_HZ, clusters=None, peaks=false, relax=true))]
+    #[pyo3(signature = (lights=300, sampler="coherent-cut", rate_hz=heliar::vem::fir::PAPER_RATE_HZ, clusters=None, peaks=false, relax=true))]
     fn new(py: Python<'_>, lights: usize, sampler: &str, rate_hz: f64, clusters: Option<usize>, peaks: bool, relax: bool) -> PyResult<Self> {
         let sampler = match sampler {
             "havran" => SamplerKind::Havran,
             "havran-centres" => SamplerKind::HavranCentres,
             "standard" => SamplerKind::Standard,
             "median-cut" => SamplerKind::MedianCut,
-            o => return Err(PyValueError::new_err(format!("sampler '{o}': expected one of havran, havran-centres, standard, median-cut"))),
+            "coherent-cut" => SamplerKind::CoherentCut,
+            o => return Err(PyValueError::new_err(format!("sampler '{o}': expected one of havran, havran-centres, standard, median-cut, coherent-cut"))),
         };
         let pattern = if relax { Pattern::RelaxedHalton } else { Pattern::Halton };
         let cfg = VemConfig { lights, sampler, pattern, rate_hz, clusters, peaks, ..VemConfig::default() };

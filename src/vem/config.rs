@@ -79,7 +79,7 @@ pub struct VemConfig {
     pub polar_height: u32,
     /// Lights `N` (the set `H` when glossy lights are on).
     pub lights: usize,
-    /// Inverse transform.
+    /// How the map becomes lights (default the coherent cut, [`super::sampling::coherent_cut`]).
     pub sampler: SamplerKind,
     /// Input samples.
     pub pattern: Pattern,
@@ -112,7 +112,7 @@ impl Default for VemConfig {
             polar_width: polar::DEFAULT_WIDTH,
             polar_height: polar::DEFAULT_HEIGHT,
             lights: 300,
-            sampler: SamplerKind::Havran,
+            sampler: SamplerKind::CoherentCut,
             pattern: Pattern::RelaxedHalton,
             rate_hz: fir::PAPER_RATE_HZ,
             clusters: None,

@@ -10,7 +10,11 @@
 //!    a fisheye HDR (EXR) or LDR (PNG) frame with a Kannala–Brandt calibration and a photometric
 //!    response, or an equirect or polar HDR frame, is linearised and resampled into the polar
 //!    `(θ, φ)` map of the upper hemisphere in the world frame ([`polar`]; 360 × 90 by default).
-//! 2. **Decomposition** ([`sampling`], [`sampling::pattern`]; Havran §3.1–3.2): the PDF luminance × sin θ,
+//! 2. **Decomposition** ([`sampling`]): by default the coherent median cut
+//!    ([`sampling::coherent_cut`]): a fixed equal-energy kd-tree over the map, one light of
+//!    power `P/N` per leaf at its energy centroid, the leaf's index as the light's identity
+//!    (not progressive: changing `N` shifts the lights a little). With `--sampler havran`
+//!    ([`sampling::pattern`]; Havran §3.1–3.2): the PDF luminance × sin θ,
 //!    its CDFs, and the continuous inverse transform of fixed relaxed Halton samples give `N`
 //!    directions; every light carries `P/N` of the frame's power `P` and keeps its index (its
 //!    Halton sample) from frame to frame. The light count can change at any frame without moving
@@ -49,7 +53,7 @@ pub mod sampling;
 
 use glam::Vec3;
 use sampling::pattern::Pattern;
-use polar::PolarMap;
+use polar::{PolarMap, luminance};
 use regions::{RegionLists, RegionSet};
 use sampling::{PolarDistribution, SamplerKind};
 use serde::Serialize;
@@ -138,6 +142,9 @@ pub struct Decomposer {
     lists: RegionLists,
     glossy: Option<(glossy::GlossyRegions, RegionLists)>,
     peaks: peaks::PeakTracker,
+    /// The coherent cut's tables and per-node axes (kept from frame to frame).
+    cut: sampling::coherent_cut::CoherentCut,
+    cut_lights: Vec<Light>,
 }
 
 impl Decomposer {
@@ -165,6 +172,8 @@ impl Decomposer {
             lists: RegionLists::default(),
             glossy,
             peaks: peaks::PeakTracker::new(),
+            cut: sampling::coherent_cut::CoherentCut::new(),
+            cut_lights: Vec::new(),
             cfg,
         })
     }
@@ -188,7 +197,9 @@ impl Decomposer {
         }
     }
 
-    /// Changes the light count from the next frame on (existing lights do not move).
+    /// Changes the light count from the next frame on. With the inverse transforms (Havran,
+    /// standard) existing lights do not move; with the coherent cut they keep their indices but
+    /// shift a little (the tree's energy fractions change), and median cut starts over.
     pub fn set_lights(&mut self, n: usize) -> Result<(), VemError> {
         let cfg = VemConfig { lights: n, ..self.cfg.clone() };
         cfg.validate()?;
@@ -221,19 +232,20 @@ impl Decomposer {
         if self.cfg.temporal == Temporal::ZeroPhase {
             match (&pending.unfiltered, pending.status) {
                 (_, Status::Dark) => self.centred.push_dark(),
-                (Some(_), _) => self.centred.push(self.dist.integral(), &[]),
-                (None, _) => self.centred.push(self.dist.integral(), &self.raw),
+                (Some(_), _) => self.centred.push(pending.power, &[]),
+                (None, _) => self.centred.push(pending.power, &self.raw),
             }
             self.pending.push_back(pending);
             return if self.centred.ready() { self.emit_centred() } else { None };
         }
+        let power = pending.power;
         let step = match (pending.status, pending.unfiltered.take()) {
             (Status::Dark, _) => self.filter.step_dark(&mut self.filtered),
             (_, Some(lights)) => {
                 self.filtered = lights;
-                fir::FilterStep { power: self.dist.integral(), held: 0 }
+                fir::FilterStep { power, held: 0 }
             }
-            _ => self.filter.step(self.dist.integral(), &self.raw, &mut self.filtered),
+            _ => self.filter.step(power, &self.raw, &mut self.filtered),
         };
         Some(self.finish(pending, step))
     }
@@ -269,13 +281,30 @@ impl Decomposer {
             map
         };
         let n = n - self.peaks.peaks().len();
-        let sanitized = self.dist.rebuild(map);
-        let status = if self.dist.is_empty() && self.peaks.peaks().is_empty() { Status::Dark } else { Status::Ok };
+        let coherent = self.cfg.sampler == SamplerKind::CoherentCut;
+        // The coherent cut's summed-area tables give the power: no CDFs for it.
+        let (sanitized, power, power_rgb) = if coherent {
+            self.cut.rebuild(map);
+            (self.cut.invalid_texels(), self.cut.total(), self.cut.total_rgb())
+        } else {
+            let s = self.dist.rebuild(map);
+            (s, self.dist.integral(), self.dist.integral_rgb())
+        };
+        let status = if !(power > 0.0) && self.peaks.peaks().is_empty() { Status::Dark } else { Status::Ok };
         self.raw.clear();
         let mut unfiltered = None;
         if status == Status::Ok && self.cfg.sampler == SamplerKind::MedianCut {
             // Median cut has no sample identity for the FIR to follow: its lights go unfiltered.
             unfiltered = Some(sampling::median_cut::median_cut_lights(map, n));
+        } else if status == Status::Ok && coherent {
+            // One light per leaf, index = leaf index: the FIR follows each leaf. Every leaf holds
+            // P/n, so the filter's equal sharing keeps each leaf's power; the colour goes in per
+            // unit luminance.
+            self.cut.lights_of_tables(n, &mut self.cut_lights);
+            self.raw.extend(self.cut_lights.iter().map(|l| {
+                let y = luminance(l.rgb);
+                (l.dir, if y > 0.0 && y.is_finite() { l.rgb.map(|c| c / y) } else { [1.0; 3] })
+            }));
         } else if status == Status::Ok {
             for k in 0..n {
                 if let Some(r) = self.dist.sample(self.cfg.sampler, sampling::pattern::sample(self.cfg.pattern, k)) {
@@ -287,8 +316,8 @@ impl Decomposer {
             frame,
             status,
             sanitized,
-            power_rgb: self.dist.integral_rgb(),
-            power: self.dist.integral(),
+            power_rgb,
+            power,
             peaks: self.peaks.peaks().to_vec(),
             unfiltered,
         }
@@ -356,7 +385,8 @@ impl Decomposer {
     }
 
     /// The distribution of the last frame pushed (with the zero-phase filter, `m` frames after
-    /// the one whose lights are out).
+    /// the one whose lights are out). Not built with the coherent cut (which needs no CDFs):
+    /// then empty.
     pub fn distribution(&self) -> &PolarDistribution {
         &self.dist
     }
@@ -365,6 +395,12 @@ impl Decomposer {
 /// Unfiltered lights of one map: `n` samples of `kind`, each with power `P/n` (what one frame
 /// gives before the temporal filter). Empty for a black map.
 pub fn lights_of_map(map: &PolarMap, kind: SamplerKind, pattern: Pattern, n: usize) -> Vec<Light> {
+    // The cuts build their own summed-area tables: no CDFs needed.
+    match kind {
+        SamplerKind::MedianCut => return sampling::median_cut::median_cut_lights(map, n),
+        SamplerKind::CoherentCut => return sampling::coherent_cut::coherent_cut_lights(map, n),
+        _ => {}
+    }
     let dist = PolarDistribution::new(map);
     lights_of_distribution(&dist, map, kind, pattern, n)
 }
@@ -376,6 +412,9 @@ pub fn lights_of_distribution(dist: &PolarDistribution, map: &PolarMap, kind: Sa
     }
     if kind == SamplerKind::MedianCut {
         return sampling::median_cut::median_cut_lights(map, n);
+    }
+    if kind == SamplerKind::CoherentCut {
+        return sampling::coherent_cut::coherent_cut_lights(map, n);
     }
     let p = (dist.integral() / n as f64) as f32;
     (0..n)

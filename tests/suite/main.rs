@@ -26,6 +26,7 @@ mod shader_validation;
 mod uniform_branches;
 mod vem_allocation;
 mod vem_cli;
+mod vem_coherent_cut;
 mod vem_render;
 mod vem_sequences;
 mod vem_stiff;

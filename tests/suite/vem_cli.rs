@@ -120,7 +120,7 @@ fn bench_vem_writes_tables_and_plots() {
     assert!(csv.starts_with("lights,havran_err_pct"));
     assert!(dir.join("b_error.svg").is_file() && dir.join("b_coherence.svg").is_file());
     let coh = std::fs::read_to_string(dir.join("b_coherence.csv")).unwrap();
-    assert_eq!(coh.lines().count(), 1 + 4 * 5 * 5);
+    assert_eq!(coh.lines().count(), 1 + 4 * 5 * 7); // N × changes × samplers (with both cuts)
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -133,8 +133,10 @@ fn bench_vem_sun_compares_samplers_median_cut_and_peaks() {
     assert!(out.contains("sun-dominated sequence") && out.contains("64 upper-hemisphere normals"), "{out}");
     let csv = std::fs::read_to_string(dir.join("b_sun.csv")).unwrap();
     assert!(csv.starts_with("lights,variant,err_mean_pct,err_p95_pct,err_max_pct,ms_per_frame,excess_flicker_rms_pct"), "{csv}");
-    assert_eq!(csv.lines().count(), 1 + 3 * 6);
-    assert!(csv.contains(",median_cut,") && csv.contains(",havran+peaks,"));
+    assert!(csv.contains(",motion_median_deg,motion_p95_deg"), "{csv}");
+    assert_eq!(csv.lines().count(), 1 + 3 * 8);
+    assert!(csv.contains(",median_cut,") && csv.contains(",havran+peaks,") && csv.contains(",coherent_cut+peaks,"));
+    assert!(out.contains("overcast sequence") && out.contains("indoor sequence"), "{out}");
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -56,12 +56,14 @@ pub struct VemSweep {
 }
 
 /// The sampler variants compared: (name, transform, samples).
-const VARIANTS: [(&str, SamplerKind, Pattern); 5] = [
+const VARIANTS: [(&str, SamplerKind, Pattern); 7] = [
     ("havran", SamplerKind::Havran, Pattern::RelaxedHalton),
     ("standard", SamplerKind::Standard, Pattern::RelaxedHalton),
     ("havran_centres", SamplerKind::HavranCentres, Pattern::RelaxedHalton),
     ("havran_halton", SamplerKind::Havran, Pattern::Halton),
     ("standard_halton", SamplerKind::Standard, Pattern::Halton),
+    ("median_cut", SamplerKind::MedianCut, Pattern::RelaxedHalton),
+    ("coherent_cut", SamplerKind::CoherentCut, Pattern::RelaxedHalton),
 ];
 const COUNTS: [usize; 9] = [4, 8, 16, 32, 64, 128, 256, 512, 1024];
 
@@ -234,12 +236,19 @@ fn speed(s: &VemSweep, maps: &[(String, PolarMap)]) -> Result<()> {
     let n = s.repeats.max(1) * 100;
     let mut t = Table::new(&["stage (360×90, one core)", "wall_us", "cpu_us"]);
     let mut row = |name: &str, (w, c): (f64, f64)| t.push(vec![name.into(), format!("{w:.1}"), format!("{c:.1}")]);
-    for kind in [SamplerKind::Havran, SamplerKind::Standard] {
-        let mut dec = Decomposer::new(VemConfig { lights: 300, sampler: kind, clusters: Some(72), ..VemConfig::default() })?;
-        row(&format!("whole frame, {}: CDFs + 300 lights + FIR + clustering (Q = 72) + 200 region lists", kind.name()), time_per_call(n, |i| {
-            std::hint::black_box(dec.process(&maps[i % maps.len()].1));
-        }));
+    for kind in [SamplerKind::Havran, SamplerKind::Standard, SamplerKind::MedianCut, SamplerKind::CoherentCut] {
+        for peaks in [false, true] {
+            let mut dec = Decomposer::new(VemConfig { lights: 300, sampler: kind, clusters: Some(72), peaks, ..VemConfig::default() })?;
+            let what = if peaks { "peaks + " } else { "" };
+            row(&format!("whole frame, {}: {what}CDFs + 300 lights + FIR + clustering (Q = 72) + 200 region lists", kind.name()), time_per_call(n, |i| {
+                std::hint::black_box(dec.process(&maps[i % maps.len()].1));
+            }));
+        }
     }
+    let mut cut = heliar::vem::sampling::coherent_cut::CoherentCut::new();
+    let mut cut_out = Vec::new();
+    row("coherent cut: summed-area tables", time_per_call(n, |i| cut.rebuild(&maps[i % maps.len()].1)));
+    row("coherent cut: 300 leaves from the tables", time_per_call(n, |_| cut.lights_of_tables(300, &mut cut_out)));
     let m = &maps[0].1;
     let mut dist = PolarDistribution::default();
     row("CDFs", time_per_call(n, |_| {

@@ -15,18 +15,21 @@ use heliar::vem::eval::synth::Environment;
 use heliar::vem::peaks::PeakTracker;
 use heliar::vem::polar::{IrradianceReference, PolarMap};
 use heliar::vem::sampling::SamplerKind;
+use heliar::vem::sampling::coherent_cut::CoherentCut;
 use heliar::vem::sampling::pattern::Pattern;
 use heliar::vem::{Light, irradiance, lights_of_map, lights_with_peaks};
 use std::path::Path;
 
 /// (name, sampler, peaks).
-const VARIANTS: [(&str, SamplerKind, bool); 6] = [
+const VARIANTS: [(&str, SamplerKind, bool); 8] = [
     ("havran", SamplerKind::Havran, false),
     ("havran_centres", SamplerKind::HavranCentres, false),
     ("standard", SamplerKind::Standard, false),
     ("median_cut", SamplerKind::MedianCut, false),
+    ("coherent_cut", SamplerKind::CoherentCut, false),
     ("havran+peaks", SamplerKind::Havran, true),
     ("median_cut+peaks", SamplerKind::MedianCut, true),
+    ("coherent_cut+peaks", SamplerKind::CoherentCut, true),
 ];
 const COUNTS: [usize; 3] = [64, 128, 300];
 
@@ -41,16 +44,49 @@ struct Row {
     max: f64,
     ms: f64,
     flicker: f64,
+    /// Median and 95th percentile of the angle each light index moves from frame to frame, degrees.
+    motion: (f64, f64),
+}
+
+/// One frame's unfiltered lights. The coherent cut keeps its state (its axes) from frame to
+/// frame, as in the decomposer; the others are per frame.
+fn frame_lights(cut: &mut CoherentCut, tracker: &mut PeakTracker, m: &PolarMap, kind: SamplerKind, peaks: bool, n: usize) -> Vec<Light> {
+    if kind != SamplerKind::CoherentCut {
+        return if peaks { lights_with_peaks(tracker, m, kind, Pattern::RelaxedHalton, n) } else { lights_of_map(m, kind, Pattern::RelaxedHalton, n) };
+    }
+    let mut out = Vec::with_capacity(n);
+    if peaks {
+        tracker.split(m, n - 1);
+        cut.lights(tracker.remainder(), n - tracker.peaks().len(), &mut out);
+        out.extend_from_slice(tracker.peaks());
+    } else {
+        cut.lights(m, n, &mut out);
+    }
+    out
+}
+
+/// Angles (degrees) each index of `b` moved from `a`.
+fn index_motion(a: &[Light], b: &[Light], out: &mut Vec<f64>) {
+    let by_index: std::collections::HashMap<u32, glam::Vec3> = a.iter().map(|l| (l.index, l.dir)).collect();
+    for l in b {
+        if let Some(d) = by_index.get(&l.index) {
+            out.push(((d.dot(l.dir)).clamp(-1.0, 1.0) as f64).acos().to_degrees());
+        }
+    }
 }
 
 fn measure(maps: &[PolarMap], normals: &[glam::Vec3], refs: &[Vec<f64>], kind: SamplerKind, peaks: bool, n: usize) -> Row {
-    let mut tracker = PeakTracker::new();
-    let (mut rel, mut ms, mut flick) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut tracker, mut cut) = (PeakTracker::new(), CoherentCut::new());
+    let (mut rel, mut ms, mut flick, mut moved) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut prev: Option<Vec<f64>> = None;
+    let mut prev_lights: Vec<Light> = Vec::new();
     for (k, m) in maps.iter().enumerate() {
         let t = std::time::Instant::now();
-        let lights: Vec<Light> = if peaks { lights_with_peaks(&mut tracker, m, kind, Pattern::RelaxedHalton, n) } else { lights_of_map(m, kind, Pattern::RelaxedHalton, n) };
+        let lights = frame_lights(&mut cut, &mut tracker, m, kind, peaks, n);
         ms.push(t.elapsed().as_secs_f64() * 1e3);
+        if k > 0 {
+            index_motion(&prev_lights, &lights, &mut moved);
+        }
         let est: Vec<f64> = normals.iter().map(|&nrm| lum(irradiance(&lights, nrm))).collect();
         for (a, b) in est.iter().zip(&refs[k]) {
             rel.push((a - b).abs() / b.max(1e-300));
@@ -62,6 +98,7 @@ fn measure(maps: &[PolarMap], normals: &[glam::Vec3], refs: &[Vec<f64>], kind: S
             }
         }
         prev = Some(est);
+        prev_lights = lights;
     }
     Row {
         mean: rel.iter().sum::<f64>() / rel.len().max(1) as f64,
@@ -69,6 +106,7 @@ fn measure(maps: &[PolarMap], normals: &[glam::Vec3], refs: &[Vec<f64>], kind: S
         max: rel.iter().cloned().fold(0.0, f64::max),
         ms: median(&ms),
         flicker: (flick.iter().map(|d| d * d).sum::<f64>() / flick.len().max(1) as f64).sqrt(),
+        motion: (median(&moved), percentile(&moved, 0.95)),
     }
 }
 
@@ -96,23 +134,28 @@ fn print_peaks(maps: &[PolarMap]) {
     );
 }
 
-/// The temporal filters on the same sequence (N = 300, Havran): each output frame's lights
-/// against its own frame's map (`heliar::vem::eval::lag`).
+/// The temporal filters on the same sequence (N = 300): each output frame's lights against its
+/// own frame's map (`heliar::vem::eval::lag`), for Havran's samples and the coherent cut (with
+/// and without peaks).
 fn print_lag(maps: &[PolarMap], normals: &[glam::Vec3], refs: &[Vec<f64>]) -> Result<()> {
     use heliar::vem::eval::lag::{lag_error, unfiltered_error};
     use heliar::vem::fir::Temporal;
-    let cfg = |temporal| heliar::vem::VemConfig { lights: 300, temporal, ..Default::default() };
-    let mut t = Table::new(&["filter", "delay_frames", "err_mean_pct", "err_p95_pct", "err_max_pct"]);
-    let rows = [
-        ("none (unfiltered)", unfiltered_error(maps, &cfg(Temporal::Causal), normals, refs)),
-        ("zero phase (files)", lag_error(maps, cfg(Temporal::ZeroPhase), normals, refs)?),
-        ("minimum phase (live)", lag_error(maps, cfg(Temporal::MinimumPhase), normals, refs)?),
-        ("causal, the paper's", lag_error(maps, cfg(Temporal::Causal), normals, refs)?),
-    ];
-    for (name, e) in rows {
-        t.push(vec![name.into(), format!("{:.2}", e.delay_frames), format!("{:.3}", 100.0 * e.mean), format!("{:.3}", 100.0 * e.p95), format!("{:.3}", 100.0 * e.max)]);
+    let mut t = Table::new(&["sampler", "filter", "delay_frames", "err_mean_pct", "err_p95_pct", "err_max_pct"]);
+    for (sname, sampler, peaks) in [("havran", SamplerKind::Havran, false), ("coherent_cut", SamplerKind::CoherentCut, false), ("coherent_cut+peaks", SamplerKind::CoherentCut, true)] {
+        let cfg = |temporal| heliar::vem::VemConfig { lights: 300, temporal, sampler, peaks, ..Default::default() };
+        let mut rows = vec![
+            ("zero phase (files)", lag_error(maps, cfg(Temporal::ZeroPhase), normals, refs)?),
+            ("minimum phase (live)", lag_error(maps, cfg(Temporal::MinimumPhase), normals, refs)?),
+            ("causal, the paper's", lag_error(maps, cfg(Temporal::Causal), normals, refs)?),
+        ];
+        if !peaks {
+            rows.insert(0, ("none (unfiltered)", unfiltered_error(maps, &cfg(Temporal::Causal), normals, refs)));
+        }
+        for (name, e) in rows {
+            t.push(vec![sname.into(), name.into(), format!("{:.2}", e.delay_frames), format!("{:.3}", 100.0 * e.mean), format!("{:.3}", 100.0 * e.p95), format!("{:.3}", 100.0 * e.max)]);
+        }
     }
-    println!("temporal filter: each output frame's lights (N = 300, Havran) against the integral of its own frame's map");
+    println!("temporal filter: each output frame's lights (N = 300) against the integral of its own frame's map");
     print!("{t}");
     Ok(())
 }
@@ -123,21 +166,7 @@ pub fn sun_sweep(normals_wanted: usize, csv: &Path) -> Result<()> {
     // Upper hemisphere: fold the uniform sphere normals up.
     let normals: Vec<glam::Vec3> = random_normals(normals_wanted.max(64), 777).into_iter().map(|n| glam::Vec3::new(n.x, n.y.abs().max(1e-3), n.z).normalize()).collect();
     let refs: Vec<Vec<f64>> = maps.iter().map(|m| reference_irradiance(&IrradianceReference::new(m, 2), &normals)).collect();
-    let mut table = Table::new(&["lights", "variant", "err_mean_pct", "err_p95_pct", "err_max_pct", "ms_per_frame", "excess_flicker_rms_pct"]);
-    for &n in &COUNTS {
-        for &(name, kind, peaks) in &VARIANTS {
-            let r = measure(&maps, &normals, &refs, kind, peaks, n);
-            table.push(vec![
-                n.to_string(),
-                name.into(),
-                format!("{:.3}", 100.0 * r.mean),
-                format!("{:.3}", 100.0 * r.p95),
-                format!("{:.3}", 100.0 * r.max),
-                format!("{:.4}", r.ms),
-                format!("{:.3}", 100.0 * r.flicker),
-            ]);
-        }
-    }
+    let table = variant_table(&maps, &normals, &refs, &VARIANTS);
     println!(
         "sun-dominated sequence ({} frames, Hošek–Wilkie T = {}, sun {:.0}% of the power, a cloud crossing it): unfiltered lights per frame, error against the brute-force integral at {} upper-hemisphere normals, median time per frame (one core), excess flicker",
         maps.len(),
@@ -150,5 +179,56 @@ pub fn sun_sweep(normals_wanted: usize, csv: &Path) -> Result<()> {
     print_lag(&maps, &normals, &refs)?;
     table.write_csv(csv).with_context(|| format!("writing {}", csv.display()))?;
     println!("wrote {}", csv.display());
+    other_sequences(&normals)
+}
+
+/// The error, time, flicker and motion table of `variants` on one sequence.
+fn variant_table(maps: &[PolarMap], normals: &[glam::Vec3], refs: &[Vec<f64>], variants: &[(&str, SamplerKind, bool)]) -> Table {
+    let mut table = Table::new(&["lights", "variant", "err_mean_pct", "err_p95_pct", "err_max_pct", "ms_per_frame", "excess_flicker_rms_pct", "motion_median_deg", "motion_p95_deg"]);
+    for &n in &COUNTS {
+        for &(name, kind, peaks) in variants {
+            let r = measure(maps, normals, refs, kind, peaks, n);
+            table.push(vec![
+                n.to_string(),
+                name.into(),
+                format!("{:.3}", 100.0 * r.mean),
+                format!("{:.3}", 100.0 * r.p95),
+                format!("{:.3}", 100.0 * r.max),
+                format!("{:.4}", r.ms),
+                format!("{:.3}", 100.0 * r.flicker),
+                format!("{:.4}", r.motion.0),
+                format!("{:.3}", r.motion.1),
+            ]);
+        }
+    }
+    table
+}
+
+/// The same measures on the sequences of the plain `bench vem` (`heliar::vem::eval::synth`):
+/// outdoor (a sun crossed by a cloud, drifting clouds), overcast (the same without the sun) and
+/// indoor (a lamp flickering at 115 Hz and a window), [`OTHER_FRAMES`] frames each.
+fn other_sequences(normals: &[glam::Vec3]) -> Result<()> {
+    use heliar::vem::eval::synth::{self, OutdoorSky};
+    const OTHER: [(&str, SamplerKind, bool); 5] = [
+        ("havran", SamplerKind::Havran, false),
+        ("median_cut", SamplerKind::MedianCut, false),
+        ("coherent_cut", SamplerKind::CoherentCut, false),
+        ("median_cut+peaks", SamplerKind::MedianCut, true),
+        ("coherent_cut+peaks", SamplerKind::CoherentCut, true),
+    ];
+    let render = |env: &dyn Environment| synth::render_polar(env, 360, 90, 2);
+    let sequences: [(&str, Vec<PolarMap>); 3] = [
+        ("outdoor", (0..OTHER_FRAMES).map(|k| render(&synth::outdoor(k, synth::RATE_HZ))).collect()),
+        ("overcast", (0..OTHER_FRAMES).map(|k| render(&OutdoorSky { sun_irradiance: [0.0; 3], ..synth::outdoor(k, synth::RATE_HZ) })).collect()),
+        ("indoor", (0..OTHER_FRAMES).map(|k| render(&synth::indoor_lamp(k, synth::RATE_HZ))).collect()),
+    ];
+    for (name, maps) in &sequences {
+        let refs: Vec<Vec<f64>> = maps.iter().map(|m| reference_irradiance(&IrradianceReference::new(m, 2), normals)).collect();
+        println!("{name} sequence ({} frames, `heliar::vem::eval::synth`): the same measures", maps.len());
+        print!("{}", variant_table(maps, normals, &refs, &OTHER));
+    }
     Ok(())
 }
+
+/// Frames of each of [`other_sequences`]' sequences.
+const OTHER_FRAMES: usize = 24;

@@ -17,7 +17,7 @@ use std::path::PathBuf;
 /// The inverse transform, as named on the command line.
 #[derive(Clone, Copy, ValueEnum)]
 pub enum SamplerArg {
-    /// Havran's continuous transform (default).
+    /// Havran's continuous transform (progressive: adding lights moves none).
     Havran,
     /// Havran's transform interpolating between ring centres (the paper's description).
     HavranCentres,
@@ -25,6 +25,9 @@ pub enum SamplerArg {
     Standard,
     /// Debevec's median cut (a baseline: lights of unequal power, not temporally filtered).
     MedianCut,
+    /// The temporally coherent median cut (default): equal-energy leaves of a fixed kd-tree,
+    /// stable indices, temporally filtered (not progressive: adding lights moves the others).
+    CoherentCut,
 }
 
 impl From<SamplerArg> for SamplerKind {
@@ -34,6 +37,7 @@ impl From<SamplerArg> for SamplerKind {
             SamplerArg::HavranCentres => SamplerKind::HavranCentres,
             SamplerArg::Standard => SamplerKind::Standard,
             SamplerArg::MedianCut => SamplerKind::MedianCut,
+            SamplerArg::CoherentCut => SamplerKind::CoherentCut,
         }
     }
 }
@@ -107,8 +111,8 @@ pub struct VemArgs {
     /// its minimum-phase version (low delay).
     #[arg(long, value_enum, default_value = "zero-phase")]
     temporal: TemporalArg,
-    /// Inverse transform.
-    #[arg(long, value_enum, default_value = "havran")]
+    /// How the map becomes lights (best with --peaks).
+    #[arg(long, value_enum, default_value = "coherent-cut")]
     sampler: SamplerArg,
     /// Give concentrated peaks (the sun) lights of their own, at their measured power and
     /// tracked from frame to frame, and sample the rest of the map with the other lights.

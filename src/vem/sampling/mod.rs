@@ -16,6 +16,8 @@
 //!   paper's [PH04]) over the `(φ, θ)` parameter square: the baseline.
 //! - [`median_cut`]: Debevec's median cut (a second baseline, `--sampler median-cut`): `N`
 //!   regions of equal energy from a summed-area table, one light of the region's power each.
+//! - [`coherent_cut`]: the temporally coherent median cut (`--sampler coherent-cut`): a fixed
+//!   heap-shaped kd-tree with continuous equal-energy cuts, one light per leaf, stable indices.
 //! - Both expose the triad `sample_*`, `*_pdf`, `invert_*`; [`PolarDistribution::sample`],
 //!   [`PolarDistribution::pdf`], [`PolarDistribution::invert`] and
 //!   [`PolarDistribution::integral`] dispatch on [`SamplerKind`].
@@ -24,6 +26,7 @@
 //! and the colour of the light where it landed ([`PolarDistribution::light_rgb`]), so that the
 //! sum over lights is an unbiased estimate of every RGB channel.
 
+pub mod coherent_cut;
 pub mod havran;
 pub mod median_cut;
 pub mod pattern;
@@ -39,8 +42,8 @@ use glam::{Vec2, Vec3};
 pub enum SamplerKind {
     /// Havran's continuous transform with the conditional CDFs of neighbouring rings blended over
     /// a band of at most half the lighter ring's mass on each side of their boundary (the
-    /// default; see [`havran`] for why).
-    #[default]
+    /// default before the coherent cut; see [`havran`] for why). Progressive: adding lights moves
+    /// none.
     Havran,
     /// Havran's transform with the conditional CDFs interpolated linearly between ring centres,
     /// as the paper describes it.
@@ -52,6 +55,14 @@ pub enum SamplerKind {
     /// `None` and [`PolarDistribution::pdf`] 0 for it; [`crate::vem::lights_of_map`] and the
     /// [`crate::vem::Decomposer`] build its lights with [`median_cut::median_cut_lights`].
     MedianCut,
+    /// The temporally coherent median cut ([`coherent_cut`]): a fixed equal-energy kd-tree with
+    /// continuous cuts, one light of power `P/N` per leaf at its energy centroid, the leaf's
+    /// index as the light's identity (so the temporal filter follows it). Not an inverse
+    /// transform: [`PolarDistribution::sample`] and [`PolarDistribution::invert`] give `None`
+    /// and [`PolarDistribution::pdf`] 0 for it. The default: it beats median cut at equal `N`
+    /// (`heliar bench vem --what sun`) and follows its lights in time; it is not progressive.
+    #[default]
+    CoherentCut,
 }
 
 impl SamplerKind {
@@ -62,6 +73,7 @@ impl SamplerKind {
             SamplerKind::HavranCentres => "havran_centres",
             SamplerKind::Standard => "standard",
             SamplerKind::MedianCut => "median_cut",
+            SamplerKind::CoherentCut => "coherent_cut",
         }
     }
 }
@@ -268,7 +280,7 @@ impl PolarDistribution {
             SamplerKind::Havran => self.sample_havran(u, havran::RingBlend::Lighter),
             SamplerKind::HavranCentres => self.sample_havran(u, havran::RingBlend::Centres),
             SamplerKind::Standard => self.sample_standard(u),
-            SamplerKind::MedianCut => None,
+            SamplerKind::MedianCut | SamplerKind::CoherentCut => None,
         }
     }
 
@@ -278,7 +290,7 @@ impl PolarDistribution {
             SamplerKind::Havran => self.havran_pdf(dir, havran::RingBlend::Lighter),
             SamplerKind::HavranCentres => self.havran_pdf(dir, havran::RingBlend::Centres),
             SamplerKind::Standard => self.standard_pdf(dir),
-            SamplerKind::MedianCut => 0.0,
+            SamplerKind::MedianCut | SamplerKind::CoherentCut => 0.0,
         }
     }
 
@@ -289,7 +301,7 @@ impl PolarDistribution {
             SamplerKind::Havran => self.invert_havran(dir, havran::RingBlend::Lighter),
             SamplerKind::HavranCentres => self.invert_havran(dir, havran::RingBlend::Centres),
             SamplerKind::Standard => self.invert_standard(dir),
-            SamplerKind::MedianCut => None,
+            SamplerKind::MedianCut | SamplerKind::CoherentCut => None,
         }
     }
 

@@ -51,7 +51,7 @@ pub fn tempered_map(map: &PolarMap, gamma: f32) -> PolarMap {
 pub fn tempered_lights(map: &PolarMap, kind: SamplerKind, pat: Pattern, n: usize, gamma: f32) -> Vec<Light> {
     let orig = PolarDistribution::new(map);
     let dist = PolarDistribution::new(&tempered_map(map, gamma));
-    if orig.is_empty() || dist.is_empty() || n == 0 || kind == SamplerKind::MedianCut {
+    if orig.is_empty() || dist.is_empty() || n == 0 || matches!(kind, SamplerKind::MedianCut | SamplerKind::CoherentCut) {
         return Vec::new();
     }
     let mut lights: Vec<Light> = (0..n)
