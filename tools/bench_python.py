@@ -8,6 +8,12 @@
    overhead per chunk (its wall time minus its frames at the one-process rate).
 
     target/venv/bin/python tools/bench_python.py [--repeat 4] [--chunk 12] [--heliar target/debug/heliar]
+        [--scene DIR] [--frames N] [--fps F] [--warmup K] [--skip-binding] [--json OUT]
+
+`--frames N` repeats the clip to N frames (instead of `--repeat`) at `--fps F` (default: the
+sequence's own rate), so e.g. `--frames 1800 --fps 30` is a minute of 30 fps footage; `--scene`
+takes another scene with an `hdr` sequence (e.g. the courtyard generated at 640×480 by
+`gen-courtyard --width 640 --height 480`).
 """
 
 import argparse
@@ -58,41 +64,46 @@ def binding_overhead(args):
     return {"python_wall_ms_median": wall, "library_ms_median": statistics.median(r[1] for r in rows), "overhead_ms_median": over, "estimate_overhead_ms_median": statistics.median(r[2] for r in rows)}
 
 
-def long_scene(tmp: Path, repeat: int) -> tuple:
+def long_scene(tmp: Path, scene: Path, frames: int, fps: float) -> tuple:
+    """A copy of `scene` with a sequence `long`: its `hdr` frames repeated to `frames` frames."""
     root = tmp / "courtyard"
-    shutil.copytree(SCENE, root, ignore=shutil.ignore_patterns("reference", "baked"), copy_function=link_frames)
+    shutil.copytree(scene, root, ignore=shutil.ignore_patterns("reference", "baked"), copy_function=link_frames)
     d = root / "frames" / "long"
     d.mkdir(parents=True)
-    src = sorted((SCENE / "frames" / "hdr").glob("*.exr"))
-    for k in range(repeat):
-        for i, f in enumerate(src):
-            os.link(f, d / f"frame_{k * len(src) + i:05d}.exr")
+    src = sorted((scene / "frames" / "hdr").glob("*.exr"))
+    for k in range(frames):
+        os.link(src[k % len(src)], d / f"frame_{k:06d}.exr")
     with (root / "scene.toml").open("a") as f:
-        f.write('\n[[sequences]]\nname = "long"\ndir = "frames/long"\nstart = "2024-06-21T15:30:00+02:00"\nfps = 0.1\n')
-    return root, d, repeat * len(src)
+        f.write(f'\n[[sequences]]\nname = "long"\ndir = "frames/long"\nstart = "2024-06-21T15:30:00+02:00"\nfps = {fps}\n')
+    return root, d, frames
 
 
 def throughput(args, exe):
     out = {}
     with tempfile.TemporaryDirectory(dir=REPO / "target") as tmp:
         tmp = Path(tmp)
-        scene, clip, n = long_scene(tmp, args.repeat)
+        frames = args.frames or args.repeat * 12
+        scene, clip, n = long_scene(tmp, Path(args.scene), frames, args.fps)
         extra = ["--samples", str(args.samples)]
+        t0 = time.time()
         subprocess.run([exe, "bake", str(scene)], check=True, capture_output=True)
+        out["bake_s"] = time.time() - t0
         env = dict(os.environ, RAYON_NUM_THREADS="1", LP_NUM_THREADS="1")
         t0 = time.time()
         subprocess.run([exe, "augment", str(scene), "--input", str(clip), "--output", str(tmp / "one"), *extra], check=True, capture_output=True, env=env)
         one = time.time() - t0
         out["frames"] = n
         out["one_process"] = {"wall_s": one, "fps": n / one}
+        print(f"one process: {n} frames in {one:.1f} s, {n / one:.2f} frames/s", file=sys.stderr, flush=True)
         import ray
 
         for workers in (1, 2):
             ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
-            s = hray.augment(str(scene), [str(clip)], str(tmp / f"ray{workers}"), chunk_frames=args.chunk, extra_args=extra, heliar=exe, progress=False)
+            s = hray.augment(str(scene), [str(clip)], str(tmp / f"ray{workers}"), chunk_frames=args.chunk, warmup=args.warmup, extra_args=extra, heliar=exe, progress=False)
             ray.shutdown()
             per_frame = one / n
             overhead = [w - args.chunk * per_frame for w in s["chunk_wall_s"]]
+            print(f"ray {workers}: {n / s['wall_s']:.2f} frames/s", file=sys.stderr, flush=True)
             out[f"ray_{workers}"] = {"wall_s": s["wall_s"], "fps": n / s["wall_s"], "chunks": s["chunks"], "bake_s": s["bake_s"], "merge_s": s["merge_s"], "chunk_wall_s": s["chunk_wall_s"], "overhead_per_chunk_s_median": statistics.median(overhead)}
     return out
 
@@ -104,13 +115,23 @@ def main():
     ap.add_argument("--samples", type=int, default=4)
     ap.add_argument("--heliar", default=None)
     ap.add_argument("--skip-ray", action="store_true")
+    ap.add_argument("--skip-binding", action="store_true")
+    ap.add_argument("--scene", default=str(SCENE), help="a scene with an `hdr` sequence (default: the bundled courtyard)")
+    ap.add_argument("--frames", type=int, default=None, help="frames of the long clip (default: 12 × --repeat)")
+    ap.add_argument("--fps", type=float, default=0.1, help="the long clip's frame rate (default 0.1, the bundled clip's)")
+    ap.add_argument("--warmup", type=int, default=None, help="augment --warmup of the Ray chunks (default: all earlier frames)")
+    ap.add_argument("--json", default=None, help="also write the results here")
     args = ap.parse_args()
     exe = hray.find_heliar(args.heliar or str(REPO / "target" / "debug" / "heliar"))
-    res = {"binding": binding_overhead(args)}
-    print(json.dumps(res, indent=2), flush=True)
+    res = {"args": vars(args), "heliar": exe}
+    if not args.skip_binding:
+        res["binding"] = binding_overhead(args)
+        print(json.dumps(res, indent=2), flush=True)
     if not args.skip_ray:
         res["throughput"] = throughput(args, exe)
     print(json.dumps(res, indent=2))
+    if args.json:
+        Path(args.json).write_text(json.dumps(res, indent=2) + "\n")
 
 
 if __name__ == "__main__":
