@@ -5,7 +5,7 @@
 //! decoding it to the end, since containers' frame counts can be wrong (a truncated file, a
 //! variable-rate stream); the container's own count is printed beside it.
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use clap::Args;
 use heliar::run::source::{FolderSource, FrameSource, is_video_path};
 use std::path::PathBuf;
@@ -34,6 +34,7 @@ pub fn run(a: FramesArgs) -> Result<()> {
 
 #[cfg(feature = "opencv")]
 fn video(p: &std::path::Path) -> Result<serde_json::Value> {
+    use anyhow::Context;
     let mut v = heliar::io::video::VideoSource::open_file(p)?;
     let (container, fps, (w, h)) = (v.frame_count(), v.fps(), v.size());
     let mut n = 0u64;
