@@ -18,15 +18,16 @@ pub struct FramesArgs {
 
 pub fn run(a: FramesArgs) -> Result<()> {
     let p = &a.input;
+    if !p.exists() {
+        bail!("{}: no such file or folder", p.display());
+    }
     let v = if p.is_dir() {
         let src = FolderSource::open(p, 1.0)?;
         serde_json::json!({ "input": p.display().to_string(), "kind": "folder", "frames": src.len() })
     } else if is_video_path(p) {
         video(p)?
-    } else if p.exists() {
-        bail!("{}: neither a folder of frames nor a video (.mp4, .mkv, .avi, .mov, …)", p.display());
     } else {
-        bail!("{}: no such file or folder", p.display());
+        bail!("{}: neither a folder of frames nor a video (.mp4, .mkv, .avi, .mov, …)", p.display());
     };
     println!("{v}");
     Ok(())
