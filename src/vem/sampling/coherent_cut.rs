@@ -350,17 +350,8 @@ pub fn coherent_cut_lights(map: &PolarMap, n: usize) -> Vec<Light> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::vem::sampling::lights_power as power;
     use glam::Vec3;
-
-    fn power(l: &[Light]) -> [f64; 3] {
-        let mut p = [0.0; 3];
-        for x in l {
-            for c in 0..3 {
-                p[c] += x.rgb[c] as f64;
-            }
-        }
-        p
-    }
 
     fn angle(a: Vec3, b: Vec3) -> f64 {
         (a.dot(b).clamp(-1.0, 1.0) as f64).acos()

@@ -182,16 +182,7 @@ pub fn median_cut_lights(map: &PolarMap, n: usize) -> Vec<Light> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn power(l: &[Light]) -> [f64; 3] {
-        let mut p = [0.0; 3];
-        for x in l {
-            for c in 0..3 {
-                p[c] += x.rgb[c] as f64;
-            }
-        }
-        p
-    }
+    use crate::vem::sampling::lights_power as power;
 
     #[test]
     fn total_power_is_conserved_and_n_lights_are_returned() {

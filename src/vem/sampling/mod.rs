@@ -26,6 +26,18 @@
 //! and the colour of the light where it landed ([`PolarDistribution::light_rgb`]), so that the
 //! sum over lights is an unbiased estimate of every RGB channel.
 
+/// The summed `rgb` of `lights` (the map's power they carry), for the samplers' tests.
+#[cfg(test)]
+pub(crate) fn lights_power(lights: &[crate::vem::Light]) -> [f64; 3] {
+    let mut p = [0.0; 3];
+    for x in lights {
+        for (c, v) in p.iter_mut().zip(x.rgb) {
+            *c += v as f64;
+        }
+    }
+    p
+}
+
 pub mod coherent_cut;
 pub mod havran;
 pub mod median_cut;
