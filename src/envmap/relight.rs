@@ -19,7 +19,9 @@
 use super::bake::{Baked, SKY};
 pub use crate::scene::settings::RelightConfig;
 use crate::lighting::Lighting;
-use crate::geometry::ambient::transport;
+use crate::geometry::ambient::{TransportQuality, transport, transport_under};
+use crate::geometry::equirect::dir_from_texel_centre;
+use crate::sky::radiance::{ShapeMinusUniform, SkyModel, SkyRadiance};
 use crate::geometry::raycast::RayScene;
 use crate::io::image::LinearImage;
 use glam::Vec3;
@@ -65,8 +67,13 @@ impl RelitMap {
 struct SunPlanes {
     dir: Vec3,
     direct: [Vec<f32>; 3],
+    /// Under a shaped sky or with terrain: the ambient plane for this sun, sky texels included
+    /// (replaces the fixed ambient and sky planes).
+    ambient: Option<[Vec<f32>; 3]>,
     lit_texels: usize,
 }
+
+
 
 /// Relights a baked environment map.
 pub struct Relighter {
@@ -81,6 +88,9 @@ pub struct Relighter {
     sun: Option<SunPlanes>,
     config: RelightConfig,
     ray: Arc<RayScene>,
+    /// The bake's weighted-ambient factor `c` per texel (Jensen's uniform sky).
+    c_uniform: Vec<Vec3>,
+    sky_model: SkyModel,
 }
 
 /// What [`Relighter::update_sun`] did.
@@ -115,7 +125,27 @@ impl Relighter {
             sun: None,
             config,
             ray,
+            c_uniform: baked.ambient.clone(),
+            sky_model: SkyModel::uniform(),
         }
+    }
+
+    /// Relights under `sky` instead of Jensen's uniform sky: the sky texels take its radiance for
+    /// the current sun (the terrain below the horizon included) and the surface texels' `c` its
+    /// shape, both rebuilt with the sun planes.
+    pub fn with_sky(mut self, sky: SkyModel) -> Self {
+        self.sky_model = sky;
+        self
+    }
+
+    /// The sky model.
+    pub fn sky_model(&self) -> &SkyModel {
+        &self.sky_model
+    }
+
+    /// The sky of the current sun planes (`None` before the first: the sky without a sun).
+    pub fn sky_for_current_sun(&self) -> SkyRadiance {
+        self.sky_model.for_sun(self.sun.as_ref().map(|s| s.dir))
     }
 
     /// Map size.
@@ -123,14 +153,19 @@ impl Relighter {
         (self.width, self.height)
     }
 
-    /// The fixed ambient plane `ρ·c/π` per channel (zero on sky).
+    /// The ambient plane `ρ·c/π` per channel (zero on sky), fixed under the uniform sky; under
+    /// a shaped one, the current sun's, with the sky texels' radiance per unit `Pa`.
     pub fn ambient_plane(&self) -> &[Vec<f32>; 3] {
-        &self.ambient
+        self.sun.as_ref().and_then(|s| s.ambient.as_ref()).unwrap_or(&self.ambient)
     }
 
-    /// The sky plane (`1/π` on sky texels, zero elsewhere).
-    pub fn sky_plane(&self) -> &[f32] {
-        &self.sky
+    /// The uniform sky plane (`1/π` on sky texels, zero elsewhere); `None` when the current
+    /// ambient plane holds the sky already (a shaped sky).
+    pub fn sky_plane(&self) -> Option<&[f32]> {
+        match self.sun.as_ref().and_then(|s| s.ambient.as_ref()) {
+            Some(_) => None,
+            None => Some(&self.sky),
+        }
     }
 
     /// The direct plane `ρ·(s·cos + b)/π` for the current sun, if built.
@@ -147,6 +182,9 @@ impl Relighter {
             }
         }
         let t0 = std::time::Instant::now();
+        if !self.sky_model.is_uniform() {
+            return self.update_sun_shaped(dir, t0);
+        }
         let n = self.sky.len();
         let cfg = &self.config;
         let vals: Vec<(u32, Vec3, bool)> = self
@@ -171,7 +209,50 @@ impl Relighter {
             lit += s as usize;
         }
         let build_ms = t0.elapsed().as_secs_f64() * 1e3;
-        self.sun = Some(SunPlanes { dir, direct, lit_texels: lit });
+        self.sun = Some(SunPlanes { dir, direct, ambient: None, lit_texels: lit });
+        SunUpdate { rebuilt: true, build_ms, lit_texels: lit }
+    }
+
+    /// [`Self::update_sun`] under a shaped sky or with terrain: per surface texel the sun
+    /// bounce and the change of `c` along the same paths ([`ShapeMinusUniform`]); per sky texel
+    /// the sky's (or the terrain's) radiance per unit `Pa` and `Pd`.
+    fn update_sun_shaped(&mut self, dir: Vec3, t0: std::time::Instant) -> SunUpdate {
+        let n = self.sky.len();
+        let cfg = &self.config;
+        let sky = self.sky_model.for_sun(Some(dir));
+        let delta = ShapeMinusUniform(&sky);
+        let q = if cfg.sun_bounce { cfg.bounce } else { TransportQuality { paths: cfg.bounce.paths.max(1), max_bounces: 0 } };
+        let (w, h) = (self.width, self.height);
+        let texels: Vec<(Vec3, Vec3, bool)> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                if self.sky[i] != 0.0 {
+                    let d = dir_from_texel_centre(i as u32 % w, i as u32 / w, w, h);
+                    let (pa, pd) = sky.escape(d).unwrap_or((Vec3::ZERO, Vec3::ZERO));
+                    return (pa * FRAC_1_PI, pd * FRAC_1_PI, false);
+                }
+                let (p, nn) = (self.position[i], self.normal[i]);
+                let cos = nn.dot(dir).max(0.0);
+                let s = cos > 0.0 && self.ray.sees_direction(p, nn, dir);
+                let sun = cfg.sun_bounce.then_some(dir);
+                let t = transport_under(&self.ray, p, nn, sun, &delta, q, 0x5e1f_0000 + i as u64);
+                let rho = self.albedo[i] * FRAC_1_PI;
+                let c = (self.c_uniform[i] + t.c).max(Vec3::ZERO);
+                (rho * c, rho * (Vec3::splat(if s { cos } else { 0.0 }) + t.b), s)
+            })
+            .collect();
+        let mut direct: [Vec<f32>; 3] = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        let mut ambient: [Vec<f32>; 3] = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        let mut lit = 0;
+        for (i, (a, d, s)) in texels.into_iter().enumerate() {
+            for c in 0..3 {
+                ambient[c][i] = a[c];
+                direct[c][i] = d[c];
+            }
+            lit += s as usize;
+        }
+        let build_ms = t0.elapsed().as_secs_f64() * 1e3;
+        self.sun = Some(SunPlanes { dir, direct, ambient: Some(ambient), lit_texels: lit });
         SunUpdate { rebuilt: true, build_ms, lit_texels: lit }
     }
 
@@ -183,14 +264,24 @@ impl Relighter {
             *out = RelitMap::new(self.width, self.height);
         }
         let direct = self.sun.as_ref().filter(|_| lighting.above_horizon).map(|s| &s.direct);
+        // A shaped sky's ambient plane holds the sky texels: the uniform sky plane adds nothing.
+        let zeros;
+        let sky_plane: &[f32] = match self.sky_plane() {
+            Some(p) => p,
+            None => {
+                zeros = vec![0.0f32; n];
+                &zeros
+            }
+        };
+        let ambient = self.ambient_plane();
         for c in 0..3 {
             let (pa, pd) = (lighting.pa[c], if direct.is_some() { lighting.pd[c] } else { 0.0 });
-            let amb = &self.ambient[c];
+            let amb = &ambient[c];
             let dir_plane = direct.map(|d| &d[c]);
             out.rgb[c].par_chunks_mut(CHUNK).enumerate().for_each(|(k, dst)| {
                 let s = k * CHUNK;
                 let e = s + dst.len();
-                let (a, sky) = (&amb[s..e], &self.sky[s..e]);
+                let (a, sky) = (&amb[s..e], &sky_plane[s..e]);
                 match dir_plane {
                     Some(d) => {
                         let d = &d[s..e];

@@ -30,8 +30,8 @@ use super::pool::Pool;
 use crate::geometry::raycast::RayScene;
 use crate::scene::settings::{SkyShape, SkyTermsConfig};
 use crate::sky::SkyError;
-use crate::sky::hosek::HosekSky;
-use crate::sky::quadrature::{CosineSet, hemisphere_integral_rgb};
+use crate::sky::quadrature::CosineSet;
+use crate::sky::radiance::ShapedSky;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::f32::consts::PI;
@@ -64,7 +64,7 @@ pub struct SunSky {
 #[derive(Clone, Debug)]
 pub struct SkyShapeFn {
     /// `None`: the uniform sky.
-    hosek: Option<(HosekSky, [f32; 3])>,
+    hosek: Option<ShapedSky>,
 }
 
 impl SkyShapeFn {
@@ -72,10 +72,7 @@ impl SkyShapeFn {
     fn eval(&self, d: Vec3) -> [f32; 3] {
         match &self.hosek {
             None => [1.0 / PI; 3],
-            Some((sky, norm)) => {
-                let r = sky.radiance_rgb(d);
-                [r[0] * norm[0], r[1] * norm[1], r[2] * norm[2]]
-            }
+            Some(s) => s.eval(d),
         }
     }
 }
@@ -161,16 +158,7 @@ impl SkyTerms {
     pub fn shape(&self, l: Vec3) -> Result<SkyShapeFn, SkyError> {
         match self.config.shape {
             SkyShape::Uniform => Ok(SkyShapeFn { hosek: None }),
-            SkyShape::HosekWilkie => {
-                let ground = self.config.terrain_albedo.map(|v| v.clamp(0.0, 1.0) as f64);
-                let sky = HosekSky::new(l, self.config.turbidity, ground)?;
-                let integral = hemisphere_integral_rgb(|d| sky.radiance_rgb(d.as_vec3()).map(f64::from));
-                let norm: [f32; 3] = integral.map(|v| (1.0 / v) as f32);
-                if norm.iter().any(|v| !v.is_finite()) {
-                    return Err(SkyError::Parameter { field: "estimator.sky", reason: "gives a sky without light", value: self.config.turbidity });
-                }
-                Ok(SkyShapeFn { hosek: Some((sky, norm)) })
-            }
+            SkyShape::HosekWilkie => Ok(SkyShapeFn { hosek: Some(ShapedSky::hosek(l, self.config.turbidity, self.config.terrain_albedo, "estimator.sky")?) }),
         }
     }
 

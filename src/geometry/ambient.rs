@@ -7,8 +7,10 @@
 //! bake), so it is written once, here.
 //!
 //! # How it works
-//! The sky is a uniform dome of radiance `1/π` over the upper hemisphere (directions with `y > 0`;
-//! below the horizon, where no proxy geometry is hit, there is no light), so an unoccluded
+//! Under Jensen's model ([`transport`]) the sky is a uniform dome of radiance `1/π` over the upper
+//! hemisphere (directions with `y > 0`; below the horizon, where no proxy geometry is hit, there is
+//! no light); [`transport_under`] takes the scene's sky instead (its shape and the terrain below
+//! the horizon, [`Escape`]), with `c` still per unit `Pa`. Under the uniform sky an unoccluded
 //! horizontal surface receives unit irradiance and an unoccluded vertical one ½. From the point `p` with normal `n`, `paths` cosine-weighted paths are traced
 //! (stratified on the first bounce). With pdf `cos θ/π`, a path that escapes to the sky after
 //! passing Lambertian surfaces of albedos `ρ₁ … ρ_k` contributes `ρ₁⋯ρ_k` to the estimate of `c`
@@ -49,9 +51,34 @@ pub struct Transport {
     pub b: Vec3,
 }
 
-/// Traces the paths of point `p` with facing unit normal `n`. `sun` is the unit direction toward
-/// the sun, or `None` to compute `c` only. Deterministic for a given `seed`.
+/// What a path that leaves the proxy in direction `d` brings back: `π` × the radiance per unit
+/// `Pa` and per unit `Pd`, or `None` for nothing. The scene's sky (`crate::sky::radiance`) and
+/// [`UniformSky`] implement it.
+pub trait Escape: Sync {
+    /// See the trait docs; `d` is a unit direction.
+    fn escape(&self, d: Vec3) -> Option<(Vec3, Vec3)>;
+}
+
+/// Jensen's sky: uniform over the upper hemisphere (`π·L = 1` per unit `Pa`), nothing below.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct UniformSky;
+
+impl Escape for UniformSky {
+    #[inline]
+    fn escape(&self, d: Vec3) -> Option<(Vec3, Vec3)> {
+        (d.y > 0.0).then_some((Vec3::ONE, Vec3::ZERO))
+    }
+}
+
+/// [`transport_under`] Jensen's uniform sky.
 pub fn transport(scene: &RayScene, p: Vec3, n: Vec3, sun: Option<Vec3>, quality: TransportQuality, seed: u64) -> Transport {
+    transport_under(scene, p, n, sun, &UniformSky, quality, seed)
+}
+
+/// Traces the paths of point `p` with facing unit normal `n` under `sky`. `sun` is the unit
+/// direction toward the sun, or `None` to compute `c` only (`sky`'s light per unit `Pd` from
+/// the terrain is added to `b` either way). Deterministic for a given `seed`.
+pub fn transport_under(scene: &RayScene, p: Vec3, n: Vec3, sun: Option<Vec3>, sky: &impl Escape, quality: TransportQuality, seed: u64) -> Transport {
     let mut rng = SmallRng::seed_from_u64(seed ^ 0x9e37_79b9_7f4a_7c15);
     let k = quality.paths.max(1);
     let (mut c, mut b) = (Vec3::ZERO, Vec3::ZERO);
@@ -63,9 +90,9 @@ pub fn transport(scene: &RayScene, p: Vec3, n: Vec3, sun: Option<Vec3>, quality:
         for bounce in 0..=quality.max_bounces {
             let hit = scene.intersect(origin + normal * RAY_EPSILON_M, dir, f32::MAX);
             let Some(hit) = hit else {
-                // The sky is the upper hemisphere; below the horizon there is nothing.
-                if dir.y > 0.0 {
-                    c += throughput;
+                if let Some((pa, pd)) = sky.escape(dir) {
+                    c += throughput * pa;
+                    b += throughput * pd;
                 }
                 break;
             };

@@ -28,6 +28,7 @@ use crate::envmap::relight::{RelitMap, Relighter};
 use crate::geometry::equirect::texel_index;
 use crate::geometry::raycast::RayScene;
 use crate::geometry::sampling::{sample_cosine_around, sample_stratified_2d, sphere_fibonacci};
+use crate::sky::radiance::SkyRadiance;
 use glam::{UVec3, Vec3};
 use rand::{SeedableRng, rngs::SmallRng};
 use rayon::prelude::*;
@@ -67,6 +68,14 @@ pub struct ProbeTransfer {
     texels: Vec<u32>,
     weights: Vec<[f32; sh::N]>,
     sky: Vec<[f32; sh::N]>,
+    /// Per probe, the directions that leave the proxy (above and below the horizon), as
+    /// `escaped[escaped_offsets[i]..escaped_offsets[i + 1]]`: what a shaped sky and the terrain
+    /// light ([`Self::sky_response`]).
+    escaped_offsets: Vec<u32>,
+    escaped: Vec<u32>,
+    /// The directions' SH basis values times their solid angle.
+    basis: Vec<[f32; sh::N]>,
+    dirs: Vec<Vec3>,
     /// Counts.
     pub stats: TransferStats,
 }
@@ -87,58 +96,13 @@ impl ProbeTransfer {
         let mut template = ProbeGrid::filled(min, max, spacing, [[0.0; 3]; sh::N]);
         let dirs = sphere_fibonacci(directions);
         let basis: Vec<[f32; sh::N]> = dirs.iter().map(|d| sh::basis(*d).map(|y| y * 4.0 * PI / directions as f32)).collect();
-        let (w, h) = (baked.width, baked.height);
         let dims = template.dims;
         let n = (dims.x * dims.y * dims.z) as usize;
-        struct ProbeRows {
-            entries: Vec<(u32, [f32; sh::N])>,
-            sky: [f32; sh::N],
-            valid: bool,
-            hits: usize,
-            parallax: usize,
-        }
         let rows: Vec<ProbeRows> = (0..n)
             .into_par_iter()
             .map(|i| {
                 let (x, y, z) = (i as u32 % dims.x, (i as u32 / dims.x) % dims.y, i as u32 / (dims.x * dims.y));
-                let p = template.position(x, y, z);
-                let mut entries: Vec<(u32, [f32; sh::N])> = Vec::with_capacity(directions / 2);
-                let mut sky = [0.0f32; sh::N];
-                let (mut hits, mut back, mut parallax) = (0usize, 0usize, 0usize);
-                for (k, &d) in dirs.iter().enumerate() {
-                    match ray.intersect(p, d, f32::MAX) {
-                        Some(hit) => {
-                            hits += 1;
-                            back += (ray.face_normal(hit.tri).dot(d) > 0.0) as usize;
-                            let to = hit.point - baked.centre;
-                            let t = texel_index(to, w, h);
-                            if (baked.position[t] - hit.point).length() > PARALLAX_REL * to.length() {
-                                parallax += 1;
-                            }
-                            entries.push((t as u32, basis[k]));
-                        }
-                        None if d.y > 0.0 => {
-                            for m in 0..sh::N {
-                                sky[m] += basis[k][m];
-                            }
-                        }
-                        None => {}
-                    }
-                }
-                entries.sort_unstable_by_key(|e| e.0);
-                let mut merged: Vec<(u32, [f32; sh::N])> = Vec::with_capacity(entries.len());
-                for (t, wv) in entries {
-                    match merged.last_mut() {
-                        Some(last) if last.0 == t => {
-                            for m in 0..sh::N {
-                                last.1[m] += wv[m];
-                            }
-                        }
-                        _ => merged.push((t, wv)),
-                    }
-                }
-                let valid = !(hits > 0 && back as f32 > INSIDE_FRACTION * hits as f32);
-                ProbeRows { entries: merged, sky, valid, hits, parallax }
+                trace_probe(template.position(x, y, z), &dirs, &basis, baked, ray)
             })
             .collect();
         let mut out = ProbeTransfer {
@@ -147,6 +111,10 @@ impl ProbeTransfer {
             texels: Vec::new(),
             weights: Vec::new(),
             sky: Vec::with_capacity(n),
+            escaped_offsets: vec![0],
+            escaped: Vec::new(),
+            basis,
+            dirs,
             stats: TransferStats { probes: n, directions, ..Default::default() },
         };
         out.offsets.push(0);
@@ -161,6 +129,8 @@ impl ProbeTransfer {
             }
             out.offsets.push(out.texels.len() as u32);
             out.sky.push(r.sky);
+            out.escaped.extend(r.escaped);
+            out.escaped_offsets.push(out.escaped.len() as u32);
         }
         out.template.valid = template.valid;
         out.stats.entries = out.texels.len();
@@ -227,15 +197,54 @@ impl ProbeTransfer {
             .collect()
     }
 
-    /// The ambient response of the linear path (per unit `Pa`).
+    /// The irradiance SH per unit `Pa` and per unit `Pd` of the light that reaches each probe
+    /// through its escaping directions under `sky` (its shape above the horizon, the terrain
+    /// below).
+    pub fn sky_response(&self, sky: &SkyRadiance) -> (Vec<ShRgb>, Vec<ShRgb>) {
+        let light: Vec<(Vec3, Vec3)> = self.dirs.iter().map(|d| sky.escape(*d).map_or((Vec3::ZERO, Vec3::ZERO), |(a, b)| (a * FRAC_1_PI, b * FRAC_1_PI))).collect();
+        (0..self.probes())
+            .into_par_iter()
+            .map(|i| {
+                let (mut pa, mut pd) = ([[0.0f32; 3]; sh::N], [[0.0f32; 3]; sh::N]);
+                for &k in &self.escaped[self.escaped_offsets[i] as usize..self.escaped_offsets[i + 1] as usize] {
+                    let (a, b) = light[k as usize];
+                    for m in 0..sh::N {
+                        let y = self.basis[k as usize][m];
+                        for ch in 0..3 {
+                            pa[m][ch] += y * a[ch];
+                            pd[m][ch] += y * b[ch];
+                        }
+                    }
+                }
+                let lobe = |v: [[f32; 3]; sh::N]| -> ShRgb { std::array::from_fn(|m| v[m].map(|x| COSINE_LOBE[m] * x)) };
+                (lobe(pa), lobe(pd))
+            })
+            .unzip()
+    }
+
+    /// The ambient response of the linear path (per unit `Pa`). Under a shaped sky or with
+    /// terrain, for the relighter's current sun.
     pub fn ambient_response(&self, relighter: &Relighter) -> Vec<ShRgb> {
-        self.respond(relighter.ambient_plane(), Some(relighter.sky_plane()), true)
+        match relighter.sky_plane().filter(|_| relighter.sky_model().is_uniform()) {
+            Some(sky) => self.respond(relighter.ambient_plane(), Some(sky), true),
+            None => {
+                let surfaces = self.respond(relighter.ambient_plane(), relighter.sky_plane(), false);
+                let (sky, _) = self.sky_response(&relighter.sky_for_current_sun());
+                add(surfaces, &sky)
+            }
+        }
     }
 
     /// The direct response of the linear path (per unit `Pd`) for the relighter's current sun;
-    /// empty when no sun planes are built.
+    /// empty when no sun planes are built. With terrain, its sunlit share is included.
     pub fn direct_response(&self, relighter: &Relighter) -> Vec<ShRgb> {
-        relighter.direct_plane().map(|d| self.respond(d, None, false)).unwrap_or_default()
+        let Some(d) = relighter.direct_plane() else { return Vec::new() };
+        let surfaces = self.respond(d, None, false);
+        if relighter.sky_model().is_uniform() {
+            return surfaces;
+        }
+        let (_, terrain) = self.sky_response(&relighter.sky_for_current_sun());
+        add(surfaces, &terrain)
     }
 
     /// Linear path: `E = ambient·Pa + direct·Pd` per probe and channel.
@@ -254,6 +263,74 @@ impl ProbeTransfer {
             }
         }
     }
+}
+
+/// One probe's rays: the merged texel entries, the sky's SH weights, the escaping directions,
+/// validity and counts.
+struct ProbeRows {
+    entries: Vec<(u32, [f32; sh::N])>,
+    sky: [f32; sh::N],
+    escaped: Vec<u32>,
+    valid: bool,
+    hits: usize,
+    parallax: usize,
+}
+
+/// Casts `dirs` from the probe at `p` (module docs, "Offline, per probe").
+fn trace_probe(p: Vec3, dirs: &[Vec3], basis: &[[f32; sh::N]], baked: &Baked, ray: &RayScene) -> ProbeRows {
+    let (w, h) = (baked.width, baked.height);
+    let directions = dirs.len();
+    let mut entries: Vec<(u32, [f32; sh::N])> = Vec::with_capacity(directions / 2);
+    let mut sky = [0.0f32; sh::N];
+    let mut escaped = Vec::new();
+    let (mut hits, mut back, mut parallax) = (0usize, 0usize, 0usize);
+    for (k, &d) in dirs.iter().enumerate() {
+        match ray.intersect(p, d, f32::MAX) {
+            Some(hit) => {
+                hits += 1;
+                back += (ray.face_normal(hit.tri).dot(d) > 0.0) as usize;
+                let to = hit.point - baked.centre;
+                let t = texel_index(to, w, h);
+                if (baked.position[t] - hit.point).length() > PARALLAX_REL * to.length() {
+                    parallax += 1;
+                }
+                entries.push((t as u32, basis[k]));
+            }
+            None if d.y > 0.0 => {
+                escaped.push(k as u32);
+                for m in 0..sh::N {
+                    sky[m] += basis[k][m];
+                }
+            }
+            None => escaped.push(k as u32),
+        }
+    }
+    entries.sort_unstable_by_key(|e| e.0);
+    let mut merged: Vec<(u32, [f32; sh::N])> = Vec::with_capacity(entries.len());
+    for (t, wv) in entries {
+        match merged.last_mut() {
+            Some(last) if last.0 == t => {
+                for m in 0..sh::N {
+                    last.1[m] += wv[m];
+                }
+            }
+            _ => merged.push((t, wv)),
+        }
+    }
+    let valid = !(hits > 0 && back as f32 > INSIDE_FRACTION * hits as f32);
+    ProbeRows { entries: merged, sky, escaped, valid, hits, parallax }
+}
+
+/// `a + b` probe by probe.
+fn add(mut a: Vec<ShRgb>, b: &[ShRgb]) -> Vec<ShRgb> {
+    for (x, y) in a.iter_mut().zip(b) {
+        for m in 0..sh::N {
+            for ch in 0..3 {
+                x[m][ch] += y[m][ch];
+            }
+        }
+    }
+    a
 }
 
 /// Brute-force irradiance at `p` with unit normal `n`: `samples` cosine-weighted rays (stratified)

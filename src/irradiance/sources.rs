@@ -95,7 +95,7 @@ impl VolumeProbes {
     pub fn new(scene: &Scene, ray: Arc<RayScene>, baked: &Baked) -> Self {
         let (min, max, spacing) = grid_bounds(scene);
         let transfer = ProbeTransfer::build(min, max, spacing, baked, &ray, scene.bake.probe_directions);
-        let relighter = Relighter::new(baked, ray, scene.bake.relight.clone());
+        let relighter = Relighter::new(baked, ray, scene.bake.relight.clone()).with_sky(scene.estimator.sky.sky_model());
         let basis = LinearBasis { ambient: transfer.ambient_response(&relighter), direct: Vec::new() };
         let grid = transfer.grid();
         Self { relighter, transfer, basis, grid, sun_rebuilds: 0, last_rebuild_ms: 0.0 }
@@ -114,6 +114,10 @@ impl VolumeProbes {
             let t = std::time::Instant::now();
             let u = self.relighter.update_sun(sun);
             if u.rebuilt || self.basis.direct.is_empty() {
+                if u.rebuilt && !self.relighter.sky_model().is_uniform() {
+                    // The sky's shape follows the sun.
+                    self.basis.ambient = self.transfer.ambient_response(&self.relighter);
+                }
                 self.basis.direct = self.transfer.direct_response(&self.relighter);
                 self.sun_rebuilds += 1;
                 self.last_rebuild_ms = t.elapsed().as_secs_f64() * 1e3;

@@ -95,6 +95,12 @@ impl Default for SkyTermsConfig {
 }
 
 impl SkyTermsConfig {
+    /// The sky as the path tracers take it (the relight, the probes, the receivers and the
+    /// objects' transfer see the same sky as the estimator).
+    pub fn sky_model(&self) -> crate::sky::radiance::SkyModel {
+        crate::sky::radiance::SkyModel { hosek_turbidity: (self.shape == SkyShape::HosekWilkie).then_some(self.turbidity), terrain_albedo: self.terrain_albedo }
+    }
+
     /// Jensen's model: uniform sky, nothing below the horizon.
     pub fn jensen() -> Self {
         Self { shape: SkyShape::Uniform, terrain_albedo: [0.0; 3], ..Self::default() }

@@ -22,7 +22,7 @@
 //! (see the [module](super) docs: the reference takes `η^{1/3}` and would give NaN).
 
 use super::hosek_data::{DATASET_RGB, DATASET_RGB_RAD};
-use super::{ShapeSun, SkyError, sky_angles};
+use super::{ShapeSun, SkyError};
 use glam::Vec3;
 use std::f64::consts::FRAC_PI_2;
 
@@ -130,9 +130,15 @@ impl HosekSky {
     }
 
     fn eval(&self, ch: usize, cos_theta: f64, gamma: f64) -> f64 {
+        self.eval_cos(ch, cos_theta, gamma, gamma.cos())
+    }
+
+    /// [`Self::eval`] with `cos γ` given (the hot path has it from a dot product).
+    #[inline]
+    fn eval_cos(&self, ch: usize, cos_theta: f64, gamma: f64, cg: f64) -> f64 {
         let c = &self.config[ch];
-        let cg = gamma.cos();
-        let mie = (1.0 + cg * cg) / (1.0 + c[8] * c[8] - 2.0 * c[8] * cg).powf(1.5);
+        let base = 1.0 + c[8] * c[8] - 2.0 * c[8] * cg;
+        let mie = (1.0 + cg * cg) / (base * base.sqrt());
         let horizon = 1.0 + c[0] * (c[1] / (cos_theta + 0.01)).exp();
         horizon * (c[2] + c[3] * (c[4] * gamma).exp() + c[5] * cg * cg + c[6] * mie + c[7] * cos_theta.sqrt()) * self.scale[ch]
     }
@@ -143,8 +149,13 @@ impl HosekSky {
     /// and −0.18 in red at T = 10 (where the sky toward the sun is ≈ 1.4); such values are
     /// clamped to 0.
     pub fn radiance_rgb(&self, dir: Vec3) -> [f32; 3] {
-        match sky_angles(dir, self.sun.dir) {
-            Some((mu, gamma)) => std::array::from_fn(|ch| self.eval(ch, mu, gamma).max(0.0) as f32),
+        match super::unit_dir(dir).filter(|v| v.y >= 0.0) {
+            Some(v) => {
+                // cos γ from the dot product, γ once for the three channels.
+                let cg = v.dot(self.sun.dir).clamp(-1.0, 1.0);
+                let gamma = cg.acos();
+                std::array::from_fn(|ch| self.eval_cos(ch, v.y, gamma, cg).max(0.0) as f32)
+            }
             None => [0.0; 3],
         }
     }

@@ -17,6 +17,8 @@
 //!   recommendation rests on them).
 //! - [`quadrature`]: deterministic cosine-weighted direction sets and the irradiance of every
 //!   shape (and of the region below the horizon) on a normal with a visibility callback.
+//! - [`radiance`]: the one sky every path tracer of the crate sees when a path leaves the
+//!   proxy (the uniform or Hošek–Wilkie sky above the horizon, the terrain below).
 //! - [`terrain`]: distant Lambertian terrain lit by the same sun and sky, linear in `Pa` and `Pd`,
 //!   and its albedo estimated from an environment map.
 //!
@@ -39,6 +41,7 @@ pub mod hosek;
 mod hosek_data;
 pub mod preetham;
 pub mod quadrature;
+pub mod radiance;
 pub mod terrain;
 
 use glam::{DVec3, Vec3};

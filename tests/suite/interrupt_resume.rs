@@ -128,10 +128,12 @@ fn a_run_resumed_during_and_after_a_sliced_retrace_gives_the_uninterrupted_frame
     let d = std::env::temp_dir().join(format!("heliar-interrupt-sliced-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
-    for budget in [1u64 << 18, 1 << 19] {
-        let b = budget.to_string();
-        let fast = ["--sequence", "hdr", "--start", "2024-06-21T15:30:00+02:00", "--fps", "0.008333333", "--trace-paths-per-frame", b.as_str()];
-        let whole = d.join(format!("whole-{budget}"));
+    // The last case also slices the estimator's sun-bounce re-trace (2¹⁴ paths per frame, the
+    // live window's default), whose schedule the replay must repeat as well.
+    for (budget, estimator) in [(1u64 << 18, 0u64), (1 << 19, 0), (1 << 19, 1 << 14)] {
+        let (b, e) = (budget.to_string(), estimator.to_string());
+        let fast = ["--sequence", "hdr", "--start", "2024-06-21T15:30:00+02:00", "--fps", "0.008333333", "--trace-paths-per-frame", b.as_str(), "--estimator-trace-paths-per-frame", e.as_str()];
+        let whole = d.join(format!("whole-{budget}-{estimator}"));
         run(&whole, &fast);
         let want = frames(&whole);
         assert_eq!(want.len(), 12);
@@ -150,7 +152,7 @@ fn a_run_resumed_during_and_after_a_sliced_retrace_gives_the_uninterrupted_frame
         }
         assert!(retraced >= 10, "budget {budget}: the receivers are re-traced on most frames ({retraced} of 11)");
         for at in [3, 7] {
-            let out = d.join(format!("stop-{budget}-{at}"));
+            let out = d.join(format!("stop-{budget}-{estimator}-{at}"));
             let n = at.to_string();
             let mut first: Vec<&str> = fast.to_vec();
             first.extend(["--max-frames", n.as_str()]);
@@ -160,7 +162,7 @@ fn a_run_resumed_during_and_after_a_sliced_retrace_gives_the_uninterrupted_frame
             run(&out, &again);
             let got = frames(&out);
             let differ: Vec<&String> = want.keys().filter(|k| got.get(*k) != want.get(*k)).collect();
-            assert!(differ.is_empty(), "budget {budget}, resumed at frame {at}: these frames differ from the uninterrupted run: {differ:?}");
+            assert!(differ.is_empty(), "budget {budget}, estimator {estimator}, resumed at frame {at}: these frames differ from the uninterrupted run: {differ:?}");
         }
     }
     std::fs::remove_dir_all(&d).ok();

@@ -203,7 +203,7 @@ pub fn run_relight(a: RelightArgs) -> Result<()> {
     crate::common::guard_files(Some(&scene.root), &[], &[a.output.as_path(), png.as_path()], a.force)?;
     let baked = bake_with_progress(&scene, ray.clone(), false)?;
     let (lighting, source) = resolve_lighting(&scene, ray.clone(), &baked, &a.lighting)?;
-    let mut relighter = Relighter::new(&baked, ray, scene.bake.relight.clone());
+    let mut relighter = Relighter::new(&baked, ray, scene.bake.relight.clone()).with_sky(scene.estimator.sky.sky_model());
     let up = relighter.update_sun(lighting.sun_dir);
     let t = std::time::Instant::now();
     let relit = relighter.relight(&lighting);
@@ -245,7 +245,7 @@ pub fn run_irradiance(a: IrradianceArgs) -> Result<()> {
     let n = parse3(&a.normal, "--normal")?.try_normalize().context("--normal must not be zero")?;
     let baked = bake_with_progress(&scene, ray.clone(), false)?;
     let (lighting, source) = resolve_lighting(&scene, ray.clone(), &baked, &a.lighting)?;
-    let mut relighter = Relighter::new(&baked, ray.clone(), scene.bake.relight.clone());
+    let mut relighter = Relighter::new(&baked, ray.clone(), scene.bake.relight.clone()).with_sky(scene.estimator.sky.sky_model());
     relighter.update_sun(lighting.sun_dir);
     let f = |v: [f64; 3]| Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32);
     let transfer = ProbeTransfer::build(f(grid.min), f(grid.max), grid.spacing_m as f32, &baked, &ray, scene.bake.probe_directions);

@@ -17,7 +17,11 @@
 //!    (`capture_pd`, `capture_pa`) skips this.
 //! 4. **Albedo map, by inverse rendering.** `ρ = π·L / (c·Pa + (s·max(n·l,0) + b)·Pd)` per channel,
 //!    with `s` the texel's sun visibility and `b` its sun bounce at capture (the estimator's model,
-//!    Jensen §4.2 plus the bounce term). Texels whose denominator is below
+//!    Jensen §4.2 plus the bounce term). Under a shaped sky or with terrain (`[estimator.sky]`,
+//!    the scene's one sky) `c` and `b` are those of the capture sun's sky: the uniform `c` of step
+//!    2 plus the change the shape and the terrain bring along the bounce paths
+//!    ([`crate::sky::radiance::ShapeMinusUniform`]); the map itself stays Jensen's `c`, which the
+//!    relight corrects the same way for each sun. Texels whose denominator is below
 //!    [`MIN_DENOMINATOR_REL`]` · Pa` or whose result is implausible (`ρ > `[`MAX_ALBEDO`], negative or
 //!    NaN) are flagged and filled from valid neighbours of the same node (repeated 8-neighbour
 //!    averaging, wrapping at the seam); a node with no valid texel falls back to its base colour.
@@ -198,6 +202,11 @@ pub fn cache_key(scene: &Scene) -> Result<String, BakeError> {
     if !scene.manifest.proxy.not_diffuse_nodes.is_empty() {
         settings["not_diffuse"] = serde_json::json!(scene.manifest.proxy.not_diffuse_nodes);
     }
+    // Bakes whose inversion sees the scene's sky (a shaped sky or terrain) differ from the ones
+    // before it did; Jensen's model keeps its keys.
+    if !scene.estimator.sky.sky_model().is_uniform() {
+        settings["inversion_sky"] = serde_json::json!(2);
+    }
     h.update(settings.to_string().as_bytes());
     Ok(h.finalize().to_hex().to_string())
 }
@@ -273,7 +282,8 @@ pub fn bake_with_map(scene: &Scene, ray: std::sync::Arc<RayScene>, map: Option<L
             let (pd, pa, l, sun_above) = capture_lighting(scene, &ray, view, img, path, &mut info)?;
             lap(&mut info, "lighting at capture");
             let hits = Hits { node, position, normal, base };
-            let inv = Inversion { ray: &ray, hits: &hits, ambient: &ambient, cfg, progress };
+            let sky = scene.estimator.sky.sky_model();
+            let inv = Inversion { ray: &ray, hits: &hits, ambient: &ambient, cfg, sky: &sky, progress };
             let (mut rho, valid) = inv.run(img, pd, pa, l, sun_above);
             let (from_neighbours, from_base) = fill_flagged(&mut rho, &valid, &hits.node, &hits.base, w, h);
             info.filled_from_neighbours = from_neighbours;

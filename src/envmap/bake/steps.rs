@@ -4,7 +4,8 @@
 use super::{BakeConfig, BakeError, BakeInfo, MAX_ALBEDO, MIN_DENOMINATOR_REL, Progress, SKY};
 use crate::camera::View;
 use crate::estimate::{EstimateError, Estimator};
-use crate::geometry::ambient::transport;
+use crate::geometry::ambient::{transport, transport_under};
+use crate::sky::radiance::{ShapeMinusUniform, SkyModel};
 use crate::geometry::raycast::RayScene;
 use crate::io::frames::{Frame, FrameData, Linearizer, Response};
 use crate::io::image::LinearImage;
@@ -110,6 +111,9 @@ pub(super) struct Inversion<'a> {
     pub hits: &'a Hits,
     pub ambient: &'a [Vec3],
     pub cfg: &'a BakeConfig,
+    /// The scene's sky: under a shaped one or with terrain, `c` at capture is the bake's (uniform)
+    /// `c` plus the change along the bounce paths ([`ShapeMinusUniform`]).
+    pub sky: &'a SkyModel,
     pub progress: Progress<'a>,
 }
 
@@ -120,6 +124,8 @@ impl Inversion<'_> {
         let n = node.len();
         let (pd, pa) = (Vec3::new(pd[0] as f32, pd[1] as f32, pd[2] as f32), Vec3::new(pa[0] as f32, pa[1] as f32, pa[2] as f32));
         let sun_up = sun_above && pd.max_element() > 0.0;
+        let model = self.sky;
+        let shaped = (!model.is_uniform()).then(|| model.for_sun(Some(l)));
         let done = AtomicU64::new(0);
         let inverted: Vec<(Vec3, bool)> = (0..n)
             .into_par_iter()
@@ -128,6 +134,15 @@ impl Inversion<'_> {
                     return (Vec3::ZERO, true);
                 }
                 let (p, nn) = (position[i], normal[i]);
+                if let Some(sky) = &shaped {
+                    // The scene's sky at capture: `c` for its shape and the terrain (module docs).
+                    let cos = nn.dot(l).max(0.0);
+                    let s = sun_up && cos > 0.0 && ray.sees_direction(p, nn, l);
+                    let t = transport_under(ray, p, nn, sun_up.then_some(l), &ShapeMinusUniform(sky), cfg.bounce, 0xb0c0_0000 + i as u64);
+                    let c = (self.ambient[i] + t.c).max(Vec3::ZERO);
+                    let denom = c * pa + (Vec3::splat(if s { cos } else { 0.0 }) + t.b) * pd;
+                    return invert(img.data[i], denom, pa);
+                }
                 let (direct, bounce) = if sun_up {
                     let cos = nn.dot(l).max(0.0);
                     let s = cos > 0.0 && ray.sees_direction(p, nn, l);
@@ -141,13 +156,19 @@ impl Inversion<'_> {
                     progress("albedo inversion", k, n as u64);
                 }
                 let denom = self.ambient[i] * pa + (Vec3::splat(direct) + bounce) * pd;
-                let rho = Vec3::from(img.data[i]) * PI / denom;
-                let ok = denom.cmpge(pa * MIN_DENOMINATOR_REL).all() && rho.is_finite() && rho.cmpge(Vec3::ZERO).all() && rho.cmple(Vec3::splat(MAX_ALBEDO)).all();
-                (if ok { rho } else { Vec3::ZERO }, ok)
+                invert(img.data[i], denom, pa)
             })
             .collect();
         inverted.into_iter().unzip()
     }
+}
+
+/// `ρ = π·L / denom`, flagged (zero, false) when the texel received too little light or the result
+/// is implausible.
+fn invert(radiance: [f32; 3], denom: Vec3, pa: Vec3) -> (Vec3, bool) {
+    let rho = Vec3::from(radiance) * PI / denom;
+    let ok = denom.cmpge(pa * MIN_DENOMINATOR_REL).all() && rho.is_finite() && rho.cmpge(Vec3::ZERO).all() && rho.cmple(Vec3::splat(MAX_ALBEDO)).all();
+    (if ok { rho } else { Vec3::ZERO }, ok)
 }
 
 /// Fills flagged texels from valid 8-neighbours of the same node (repeated averaging, wrapping in

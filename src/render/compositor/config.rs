@@ -10,6 +10,7 @@ use crate::render::frame::Darkening;
 use crate::render::volume::OPEN_CAP_OFFSET_M;
 use crate::scene::Scene;
 use crate::scene::settings::EstimatorConfig;
+use crate::sky::radiance::SkyModel;
 
 /// Default largest sun motion (degrees) over which volumes and stencil are reused: the shadow of
 /// an occluder 5 m from its receiver moves 4 mm, a fraction of a pixel at courtyard distances.
@@ -72,6 +73,9 @@ pub struct CompositorConfig {
     /// are re-traced after a sun move (0: unbounded, the whole re-trace in the frame that decides
     /// it). The re-trace is then done a slice per frame while the previous values serve.
     pub trace_paths_per_frame: u64,
+    /// The sky the objects' transfer sees when its paths leave the proxy (the scene's
+    /// `[estimator.sky]`, so that the estimator and the renderer agree on it).
+    pub sky: SkyModel,
     /// Seed of the integrals.
     pub seed: u64,
 }
@@ -104,6 +108,7 @@ impl CompositorConfig {
             transfer_bounces: crate::render::object_transfer::TRANSFER_BOUNCES,
             transfer_stride: 0,
             trace_paths_per_frame: TRACE_PATHS_PER_FRAME,
+            sky: e.sky.sky_model(),
             seed: e.seed,
         }
     }

@@ -65,7 +65,7 @@ fn object_occlusion(canvas: &Canvas, scene: Option<&TransferScene>, config: &Com
 fn object_transfer(canvas: &Canvas, scene: Option<TransferScene>, config: &CompositorConfig, res: &Resources, queue: &wgpu::Queue) -> Option<(TransferScene, ObjectTransfer)> {
     let scene = scene.filter(|_| config.transfer_paths > 0)?;
     let q = TransportQuality { paths: config.transfer_paths, max_bounces: config.transfer_bounces };
-    let t = ObjectTransfer::new(canvas, &scene, q, config.transfer_stride, config.seed).with_budget(config.trace_paths_per_frame);
+    let t = ObjectTransfer::new(canvas, &scene, q, config.transfer_stride, config.seed).with_budget(config.trace_paths_per_frame).with_sky(config.sky.clone());
     res.transfer_point.write(queue, &t.point);
     res.transfer_normal.write(queue, &t.normal);
     Some((scene, t))
@@ -141,7 +141,7 @@ impl Compositor {
     /// proxy's BVH.
     pub fn new(gpu: Arc<Gpu>, parts: &SceneParts, proxy_ray: Arc<RayScene>, config: CompositorConfig) -> Result<Self, RenderError> {
         let canvas = Canvas::new(parts.camera, config.supersample);
-        let receivers = Receivers::new(parts.camera, &proxy_ray, config.seed).with_budget(config.trace_paths_per_frame);
+        let receivers = Receivers::new(parts.camera, &proxy_ray, config.seed).with_budget(config.trace_paths_per_frame).with_sky(config.sky.clone());
         let (virtual_occ, proxy_occ, warnings) = occluders(parts);
         let virtual_bounds: Vec<(Vec3, Vec3)> = parts.objects.iter().filter_map(|(_, m)| m.bounds()).collect();
         let near_radius_m = virtual_bounds.iter().map(|(lo, hi)| (*hi - *lo).length() / 2.0 * NEAR_RADIUS_HALF_DIAGONALS).fold(MIN_NEAR_RADIUS_M, f32::max);

@@ -60,7 +60,8 @@
 
 use crate::gpu::canvas::Canvas;
 use crate::geometry::Mesh;
-use crate::geometry::ambient::TransportQuality;
+use crate::geometry::ambient::{Escape, TransportQuality};
+use crate::sky::radiance::SkyModel;
 use crate::geometry::brdf::GltfSurface;
 use crate::geometry::raycast::{RAY_EPSILON_M, RayScene};
 use crate::geometry::sampling::{sample_cosine_around, sample_stratified_2d};
@@ -166,12 +167,13 @@ impl TransferScene {
     }
 }
 
-/// Traces `R_a` and `R_d` of one surface point (module docs). `sun` is the unit direction toward
-/// the sun, or `None` for `R_a` alone. Deterministic for a given `seed`.
-pub fn trace_point(scene: &TransferScene, s: &PixelSurface, sun: Option<Vec3>, quality: TransportQuality, seed: u64) -> PointTransfer {
+/// Traces `R_a` and `R_d` of one surface point (module docs) under `sky`. `sun` is the unit
+/// direction toward the sun, or `None` for `R_a` alone. Deterministic for a given `seed`.
+pub fn trace_point(scene: &TransferScene, s: &PixelSurface, sun: Option<Vec3>, sky: &impl Escape, quality: TransportQuality, seed: u64) -> PointTransfer {
     let world = &scene.world;
     let mut rng = SmallRng::seed_from_u64(seed ^ 0x7a3f_10c5_be11_0001);
     let k = quality.paths.max(1);
+    let env = sky;
     let first = scene.surface(s.tri, world.barycentric(s.tri, s.point));
     let (mut sky, mut sun_sum) = (Vec3::ZERO, Vec3::ZERO);
     for i in 0..k {
@@ -186,8 +188,9 @@ pub fn trace_point(scene: &TransferScene, s: &PixelSurface, sun: Option<Vec3>, q
         let (mut origin, mut offset) = (s.point, s.face_normal * RAY_EPSILON_M);
         for bounce in 0..=quality.max_bounces {
             let Some(hit) = world.intersect(origin + offset, dir, f32::MAX) else {
-                if dir.y > 0.0 {
-                    sky += throughput * FRAC_1_PI;
+                if let Some((pa, pd)) = env.escape(dir) {
+                    sky += throughput * FRAC_1_PI * pa;
+                    sun_sum += throughput * FRAC_1_PI * pd;
                 }
                 break;
             };
@@ -290,6 +293,8 @@ pub struct ObjectTransfer {
     slice: usize,
     /// The re-trace for a new sun in progress.
     job: Option<retrace::SunJob>,
+    /// The sky the paths see (`R_a` depends on the sun unless it is uniform).
+    sky_model: SkyModel,
     quality: TransportQuality,
     seed: u64,
 }
@@ -310,7 +315,7 @@ impl ObjectTransfer {
             point[s.pixel as usize] = [s.point.x, s.point.y, s.point.z, s.footprint_m];
             normal[s.pixel as usize] = [s.normal.x, s.normal.y, s.normal.z, 0.0];
         }
-        Self { surfaces, object_pixels, stride, sky: vec![[0.0; 4]; n], sun: vec![[0.0; 4]; n], point, normal, traced_sun: None, traced: false, owed: None, slice: 0, job: None, quality, seed }
+        Self { surfaces, object_pixels, stride, sky: vec![[0.0; 4]; n], sun: vec![[0.0; 4]; n], point, normal, traced_sun: None, traced: false, owed: None, slice: 0, job: None, sky_model: SkyModel::uniform(), quality, seed }
     }
 
     /// Re-traces `R_d` after a sun move in slices of about `paths_per_frame` paths, one slice per
@@ -318,6 +323,13 @@ impl ObjectTransfer {
     /// that decides it, as on the first frame). See `retrace`.
     pub fn with_budget(mut self, paths_per_frame: u64) -> Self {
         self.slice = retrace::slice_pixels(paths_per_frame, self.quality.paths as u64);
+        self
+    }
+
+    /// Traces under `sky` instead of Jensen's uniform sky; `R_a` is then re-traced with `R_d`
+    /// when the sun moves (the sky's shape follows it).
+    pub fn with_sky(mut self, sky: SkyModel) -> Self {
+        self.sky_model = sky;
         self
     }
 

@@ -21,7 +21,7 @@
 //! only moves the bookkeeping on: what it owes (a full trace, the job's traced slices) is paid
 //! by [`ObjectTransfer::restore`].
 
-use super::{ObjectTransfer, TransferScene, trace_point};
+use super::{ObjectTransfer, PointTransfer, TransferScene, trace_point};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::ops::Range;
@@ -50,8 +50,8 @@ pub(super) struct SunJob {
     sun: Vec3,
     /// Lattice pixels `surfaces[..done]` are traced (or owed).
     done: usize,
-    /// `R_d` of the traced lattice pixels, in lattice order (empty while owed).
-    values: Vec<Vec3>,
+    /// `R_a` and `R_d` of the traced lattice pixels, in lattice order (empty while owed).
+    values: Vec<PointTransfer>,
     /// The traced slices were replayed, not traced: [`ObjectTransfer::restore`] traces them.
     owed: bool,
 }
@@ -203,27 +203,31 @@ impl ObjectTransfer {
         u
     }
 
-    /// Stores the completed job's `R_d` as the served values.
+    /// Stores the completed job's `R_a` and `R_d` as the served values (under the uniform sky
+    /// its `R_a` equals the stored one bit for bit: the same random numbers whatever the sun).
     fn swap_in_job(&mut self) {
         let Some(job) = self.job.take() else { return };
         debug_assert_eq!(job.values.len(), self.surfaces.len());
         for (s, v) in self.surfaces.iter().zip(&job.values) {
-            self.sun[s.pixel as usize] = [v.x, v.y, v.z, 0.0];
+            self.sky[s.pixel as usize] = [v.sky.x, v.sky.y, v.sky.z, 1.0];
+            self.sun[s.pixel as usize] = [v.sun.x, v.sun.y, v.sun.z, 0.0];
         }
         self.traced_sun = Some(job.sun);
     }
 
-    /// `R_d` of lattice pixels `range` for `sun` (their `R_a` comes out as stored and is dropped).
-    fn trace_sun(&self, scene: &TransferScene, sun: Vec3, range: Range<usize>) -> Vec<Vec3> {
+    /// `R_a` and `R_d` of lattice pixels `range` for `sun`.
+    fn trace_sun(&self, scene: &TransferScene, sun: Vec3, range: Range<usize>) -> Vec<PointTransfer> {
         let (q, seed) = (self.quality, self.seed);
-        self.surfaces[range].par_iter().map(|s| trace_point(scene, s, Some(sun), q, pixel_seed(seed, s.pixel)).sun).collect()
+        let sky = self.sky_model.for_sun(Some(sun));
+        self.surfaces[range].par_iter().map(|s| trace_point(scene, s, Some(sun), &sky, q, pixel_seed(seed, s.pixel))).collect()
     }
 
     /// Traces every lattice pixel for `sun` into the stored values.
     fn trace_values(&mut self, scene: &TransferScene, sun: Option<Vec3>) -> TransferUpdate {
         let t0 = std::time::Instant::now();
         let (q, seed) = (self.quality, self.seed);
-        let values: Vec<_> = self.surfaces.par_iter().map(|s| trace_point(scene, s, sun, q, pixel_seed(seed, s.pixel))).collect();
+        let sky = self.sky_model.for_sun(sun);
+        let values: Vec<_> = self.surfaces.par_iter().map(|s| trace_point(scene, s, sun, &sky, q, pixel_seed(seed, s.pixel))).collect();
         for (s, t) in self.surfaces.iter().zip(&values) {
             self.sky[s.pixel as usize] = [t.sky.x, t.sky.y, t.sky.z, 1.0];
             self.sun[s.pixel as usize] = [t.sun.x, t.sun.y, t.sun.z, 0.0];

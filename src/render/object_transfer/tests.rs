@@ -3,6 +3,7 @@
 //! its lattice, and retracing only past the sun threshold.
 
 use super::*;
+use crate::geometry::ambient::UniformSky;
 use glam::DVec3;
 use crate::geometry::Material;
 use crate::camera::{Camera, Intrinsics, Pose};
@@ -39,7 +40,7 @@ fn a_convex_object_in_empty_space_sees_the_sky_by_its_tilt() {
         let n = ball.face_normal(tri);
         let view = (n + Vec3::new(0.1, 0.05, -0.1)).normalize();
         let s = PixelSurface { pixel: 0, point: p, normal: n, face_normal: n, view, tri, footprint_m: 0.01 };
-        let got = trace_point(&scene, &s, None, q, 9);
+        let got = trace_point(&scene, &s, None, &UniformSky, q, 9);
         let surf = GltfSurface::new(&ball.materials[0], Vec3::new(0.8, 0.5, 0.2));
         let (t, bt) = crate::geometry::sampling::basis_from_normal(n);
         let mut want = Vec3::ZERO;
@@ -78,7 +79,7 @@ fn sun_bounce_off_a_lit_floor_reaches_a_downward_face() {
     face.push_quad(Vec3::new(-0.01, 3.0, -0.01), Vec3::X * 0.02, Vec3::Z * 0.02, fnode, fm);
     let scene = TransferScene::new(&floor, &[&face]);
     let s = PixelSurface { pixel: 0, point: Vec3::new(0.0, 3.0, 0.0), normal: -Vec3::Y, face_normal: -Vec3::Y, view: -Vec3::Y, tri: 2, footprint_m: 0.01 };
-    let got = trace_point(&scene, &s, Some(Vec3::Y), TransportQuality { paths: 4096, max_bounces: 1 }, 4);
+    let got = trace_point(&scene, &s, Some(Vec3::Y), &UniformSky, TransportQuality { paths: 4096, max_bounces: 1 }, 4);
     let surf = GltfSurface::new(&face.materials[0], Vec3::splat(0.6));
     // Directional albedo by the sampler's own estimator would not be independent; use the
     // diffuse part's closed bounds instead: between 0.6·(1 − F0-ish) and 0.6 + 0.04.
@@ -152,7 +153,7 @@ fn open_and_degenerate_geometry_gives_finite_values() {
     }
     // A tilted shading normal (below the geometric one by 80°) is traced without NaN.
     let s = PixelSurface { normal: Vec3::new(0.0, 0.17, 0.98).normalize(), face_normal: Vec3::Y, ..t.surfaces()[0] };
-    let p = trace_point(&scene, &s, Some(Vec3::Y), TransportQuality { paths: 64, max_bounces: 2 }, 5);
+    let p = trace_point(&scene, &s, Some(Vec3::Y), &UniformSky, TransportQuality { paths: 64, max_bounces: 2 }, 5);
     assert!(p.sky.is_finite() && p.sun.is_finite(), "{p:?}");
 }
 

@@ -17,11 +17,14 @@
 //! When the sun has moved that far and recomputing the pixels would take more than the per-frame
 //! path budget, the recomputation for the new sun is done a slice per frame while the stored
 //! values serve, and swapped in when complete ([`retrace`]); `c` does not depend on the sun (the
-//! same random numbers whatever it is), so it comes out as stored.
+//! same random numbers whatever it is), so it comes out as stored. Under a shaped sky or with
+//! terrain (`with_sky`, the scene's `[estimator.sky]`) `c` and `c_v` do follow the sun; every
+//! computation for a sun gives them for that sun's sky, so they are recomputed with `b`.
 
 mod retrace;
 
-use crate::geometry::ambient::{TransportQuality, transport};
+use crate::geometry::ambient::{TransportQuality, transport_under};
+use crate::sky::radiance::SkyModel;
 use crate::geometry::raycast::RayScene;
 use crate::camera::Camera;
 use glam::Vec3;
@@ -67,6 +70,8 @@ pub struct Receivers {
     budget_paths: u64,
     /// The recomputation for a new sun in progress.
     job: Option<retrace::BounceJob>,
+    /// The sky the integrals see (under a shaped sky `c` follows the sun with `b`).
+    sky_model: SkyModel,
 }
 
 /// One pixel's computed values: pixel, `c`, `b`, sunlit fraction, and (`c_v`, `b_v`).
@@ -147,6 +152,7 @@ impl Receivers {
             camera: camera.clone(),
             budget_paths: 0,
             job: None,
+            sky_model: SkyModel::uniform(),
         }
     }
 
@@ -155,6 +161,13 @@ impl Receivers {
     /// it). See [`retrace`].
     pub fn with_budget(mut self, paths_per_frame: u64) -> Self {
         self.budget_paths = paths_per_frame;
+        self
+    }
+
+    /// Integrates under `sky` instead of Jensen's uniform sky. Every computation with a sun
+    /// gives `c` for that sun's sky, so `c` follows the sun wherever `b` does.
+    pub fn with_sky(mut self, sky: SkyModel) -> Self {
+        self.sky_model = sky;
         self
     }
 
@@ -284,6 +297,7 @@ impl Receivers {
     /// The values of [`Self::compute`] at `todo`, not stored.
     fn trace_rows(&self, proxy: &RayScene, with: Option<&RayScene>, todo: &[u32], bounce_sun: Option<Vec3>, q: TransportQuality) -> Vec<Row> {
         let seed = self.seed;
+        let sky = self.sky_model.for_sun(bounce_sun);
         todo
             .par_iter()
             .filter_map(|&p| {
@@ -291,12 +305,12 @@ impl Receivers {
                 let point = self.point[i]?;
                 let n = Vec3::new(self.normal[i][0], self.normal[i][1], self.normal[i][2]);
                 let pixel_seed = seed ^ (p as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
-                let tr = transport(proxy, point, n, bounce_sun, q, pixel_seed);
+                let tr = transport_under(proxy, point, n, bounce_sun, &sky, q, pixel_seed);
                 let lit = bounce_sun.map_or(0.0, |l| lit_fraction(&self.camera, proxy, p, l));
                 // Same seed with and without the objects: the difference is then mostly the
                 // objects', not Monte Carlo noise.
                 let tv = with.map(|w| {
-                    let t = transport(w, point, n, bounce_sun, q, pixel_seed);
+                    let t = transport_under(w, point, n, bounce_sun, &sky, q, pixel_seed);
                     (t.c, t.b)
                 });
                 Some((p, tr.c, tr.b, lit, tv))

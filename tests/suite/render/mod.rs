@@ -12,3 +12,4 @@ mod skip;
 #[allow(dead_code)]
 pub(crate) mod support;
 mod transfer;
+mod winter;
