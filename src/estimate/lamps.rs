@@ -203,7 +203,8 @@ impl Estimator {
         let max_cond = self.config.max_condition;
         let mut groups: Vec<Vec<usize>> = frame.fit.iter().map(|&j| vec![j]).collect();
         let mut held: Vec<(usize, f64)> = Vec::new();
-        let mut merged = false;
+        // The largest condition number of the columns merged, before the merge.
+        let mut merged: Option<f64> = None;
         let base = 1 + two as usize;
         let fits = loop {
             let fits = self.fit_groups(two, &groups, &held, rng)?;
@@ -212,10 +213,10 @@ impl Estimator {
             if bad.is_empty() {
                 break fits;
             }
-            if bad.len() >= 2 && !merged {
+            if bad.len() >= 2 && merged.is_none() {
+                merged = Some(bad.iter().map(|&k| kappa(k)).fold(1.0, f64::max));
                 let joined: Vec<usize> = bad.iter().flat_map(|&k| groups[k].clone()).collect();
                 groups = (0..groups.len()).filter(|k| !bad.contains(k)).map(|k| groups[k].clone()).chain([joined]).collect();
-                merged = true;
                 continue;
             }
             for &k in &bad {
@@ -223,7 +224,7 @@ impl Estimator {
             }
             groups = (0..groups.len()).filter(|k| !bad.contains(k)).map(|k| groups[k].clone()).collect();
         };
-        self.record_lamps(&fits, &groups, &held, base);
+        self.record_lamps(&fits, &groups, &held, base, merged.unwrap_or(COND_CAP));
         Some(std::array::from_fn(|c| {
             let f = &fits[c];
             let cond = f.column_condition[..base].iter().copied().fold(1.0, f64::max);
@@ -240,7 +241,8 @@ impl Estimator {
     }
 
     /// Writes the fit's `k` of every lamp into the frame's reports.
-    fn record_lamps(&mut self, fits: &[MultiFit; 3], groups: &[Vec<usize>], held: &[(usize, f64)], base: usize) {
+    /// `merged_kappa`: the condition number of the merged lamps' own columns before the merge.
+    fn record_lamps(&mut self, fits: &[MultiFit; 3], groups: &[Vec<usize>], held: &[(usize, f64)], base: usize, merged_kappa: f64) {
         let Some(lc) = self.lamps.as_ref() else { return };
         let names: Vec<String> = lc.lamps.iter().map(|l| l.light.name.clone()).collect();
         let priors: Vec<f64> = lc.lamps.iter().map(|l| l.light.scale).collect();
@@ -251,15 +253,16 @@ impl Estimator {
                 let r = &mut frame.reports[j];
                 r.k = std::array::from_fn(|c| fits[c].x[base + k] * priors[j]);
                 r.k_se = Some(std::array::from_fn(|c| fits[c].se[base + k] * priors[j]));
-                r.condition_number = Some(kappa);
                 if g.len() == 1 {
+                    r.condition_number = Some(kappa);
                     r.status = LampStatus::Fitted;
                     r.reason = None;
                 } else {
                     let others: Vec<&str> = g.iter().filter(|&&o| o != j).map(|&o| names[o].as_str()).collect();
+                    r.condition_number = Some(merged_kappa);
                     r.status = LampStatus::NotSeparable;
                     r.reason = Some(format!(
-                        "lights the same samples as {}: the columns' condition number exceeds max_condition; fitted together at their prior ratio (κ of the merged column {kappa:.3})",
+                        "lights the same samples as {} (condition number {merged_kappa:.3e} > max_condition): fitted together at their prior ratio (κ of the merged column {kappa:.3})",
                         others.join(", ")
                     ));
                 }
