@@ -165,6 +165,31 @@ mod tests {
     }
 
     #[test]
+    fn a_posed_light_field_is_its_textured_spots_in_the_luminaire_frame() {
+        use crate::io::image::LinearImage;
+        use crate::lamps::lightfield::FilterGrid;
+        let grid = FilterGrid { counts: [3, 3], spacing_m: 0.01 };
+        // a ramp across s, so the pose's mapping of world to (s, t) shows in the values
+        let img = LinearImage::from_fn(32, 32, |x, _| [1.0 + x as f32 * 0.05, 2.0, 0.5]);
+        let lf = LightField::new(grid, 0.5, [2.0, 2.0], vec![img; 9], Path::new("<test>")).unwrap();
+        let mut l = light(LightKind::Point { intensity_cd: 1.0 }, DVec3::new(0.5, 3.0, -1.0), DVec3::new(0.2, -1.0, 0.1));
+        l.kind = LightKind::LightField { dir: PathBuf::from("<memory>") };
+        let lamp = Lamp { light: l.clone(), model: Model::Field(Box::new(lf.clone())) };
+        let (p, n) = (DVec3::new(1.1, 0.0, -0.4), DVec3::Y);
+        let want = lf.irradiance(Method::Spots(Footprint::Support(LIGHTFIELD_SUPPORT_POINTS)), l.lamp_from_world_point(p), l.lamp_from_world_dir(n));
+        let got = lamp.irradiance(p, n);
+        assert!(want[0] > 0.0 && want[0] != want[1]);
+        assert_eq!(got, want);
+        // far away it is a point source: 20 m down the tilted axis, facing the lamp, each of the 9
+        // spots gives E' / 20² with the green E' = 2 everywhere (filter offsets of 1 cm move
+        // δ by 1e-7 relative), so the pose put the axis where the light field's is
+        let axis = l.world_from_lamp * DVec3::NEG_Z;
+        let foot = l.position + axis * 20.0;
+        let far = lamp.irradiance(foot, -axis)[1];
+        assert!((far * 400.0 / (9.0 * 2.0) - 1.0).abs() < 0.01, "{far}");
+    }
+
+    #[test]
     fn a_missing_profile_names_the_manifest_and_field() {
         let l = light(LightKind::Ies { path: PathBuf::from("/nonexistent/street.ies") }, DVec3::ZERO, DVec3::NEG_Y);
         let e = Lamp::load(Path::new("/s/scene.toml"), &l).unwrap_err().to_string();

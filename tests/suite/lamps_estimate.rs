@@ -216,10 +216,15 @@ fn dusk_with_sun_sky_and_lamp() {
     // dusk: the sun a tenth of the day's, the sky a fifth
     let (pd, pa) = (PD.map(|v| v * 0.1), PA.map(|v| v * 0.2));
     let img = render_lit(&w, l, pd, pa, &[(&lamp, K)], 0.01, 51);
+    // A second lamp under the ground lights no sample: it keeps its prior scale.
+    let mut buried = point_lamp("buried", lamp_position(l, 0.0) - Vec3::Y * 5.0, 40.0, Schedule::Always);
+    buried.light.scale = 0.3;
     let mut est = estimator(&w, config());
-    est.set_lamps(vec![lamp]);
+    est.set_lamps(vec![lamp, buried]);
     let e = est.estimate(0, &time, &frame(img), &hdr()).unwrap();
     show("dusk", &e);
+    assert_eq!((e.lamps[1].status, e.lamps[1].samples, e.lamps[1].k), (LampStatus::Unreached, 0, [0.3; 3]), "{e:?}");
+    assert!(e.lamps[1].reason.as_deref().unwrap().contains("prior"));
     assert_eq!(e.status, Status::Ok, "{e:?}");
     assert!(rel_err(e.pd.unwrap(), pd) < 0.05, "{e:?}");
     assert!(rel_err(e.pa.unwrap(), pa) < 0.05, "{e:?}");
