@@ -15,6 +15,9 @@
 //!   `I = ρ/π·(c·Pa + (s·max(n·l,0) + b)·Pd)` per channel with [`solve::robust_fit`].
 //! - Decide the [`Status`]; when `Pd` and `Pa` cannot be separated, fall back (see [`Fallback`])
 //!   instead of reporting an arbitrary split.
+//! - [`lamps`]: with `[[lights]]`, each lamp that is on and reaches the samples is one more
+//!   column `ρ/π·E·V` whose scale `k` is fitted with `Pd` and `Pa` ([`solve_multi`]); without
+//!   lamps nothing of it runs.
 //! - [`temporal`]: smooth across frames and detect when the lighting changed enough to relight.
 //!
 //! Thresholds are named constants or [`EstimatorConfig`] fields, documented where defined.
