@@ -141,7 +141,10 @@ impl Estimator {
         }
     }
 
-    fn fit_channels(&self, two: bool, rng: &mut SmallRng) -> Option<[ChannelFit; 3]> {
+    fn fit_channels(&mut self, two: bool, rng: &mut SmallRng) -> Option<[ChannelFit; 3]> {
+        if self.lamps_in_fit() {
+            return self.fit_channels_lamps(two, rng);
+        }
         let fl = self.noise_floor;
         let f0 = robust_fit(&self.rows[0], &self.lit, two, fl, rng)?;
         let f1 = robust_fit(&self.rows[1], &self.lit, two, fl, rng)?;
@@ -161,6 +164,7 @@ impl Estimator {
 
     /// `Pd`/`Pa` not separable: hold the last split, or report the total irradiance.
     fn separable_fallback(&mut self, out: &mut FrameEstimate, rng: &mut SmallRng) {
+        self.subtract_fitted_lamps();
         let n = self.rows[0].len();
         match self.last_split {
             Some(k) => {

@@ -34,29 +34,32 @@ impl Estimator {
         self.lit.clear();
         self.bounce_only.clear();
         self.rho_over_pi.clear();
+        self.entries.clear();
         let mut counts = SampleCounts { available, drawn: n, ..Default::default() };
         let mut clipped_lit = 0;
-        // Censoring: count drawn and clipped samples per (node, lit) group first.
-        let mut groups: Vec<(u32, bool, u32, u32)> = Vec::new(); // (node, lit, drawn, clipped)
+        // Censoring: count drawn and clipped samples per (node, lit, lamp band) group first (the
+        // band is 0 without lamps; `super::lamps`).
+        let band = |e: usize| self.lamps.as_ref().map_or(0, |l| l.band[e]);
+        let mut groups: Vec<(u32, bool, u8, u32, u32)> = Vec::new(); // (node, lit, band, drawn, clipped)
         let mut states = std::mem::take(&mut self.states);
         states.clear();
         for &e in &drawn {
             let e = e as usize;
             let (v, state) = lin.radiance(frame, self.pool.pixel[e] as usize);
             states.push((v, state));
-            let key = (self.pool.node[e], sun.lit[e]);
-            let g = match groups.iter().position(|g| (g.0, g.1) == key) {
+            let key = (self.pool.node[e], sun.lit[e], band(e));
+            let g = match groups.iter().position(|g| (g.0, g.1, g.2) == key) {
                 Some(g) => g,
                 None => {
-                    groups.push((key.0, key.1, 0, 0));
+                    groups.push((key.0, key.1, key.2, 0, 0));
                     groups.len() - 1
                 }
             };
-            groups[g].2 += 1;
-            groups[g].3 += (state == PixelState::Clipped) as u32;
+            groups[g].3 += 1;
+            groups[g].4 += (state == PixelState::Clipped) as u32;
         }
-        let censored = |node: u32, lit: bool| {
-            groups.iter().any(|g| g.0 == node && g.1 == lit && g.3 as f64 > CENSOR_FRACTION * g.2 as f64)
+        let censored = |node: u32, lit: bool, band: u8| {
+            groups.iter().any(|g| g.0 == node && g.1 == lit && g.2 == band && g.4 as f64 > CENSOR_FRACTION * g.3 as f64)
         };
         for (&e, &(v, state)) in drawn.iter().zip(&states) {
             let e = e as usize;
@@ -66,7 +69,7 @@ impl Estimator {
                     counts.clipped += 1;
                     clipped_lit += sun.lit[e] as usize;
                 }
-                PixelState::Ok if censored(self.pool.node[e], sun.lit[e]) => counts.censored += 1,
+                PixelState::Ok if censored(self.pool.node[e], sun.lit[e], band(e)) => counts.censored += 1,
                 PixelState::Ok => {
                     let (a, b) = match &self.sun_sky {
                         Some(sky) => {
@@ -79,6 +82,7 @@ impl Estimator {
                         self.rows[c].push(a[c] as f64, b[c] as f64, v[c] as f64);
                     }
                     self.lit.push(sun.lit[e]);
+                    self.entries.push(e as u32);
                     // The part of b that is bounce light only (for held-Pd subtraction).
                     let bo = if sun.lit[e] { [0.0; 3] } else { [b[0] as f64, b[1] as f64, b[2] as f64] };
                     self.bounce_only.push(bo);

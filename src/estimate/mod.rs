@@ -15,10 +15,14 @@
 //!   `I = ρ/π·(c·Pa + (s·max(n·l,0) + b)·Pd)` per channel with [`solve::robust_fit`].
 //! - Decide the [`Status`]; when `Pd` and `Pa` cannot be separated, fall back (see [`Fallback`])
 //!   instead of reporting an arbitrary split.
+//! - [`lamps`]: with `[[lights]]`, each lamp that is on and reaches the samples is one more
+//!   column `ρ/π·E·V` whose scale `k` is fitted with `Pd` and `Pa` ([`solve_multi`]); without
+//!   lamps nothing of it runs.
 //! - [`temporal`]: smooth across frames and detect when the lighting changed enough to relight.
 //!
 //! Thresholds are named constants or [`EstimatorConfig`] fields, documented where defined.
 
+pub mod lamps;
 pub mod pool;
 pub mod rebuild;
 mod report;
@@ -27,6 +31,7 @@ mod decide;
 pub mod sky_terms;
 pub mod smoother;
 pub mod solve;
+pub mod solve_multi;
 
 pub use crate::scene::settings::EstimatorConfig;
 use crate::geometry::raycast::RayScene;
@@ -42,7 +47,7 @@ use rand::{SeedableRng, rngs::SmallRng};
 use solve::{ChannelRows, HDR_NOISE_FLOOR_REL, LDR_NOISE_FLOOR_REL};
 use std::sync::Arc;
 use smoother::{ChangeDetector, ChangeReason, Smoother};
-pub use report::{EstimateError, Fallback, FrameEstimate, Intensities, SampleCounts, SetupStats, Status, SunReport};
+pub use report::{EstimateError, Fallback, FrameEstimate, Intensities, LampReport, LampStatus, SampleCounts, SetupStats, Status, SunReport};
 
 /// Rec. 709 luminance weights, used to compare colour intensities.
 pub const LUMA: [f64; 3] = [0.2126, 0.7152, 0.0722];
@@ -91,6 +96,12 @@ pub struct Estimator {
     states: Vec<([f32; 3], PixelState)>,
     noise_floor: f64,
     stats: SetupStats,
+    /// The scene's lamps and their terms on the pool ([`lamps`]); `None` without lamps.
+    lamps: Option<lamps::LampColumns>,
+    /// This frame's lamps: which are fitted, and their reports.
+    lamp_frame: Option<lamps::LampFrame>,
+    /// Pool entry of each usable row.
+    entries: Vec<u32>,
 }
 
 fn luma(v: &[f64; 3]) -> f64 {
@@ -99,8 +110,12 @@ fn luma(v: &[f64; 3]) -> f64 {
 
 impl Estimator {
     /// Sets up the estimator for a scene: builds the pixel map and the pool.
+    /// With `[[lights]]`, their models are read and their terms traced on the pool ([`lamps`]).
     pub fn new(scene: &Scene, ray_scene: Arc<RayScene>) -> Result<Self, EstimateError> {
-        Self::with_camera(scene.estimator.clone(), scene.observer, scene.geo, &scene.camera, ray_scene)
+        let lamps = crate::lamps::Lamp::load_all(&scene.root.join(crate::scene::MANIFEST_FILE), &scene.lights)?;
+        let mut est = Self::with_camera(scene.estimator.clone(), scene.observer, scene.geo, &scene.camera, ray_scene)?;
+        est.set_lamps(lamps);
+        Ok(est)
     }
 
     /// Sets up the estimator from its parts, for a calibrated camera.
@@ -167,6 +182,9 @@ impl Estimator {
             states: Vec::new(),
             noise_floor: HDR_NOISE_FLOOR_REL,
             stats,
+            lamps: None,
+            lamp_frame: None,
+            entries: Vec::new(),
         })
     }
 
@@ -290,15 +308,19 @@ impl Estimator {
             sun_rebuild_ms,
             estimate_ms: 0.0,
             sky: self.sky_used(),
+            lamps: Vec::new(),
         };
 
+        self.prepare_lamps(time);
         if self.is_dark(time) {
             out.status = Status::DarkFrame;
             out.estimate_ms = t_start.elapsed().as_secs_f64() * 1e3;
             out.smoothed = self.last_smoothed.map(|s| Intensities { pd: [s[0], s[1], s[2]], pa: [s[3], s[4], s[5]] });
+            out.lamps = self.lamp_reports();
             return Ok(out);
         }
         self.decide(&mut out, above, clipped_lit, saturated, &mut rng);
+        out.lamps = self.lamp_reports();
         out.estimate_ms = t_start.elapsed().as_secs_f64() * 1e3;
         self.smooth(&mut out, time, dir);
         Ok(out)

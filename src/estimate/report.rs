@@ -143,6 +143,46 @@ pub struct FrameEstimate {
     pub estimate_ms: f64,
     /// The sky's shape in this frame's model (`uniform` after a frame without direct sun).
     pub sky: crate::scene::settings::SkyShape,
+    /// One entry per `[[lights]]` of the scene, in order (absent without lights).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub lamps: Vec<LampReport>,
+}
+
+/// What the frame's fit says about one lamp (`estimate::lamps`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LampStatus {
+    /// `k` fitted with `Pd` and `Pa`.
+    Fitted,
+    /// Off at the frame's time (its schedule): left out of the model, skipped.
+    Off,
+    /// On, but its light reaches too few of the frame's samples: `k` is its prior.
+    Unreached,
+    /// Its column cannot be told apart from the others (condition number above
+    /// `max_condition`): fitted together with the lamps it shares its samples with at their prior
+    /// ratio, or, against the sun and sky, kept at its prior.
+    NotSeparable,
+    /// The frame had no fit (a dark frame, too few samples): `k` is its prior.
+    NotFitted,
+}
+
+/// One lamp in a frame's report.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LampReport {
+    /// The light's name (`[[lights]]` `name`, or `lights[i]`).
+    pub name: String,
+    /// What the fit did with it.
+    pub status: LampStatus,
+    /// Its scale per channel (model units → scaled radiance): fitted, or the prior.
+    pub k: [f64; 3],
+    /// Standard errors of `k` (`null` when not fitted).
+    pub k_se: Option<[f64; 3]>,
+    /// Usable samples its light reaches.
+    pub samples: usize,
+    /// Condition number of its column against the others (largest over the channels).
+    pub condition_number: Option<f64>,
+    /// Why it was skipped, held or merged.
+    pub reason: Option<String>,
 }
 
 /// Errors setting up the estimator.
@@ -165,6 +205,9 @@ pub enum EstimateError {
     /// The sky model (`[estimator.sky]`) cannot be built.
     #[error("[estimator.sky]: {0}")]
     Sky(crate::sky::SkyError),
+    /// A lamp's model (`[[lights]]`) cannot be built.
+    #[error(transparent)]
+    Lamp(#[from] crate::lamps::LampError),
 }
 
 /// Set-up statistics, for the run summary.

@@ -25,21 +25,21 @@
 use rand::Rng;
 
 /// Tukey biweight tuning constant (95% efficiency under Gaussian noise).
-const TUKEY_C: f64 = 4.685;
+pub(super) const TUKEY_C: f64 = 4.685;
 /// Consistency factor of the median absolute deviation for Gaussian noise.
-const MAD_TO_SIGMA: f64 = 1.4826;
+pub(super) const MAD_TO_SIGMA: f64 = 1.4826;
 /// Minimal-fit trials of the LMedS start. With 30% outliers a pair is clean with probability
 /// 0.49, so 16 trials all fail with probability 0.51¹⁶ ≈ 2·10⁻⁵ (and the plain fit is a 17th).
 const LMEDS_TRIALS: usize = 16;
 /// Rows (an even stride through all rows) on which LMedS candidates are scored. The median of 101
 /// squared residuals ranks candidates as well as that of all rows, at a fraction of the cost.
-const LMEDS_SCORE_ROWS: usize = 101;
+pub(super) const LMEDS_SCORE_ROWS: usize = 101;
 /// IRLS iterations at most.
-const IRLS_MAX_ITERS: usize = 30;
+pub(super) const IRLS_MAX_ITERS: usize = 30;
 /// Relative parameter change at which IRLS stops.
-const IRLS_TOL: f64 = 1e-9;
+pub(super) const IRLS_TOL: f64 = 1e-9;
 /// Scale floor relative to the median row value, so noise-free data does not divide by zero.
-const SIGMA_FLOOR: f64 = 1e-9;
+pub(super) const SIGMA_FLOOR: f64 = 1e-9;
 /// Noise floor for 8-bit-like LDR input, relative to the median row value: rows are weighted as
 /// if their noise were `|y| + floor`, relative (shot-like) noise with a floor for the quantisation
 /// and read noise that dominate near-black codes.
@@ -107,7 +107,7 @@ pub struct ChannelFit {
     pub condition: f64,
 }
 
-fn median_in_place(v: &mut [f64]) -> f64 {
+pub(super) fn median_in_place(v: &mut [f64]) -> f64 {
     if v.is_empty() {
         return 0.0;
     }
@@ -158,7 +158,7 @@ fn sums(a: &[f64], b: &[f64], y: &[f64], w: &[f64]) -> Sums {
     s
 }
 
-fn tukey(r: f64, sigma: f64) -> f64 {
+pub(super) fn tukey(r: f64, sigma: f64) -> f64 {
     let u = r / (TUKEY_C * sigma);
     if u.abs() >= 1.0 { 0.0 } else { (1.0 - u * u).powi(2) }
 }

@@ -8,6 +8,7 @@
 //! - [`lightfield`]: the near-field representation (Granier §2–3): folder format, the bellq basis
 //!   (Eq. 6), the exact reconstruction (Eq. 5), the textured-spot-light approximation (Eq. 14),
 //!   the synthetic acquisition and the approximation-error curves.
+//! - [`model`]: a scene's `[[lights]]` with their models, irradiance at world points.
 //! - [`storage`]: signed RGBE (Granier §4.2), RGB9E5 and half float encodings and their errors.
 //!
 //! This is the CPU core: the references the GPU pass and the estimator will be checked against.
@@ -26,10 +27,12 @@
 
 pub mod analytic;
 pub mod lightfield;
+pub mod model;
 pub mod photometry;
 pub mod storage;
 
 pub use analytic::{AnalyticLightError, PointLight, SpotLight};
+pub use model::{Lamp, LampError};
 pub use photometry::{Goniometric, IesFile, LdtFile, PhotometricType, PhotometryError, Symmetry};
 
 use glam::DVec3;

@@ -54,6 +54,9 @@ pub struct Manifest {
     pub estimator: Option<EstimatorConfig>,
     /// Bake, relighting and irradiance-volume settings (defaults when absent).
     pub bake: Option<BakeConfig>,
+    /// Real light sources (`scene::lights`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub lights: Vec<super::lights::LightSpec>,
 }
 
 fn default_north() -> [f64; 3] {

@@ -5,12 +5,14 @@
 //! everything it reads and names the file and field of the first problem it finds.
 
 pub mod gltf;
+pub mod lights;
 pub mod limits;
 mod load;
 mod manifest;
 mod paths;
 pub mod settings;
 
+pub use lights::{Light, LightKind, LightSpec, Schedule};
 pub use paths::LoadOptions;
 use paths::Within;
 pub use manifest::{AlbedoSource, CameraFile, EnvMapSpec, GridSpec, Manifest, PoseSpec, ResponseSpec, SequenceSpec, TimeSpec, VirtualObjectSpec};
@@ -140,6 +142,8 @@ pub struct Scene {
     pub estimator: EstimatorConfig,
     /// Bake, relighting and irradiance-volume settings.
     pub bake: BakeConfig,
+    /// Real light sources (`[[lights]]`), validated; their models are built by `lamps::model`.
+    pub lights: Vec<Light>,
 }
 
 fn read_toml<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, SceneError> {
@@ -299,6 +303,7 @@ impl Scene {
         let bake = manifest.bake.clone().unwrap_or_default();
         bake.validate().map_err(|(f, msg)| invalid(m, &format!("bake.{f}"), msg))?;
         load::check_probe_budget(m, &manifest, &virtual_objects, &bake)?;
+        let lights = lights::lights(&within, m, &manifest.lights)?;
 
         Ok(Scene {
             root: root.to_owned(),
@@ -314,6 +319,7 @@ impl Scene {
             sequences,
             estimator,
             bake,
+            lights,
         })
     }
 

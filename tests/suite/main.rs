@@ -20,6 +20,7 @@ mod estimate_slices;
 mod estimator_stiff;
 mod interrupt_resume;
 mod irradiance_volume;
+mod lamps_estimate;
 mod live;
 mod scene_errors;
 mod shader_validation;
