@@ -3,6 +3,7 @@
 
 use super::gltf::{self, LoadNotes};
 use super::limits;
+use super::motion::ObjectMotion;
 use super::paths::Within;
 use super::settings::BakeConfig;
 use super::{AlbedoSource, Manifest, ResponseSpec, SceneError, Sequence, VirtualObject, finite3, invalid, load_truth, parse_time};
@@ -82,8 +83,16 @@ pub(super) fn virtual_objects(within: &Within, m: &Path, manifest: &Manifest) ->
             Quat::from_rotation_y((v.rotation_y_deg as f32).to_radians()),
             t,
         );
-        let (mesh, _) = gltf::load_gltf_within(&path, placement, &[], within.confine())?;
-        virtual_objects.push(VirtualObject { path, mesh });
+        let Some(spec) = &v.motion else {
+            let (mesh, _) = gltf::load_gltf_within(&path, placement, &[], within.confine())?;
+            virtual_objects.push(VirtualObject { path, mesh, motion: None });
+            continue;
+        };
+        let motion = super::motion_load::motion(within, m, i, spec, placement, v.scale)?;
+        let (rest, _) = gltf::load_gltf_within(&path, Mat4::IDENTITY, &[], within.confine())?;
+        let moving = ObjectMotion { rest, motion };
+        let (mesh, _) = moving.mesh_at(moving.motion.start_seconds());
+        virtual_objects.push(VirtualObject { path, mesh, motion: Some(moving) });
     }
     Ok(virtual_objects)
 }

@@ -21,6 +21,7 @@ mod estimator_stiff;
 mod interrupt_resume;
 mod irradiance_volume;
 mod live;
+mod object_motion;
 mod scene_errors;
 mod shader_validation;
 mod uniform_branches;
