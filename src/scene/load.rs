@@ -90,8 +90,10 @@ pub(super) fn virtual_objects(within: &Within, m: &Path, manifest: &Manifest) ->
         };
         let motion = super::motion_load::motion(within, m, i, spec, placement, v.scale)?;
         let (rest, _) = gltf::load_gltf_within(&path, Mat4::IDENTITY, &[], within.confine())?;
+        // Where it stands at the first key, loaded as a static object is (so a motion that
+        // starts at the manifest's placement starts bit for bit where the static object stands).
+        let (mesh, _) = gltf::load_gltf_within(&path, motion.world_from_rest(motion.start_seconds()), &[], within.confine())?;
         let moving = ObjectMotion { rest, motion };
-        let (mesh, _) = moving.mesh_at(moving.motion.start_seconds());
         virtual_objects.push(VirtualObject { path, mesh, motion: Some(moving) });
     }
     Ok(virtual_objects)

@@ -11,8 +11,9 @@
 //!
 //! The pose is `world_from_rest(t) = left · T(t) · R(t) · S · right`, with the object's mesh
 //! kept in its *rest* frame (the glTF file as written):
-//! - manifest keyframes: `left = I`, `T`, `R = R_y(rotation_y_deg)` from the keys, and
-//!   `right` the object's uniform `scale`;
+//! - manifest keyframes: `left = right = I`, `T`, `R = R_y(rotation_y_deg)` from the keys, and
+//!   `S` the object's uniform `scale` (identity factors multiply exactly, so a key at the
+//!   manifest's placement gives the static object's matrix bit for bit);
 //! - a glTF animation of node `N` with parent transform `G`: `left = P · G` (`P` the manifest's
 //!   placement), `T`, `R` the node's animated translation and rotation (its static value for a
 //!   channel the animation lacks), `S` the node's own scale, and `right = (G · M_rest)⁻¹`, so
@@ -43,9 +44,11 @@ pub struct Track<T> {
     pub values: Vec<T>,
 }
 
-impl<T: Copy> Track<T> {
+impl<T: Copy + PartialEq> Track<T> {
     /// The value at `t`: `mix(a, b, s)` between the two keys around `t` (`s ∈ [0, 1]`), the end
-    /// key outside the keys' span.
+    /// key outside the keys' span. A time on a key, or between two equal keys, gives the key's
+    /// value exactly (slerp at `s = 0` is not exact in floating point, and an object held still
+    /// must not count as moved).
     pub fn sample(&self, t: f64, mix: impl Fn(T, T, f32) -> T) -> T {
         let (times, values) = (&self.times, &self.values);
         let last = times.len() - 1;
@@ -57,6 +60,9 @@ impl<T: Copy> Track<T> {
         }
         // First key after t: times[k - 1] < t < times[k] (t is inside the span).
         let k = times.partition_point(|&x| x <= t);
+        if t == times[k - 1] || values[k - 1] == values[k] {
+            return values[k - 1];
+        }
         let s = ((t - times[k - 1]) / (times[k] - times[k - 1])) as f32;
         mix(values[k - 1], values[k], s)
     }
@@ -106,7 +112,8 @@ impl Motion {
             MotionClock::FromStart => start,
             MotionClock::Absolute(t0) => t0,
         };
-        (*time - *origin).num_nanoseconds().map_or_else(|| (*time - *origin).num_milliseconds() as f64 * 1e-3, |ns| ns as f64 * 1e-9)
+        // Division by the exact 1e9 (not a product with the inexact 1e-9): whole seconds stay exact.
+        (*time - *origin).num_nanoseconds().map_or_else(|| (*time - *origin).num_milliseconds() as f64 / 1e3, |ns| ns as f64 / 1e9)
     }
 
     /// The first key's time, s (where the object stands before the motion starts).

@@ -55,7 +55,7 @@ fn keyframes(m: &Path, field: &str, keys: &[KeyframeSpec], scale: f64) -> Result
         rotations.push(Quat::from_rotation_y((key.rotation_y_deg as f32).to_radians()));
     }
     let (clock, times) = match absolute.first() {
-        Some(t0) => (MotionClock::Absolute(*t0), absolute.iter().map(|t| (*t - *t0).num_microseconds().unwrap_or(i64::MAX) as f64 * 1e-6).collect()),
+        Some(t0) => (MotionClock::Absolute(*t0), absolute.iter().map(|t| (*t - *t0).num_microseconds().unwrap_or(i64::MAX) as f64 / 1e6).collect()),
         None => (MotionClock::FromStart, seconds),
     };
     check_increasing(&times).map_err(|k| invalid(m, &format!("{field}.keyframes[{k}].time"), format!("is not after keyframes[{}].time; key times must increase", k - 1)))?;
@@ -65,9 +65,10 @@ fn keyframes(m: &Path, field: &str, keys: &[KeyframeSpec], scale: f64) -> Result
         rotation: Some(Track { times, values: rotations }),
         static_translation: Vec3::ZERO,
         static_rotation: Quat::IDENTITY,
-        scale: Vec3::ONE,
+        // Identity factors multiply exactly, so the pose equals the static placement's matrix.
+        scale: Vec3::splat(scale as f32),
         left: Mat4::IDENTITY,
-        right: Mat4::from_scale(Vec3::splat(scale as f32)),
+        right: Mat4::IDENTITY,
     })
 }
 

@@ -170,3 +170,127 @@ fn a_mesh_with_no_vertices_is_refused() {
     let e = heliar::cuts::svc::check_mesh("robot", &heliar::geometry::Mesh::default()).unwrap_err().to_string();
     assert!(e.contains("robot"), "{e}");
 }
+
+/// `heliar precompute ARGS`: (success, the JSON summary line, stderr).
+fn precompute_cli(args: &[&str]) -> (bool, serde_json::Value, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_heliar")).arg("precompute").args(args).output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let json = stdout.lines().last().and_then(|l| serde_json::from_str(l).ok()).unwrap_or(serde_json::Value::Null);
+    (out.status.success(), json, String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+/// Small cut settings so the test traces in seconds: S = 2^6, 2 spheres × 4², a 3 m proxy grid.
+const SMALL: [&str; 6] = ["--levels", "6", "--vcf", "2x4x4", "--proxy-spacing", "3"];
+
+#[test]
+fn precompute_skips_a_static_scene_and_caches_a_moving_one() {
+    let still = scratch_courtyard("precompute-still");
+    let (ok, json, err) = precompute_cli(&[s(&still), SMALL[0], SMALL[1]]);
+    assert!(ok, "{err}");
+    assert!(json["skipped"].as_str().is_some_and(|r| r.contains("no virtual object") && r.contains("scene.toml")), "{json}");
+    assert!(!still.join("baked/cuts.bin").exists());
+    std::fs::remove_dir_all(&still).ok();
+
+    let d = with_motion("precompute-moving", TWO_KEYS);
+    let mut args = vec![s(&d)];
+    args.extend(SMALL);
+    let (ok, first, err) = precompute_cli(&args);
+    assert!(ok, "{err}");
+    assert_eq!(first["cached"], false, "{first}");
+    assert_eq!((first["objects"].as_u64(), first["moving"].as_u64()), (Some(1), Some(1)));
+    // The proxy grid over the courtyard's [irradiance] box −6..6 × 0.1..3 × −6..6 at 3 m: 5×2×5.
+    assert_eq!(first["proxy_points"].as_u64(), Some(50), "{first}");
+    let file = d.join("baked/cuts.bin");
+    let cuts = heliar::cuts::file::read(&file).unwrap();
+    assert_eq!(cuts.objects.len(), 1);
+    assert_eq!(cuts.objects[0].svc.cuts.len(), first["vertices"].as_u64().unwrap() as usize);
+    // No temporary file is left beside it.
+    let names: Vec<String> = std::fs::read_dir(d.join("baked")).unwrap().flatten().map(|e| e.file_name().to_string_lossy().into_owned()).collect();
+    assert_eq!(names, vec!["cuts.bin".to_owned()]);
+    let stamp = std::fs::metadata(&file).unwrap().modified().unwrap();
+    let (ok, second, err) = precompute_cli(&args);
+    assert!(ok, "{err}");
+    assert_eq!(second["cached"], true, "{second}");
+    assert_eq!(second["inputs_hash"], first["inputs_hash"]);
+    assert_eq!(std::fs::metadata(&file).unwrap().modified().unwrap(), stamp, "a cache hit must not rewrite the file");
+    // A changed setting is a miss.
+    let (_, third, _) = precompute_cli(&[s(&d), "--levels", "5", "--vcf", "2x4x4", "--proxy-spacing", "3"]);
+    assert_eq!(third["cached"], false, "{third}");
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// Keys at 10 s spacing (the courtyard's frames): still for two frames at the manifest's
+/// placement, then a move and a turn inside the box, then out of the box (x = 9 m > max 6 m).
+const AUGMENT_KEYS: &str = "[[virtual_objects.motion.keyframes]]\ntime = 0.0\ntranslation = [-1.9, 0, 0]\nrotation_y_deg = 25\n\
+                            [[virtual_objects.motion.keyframes]]\ntime = 10.0\ntranslation = [-1.9, 0, 0]\nrotation_y_deg = 25\n\
+                            [[virtual_objects.motion.keyframes]]\ntime = 20.0\ntranslation = [-1.2, 0, 0.6]\nrotation_y_deg = 60\n\
+                            [[virtual_objects.motion.keyframes]]\ntime = 30.0\ntranslation = [9.0, 0, 0]\nrotation_y_deg = 60\n";
+
+/// `heliar augment` of the courtyard's first `frames` HDR frames into `out` (EXR); stderr.
+fn augment(scene: &Path, out: &Path, frames: &str) -> String {
+    let input = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/courtyard/frames/hdr");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_heliar"))
+        .args(["augment", s(scene), "--input", s(&input), "--output", s(out), "--format", "exr"])
+        .args(["--start", "2024-06-21T15:30:00+02:00", "--fps", "0.1", "--max-frames", frames])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success(), "{err}");
+    err
+}
+
+fn exr_frames(dir: &Path) -> Vec<Vec<u8>> {
+    let mut names: Vec<_> = std::fs::read_dir(dir).unwrap().flatten().map(|e| e.path()).filter(|p| p.extension().is_some_and(|x| x == "exr")).collect();
+    names.sort();
+    names.iter().map(|p| std::fs::read(p).unwrap()).collect()
+}
+
+#[test]
+fn augment_follows_the_motion_and_keeps_static_frames() {
+    let still = scratch_courtyard("augment-still");
+    let moving = with_motion("augment-moving", AUGMENT_KEYS);
+    let outs = std::env::temp_dir().join(format!("heliar-augment-motion-out-{}", std::process::id()));
+    let (out_still, out_moving) = (outs.join("still"), outs.join("moving"));
+    augment(&still, &out_still, "3");
+    let err = augment(&moving, &out_moving, "4");
+    let (a, b) = (exr_frames(&out_still), exr_frames(&out_moving));
+    assert_eq!((a.len(), b.len()), (3, 4));
+    // The object stands at the manifest's placement for frames 0 and 1: bit for bit the static
+    // run's frames. Frame 2 has it moved and turned.
+    assert!(a[0] == b[0] && a[1] == b[1], "frames where nothing moved must equal the static run's");
+    assert!(a[2] != b[2], "the moved object must change frame 2");
+    let report = std::fs::read_to_string(out_moving.join("report.jsonl")).unwrap();
+    let lines: Vec<serde_json::Value> = report.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let moved = |i: usize| lines[i]["passes"]["moved"].as_array().map(|v| v.iter().map(|x| x.as_str().unwrap().to_owned()).collect::<Vec<_>>()).unwrap_or_default();
+    assert!(moved(0).is_empty() && moved(1).is_empty(), "{}", lines[1]["passes"]);
+    assert_eq!(moved(2), vec!["statue.glb".to_owned()]);
+    assert_eq!(moved(3), vec!["statue.glb".to_owned()]);
+    let skipped = lines[1]["passes"]["skipped"].as_array().unwrap();
+    assert!(skipped.iter().any(|s| s["pass"] == "object_motion" && s["reason"].as_str().unwrap().contains("statue.glb: it has not moved")), "{skipped:?}");
+    // The moved frames fall back from the stale transfer, and say so.
+    let transfer = lines[2]["passes"]["skipped"].as_array().unwrap().iter().find(|s| s["pass"] == "object_transfer").cloned();
+    assert!(transfer.is_some_and(|s| s["reason"].as_str().unwrap().contains("an object moved")), "{}", lines[2]["passes"]);
+    // Frame 3 leaves the irradiance box: one warning, in the report and on stderr; the frame is
+    // finite everywhere (the probe lookups clamp).
+    assert!(lines[3]["passes"]["warnings"][0].as_str().is_some_and(|w| w.contains("leaves the irradiance-volume box")), "{}", lines[3]["passes"]);
+    assert_eq!(err.matches("leaves the irradiance-volume box").count(), 1, "{err}");
+    let last = std::fs::read_dir(&out_moving).unwrap().flatten().map(|e| e.path()).filter(|p| p.extension().is_some_and(|x| x == "exr")).max().unwrap();
+    let img = heliar::io::image::LinearImage::read_exr(&last).unwrap();
+    assert!(img.data.iter().flatten().all(|v| v.is_finite()), "a non-finite pixel in {}", last.display());
+    for d in [&still, &moving, &outs] {
+        std::fs::remove_dir_all(d).ok();
+    }
+}
+
+#[test]
+fn a_held_pose_is_exact_so_the_object_does_not_count_as_moved() {
+    use heliar::scene::motion::{Track, slerp_rotation};
+    let (a, b) = (Quat::from_rotation_y(25f32.to_radians()), Quat::from_rotation_y(60f32.to_radians()));
+    let track = Track { times: vec![0.0, 10.0, 20.0], values: vec![a, a, b] };
+    // Between two equal keys and on a key: the key's value bit for bit (slerp is not exact).
+    assert_eq!(track.sample(4.2, slerp_rotation), a);
+    assert_eq!(track.sample(10.0, slerp_rotation), a);
+    assert_eq!(track.sample(20.0, slerp_rotation), b);
+    // Halfway between the turns: 42.5° about +y.
+    assert!(track.sample(15.0, slerp_rotation).angle_between(Quat::from_rotation_y(42.5f32.to_radians())) < 1e-4);
+}
