@@ -251,11 +251,7 @@ pub fn augment(scene: &Scene, input: &Input, session: &mut OutdoorSession, opts:
     } else {
         fresh(&out, opts, input, scene, first, &mut thumbs, obs)?
     };
-    // Moving objects count their key times (in seconds) from the input's first frame.
-    if scene.virtual_objects.iter().any(|o| o.moves()) {
-        let start = input.clock.time(0, Some(0.0), None).with_context(|| format!("{}: the time of frame 0", input.label))?;
-        session.follow_motion(scene, start);
-    }
+    follow_motion(scene, input, session)?;
     catch_up((from, first, done), &out, opts, input, source.as_mut(), session, &lin, &mut thumbs, &mut clock_check, obs)?;
     let mut report = if done > first { JsonLines::append(&out.report) } else { JsonLines::create(&out.report) }.with_context(|| format!("{}: cannot write the report", out.report.display()))?;
 
@@ -329,6 +325,16 @@ pub fn augment(scene: &Scene, input: &Input, session: &mut OutdoorSession, opts:
         (None, Ok(())) => None,
     };
     Ok(AugmentOutcome { summary, outputs: out, error })
+}
+
+/// Makes the session's moving objects (if any) follow their motion; their key times in seconds
+/// count from the input's first frame.
+fn follow_motion(scene: &Scene, input: &Input, session: &mut OutdoorSession) -> Result<()> {
+    if scene.virtual_objects.iter().any(|o| o.moves()) {
+        let start = input.clock.time(0, Some(0.0), None).with_context(|| format!("{}: the time of frame 0", input.label))?;
+        session.follow_motion(scene, start);
+    }
+    Ok(())
 }
 
 /// Warns when a run that ended normally at frame `i` (before `limit`) wrote fewer frames than its
