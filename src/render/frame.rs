@@ -148,6 +148,13 @@ pub struct PassReport {
     /// pays what they owe (absent in uninterrupted runs).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub restored: Vec<&'static str>,
+    /// Virtual objects that moved this frame (their motion, `scene::motion`), by name; absent
+    /// when none did.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub moved: Vec<String>,
+    /// Warnings of this frame (an object outside the irradiance-volume box); absent when none.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
     /// The canvas rectangle the 3D passes drew (`None`: the whole canvas).
     pub canvas_region: Option<crate::render::region::Rect>,
     /// Timings.
@@ -171,6 +178,9 @@ impl PassReport {
 
 /// Pass names used in reports.
 pub mod pass {
+    /// Bringing moved virtual objects to their place for the frame (`run::motion`); objects
+    /// that did not move are reported skipped under this name.
+    pub const OBJECT_MOTION: &str = "object_motion";
     /// CPU (or compute) shadow-volume construction.
     pub const VOLUME_BUILD: &str = "volume_build";
     /// Depth prepass.

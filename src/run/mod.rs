@@ -14,9 +14,11 @@
 //! | [`clock`] | the time of every frame: a sequence's list, a start plus container timestamps, the wall clock |
 //! | [`source`] | frame sources (folder, video file, camera) and the resolution of the shared input options into a source, a clock and a photometric calibration |
 //! | [`outdoor`] | the outdoor lighting stage: estimator and probe source, the relight hook |
+//! | [`motion`] | moving virtual objects posed on the frame clock and handed to the compositor |
 //! | [`session`] | the outdoor stage joined to the compositor: one frame end to end |
 //! | [`vem`] | the VEM stage (capture → decomposer) and its renderer's side; the `heliar vem` loop |
 //! | [`sink`] | output frames (folder or video), contact sheets, per-stage timings |
+//! | [`precompute`] | `heliar precompute`: the visibility cuts of a scene with moving objects, cached beside the bake |
 //! | [`augment`] | recorded footage in, augmented footage out: resume, interrupts, report, summary |
 //!
 //! Front ends (`heliar augment`, `heliar vem`, `heliar live`) parse their arguments, build the
@@ -25,7 +27,9 @@
 
 pub mod augment;
 pub mod clock;
+pub mod motion;
 pub mod outdoor;
+pub mod precompute;
 pub mod session;
 pub mod sink;
 pub mod source;

@@ -1,7 +1,9 @@
 //! A lighting stage joined to its renderer: what one frame of the outdoor mode does, end to end
 //! (estimate → relight → probes → composite), for every front end.
 
+use super::motion::{FrameMotion, MovingObjects};
 use super::outdoor::{OutdoorStage, RelightReport};
+use crate::scene::Scene;
 use crate::estimate::FrameEstimate;
 use crate::io::frames::{Frame, Linearizer};
 use crate::lighting::Lighting;
@@ -42,12 +44,29 @@ pub struct OutdoorSession {
     pub stage: OutdoorStage,
     /// The GPU compositor.
     pub compositor: Compositor,
+    /// The virtual objects that move, when any does.
+    pub motion: Option<MovingObjects>,
 }
 
 impl OutdoorSession {
     /// Joins the stage and the compositor.
     pub fn new(stage: OutdoorStage, compositor: Compositor) -> Self {
-        Self { stage, compositor }
+        Self { stage, compositor, motion: None }
+    }
+
+    /// Makes the scene's moving objects follow their motion from the next frame on; `start` is
+    /// the time of the sequence's first frame (key times in seconds count from it). Nothing
+    /// changes for a scene where nothing moves.
+    pub fn follow_motion(&mut self, scene: &Scene, start: DateTime<FixedOffset>) {
+        self.motion = MovingObjects::for_scene(scene, start);
+    }
+
+    /// Poses the moving objects for frame `index` and hands those that moved to the compositor.
+    fn pose_objects(&mut self, index: usize, time: &DateTime<FixedOffset>) -> anyhow::Result<Option<FrameMotion>> {
+        let Some(m) = &mut self.motion else { return Ok(None) };
+        let frame = m.advance(index, time);
+        m.apply(&mut self.compositor, &frame)?;
+        Ok(Some(frame))
     }
 
     /// Estimates the frame and relights when needed; the compositor's probes are up to date
@@ -68,6 +87,7 @@ impl OutdoorSession {
     /// decisions (replayed without their work: see `render::compositor::replay`), so the frames
     /// that follow equal an uninterrupted run's.
     pub fn replay(&mut self, index: usize, time: &DateTime<FixedOffset>, frame: &Frame, lin: &Linearizer) -> anyhow::Result<FrameEstimate> {
+        self.pose_objects(index, time)?;
         let light = self.stage.light(index, time, frame, lin)?;
         if let Some(grid) = light.grid {
             self.compositor.set_probes(grid);
@@ -81,7 +101,11 @@ impl OutdoorSession {
         let mut record = self.prepare(index, time, frame, lin)?;
         let video = VideoFrame::from_frame(frame, lin);
         let t = std::time::Instant::now();
-        let (rendered, passes) = self.compositor.render(&video, &record.lighting)?;
+        let motion = self.pose_objects(index, time)?;
+        let (rendered, mut passes) = self.compositor.render(&video, &record.lighting)?;
+        if let (Some(m), Some(frame)) = (&self.motion, &motion) {
+            m.report(frame, &mut passes);
+        }
         record.composite_ms = t.elapsed().as_secs_f64() * 1e3;
         Ok(OutdoorFrame { rendered, passes, record, video })
     }

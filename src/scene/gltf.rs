@@ -186,7 +186,7 @@ pub fn load_gltf_with(
 /// What `gltf::import` does, with every buffer and image URI checked ([`check_uri`]) before any
 /// is read.
 #[allow(clippy::type_complexity)]
-fn import_checked(path: &Path, confine: Option<&Path>) -> Result<(gltf::Document, Vec<gltf::buffer::Data>, Vec<gltf::image::Data>), SceneError> {
+pub(super) fn import_checked(path: &Path, confine: Option<&Path>) -> Result<(gltf::Document, Vec<gltf::buffer::Data>, Vec<gltf::image::Data>), SceneError> {
     let gerr = |message: String| SceneError::Gltf { path: path.to_owned(), message };
     let gltf::Gltf { document: doc, blob } = gltf::Gltf::open(path).map_err(|e| gerr(e.to_string()))?;
     for b in doc.buffers() {

@@ -3,6 +3,7 @@
 
 use super::gltf::{self, LoadNotes};
 use super::limits;
+use super::motion::ObjectMotion;
 use super::paths::Within;
 use super::settings::BakeConfig;
 use super::{AlbedoSource, Manifest, ResponseSpec, SceneError, Sequence, VirtualObject, finite3, invalid, load_truth, parse_time};
@@ -82,8 +83,18 @@ pub(super) fn virtual_objects(within: &Within, m: &Path, manifest: &Manifest) ->
             Quat::from_rotation_y((v.rotation_y_deg as f32).to_radians()),
             t,
         );
-        let (mesh, _) = gltf::load_gltf_within(&path, placement, &[], within.confine())?;
-        virtual_objects.push(VirtualObject { path, mesh });
+        let Some(spec) = &v.motion else {
+            let (mesh, _) = gltf::load_gltf_within(&path, placement, &[], within.confine())?;
+            virtual_objects.push(VirtualObject { path, mesh, motion: None });
+            continue;
+        };
+        let motion = super::motion_load::motion(within, m, i, spec, placement, v.scale)?;
+        let (rest, _) = gltf::load_gltf_within(&path, Mat4::IDENTITY, &[], within.confine())?;
+        // Where it stands at the first key, loaded as a static object is (so a motion that
+        // starts at the manifest's placement starts bit for bit where the static object stands).
+        let (mesh, _) = gltf::load_gltf_within(&path, motion.world_from_rest(motion.start_seconds()), &[], within.confine())?;
+        let moving = ObjectMotion { rest, motion };
+        virtual_objects.push(VirtualObject { path, mesh, motion: Some(moving) });
     }
     Ok(virtual_objects)
 }

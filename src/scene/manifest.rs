@@ -135,6 +135,52 @@ pub struct VirtualObjectSpec {
     /// Uniform scale.
     #[serde(default = "one")]
     pub scale: f64,
+    /// How the object moves over the sequence (absent: it stands still).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub motion: Option<MotionSpec>,
+}
+
+/// `[virtual_objects.motion]`: keyframes in the manifest, or a glTF node animation (one of the
+/// two). See `super::motion` for how a pose is found between keys.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotionSpec {
+    /// Keyframes, in increasing time.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub keyframes: Vec<KeyframeSpec>,
+    /// A glTF file whose node animation moves the object, relative to the scene folder (it may
+    /// be the object's own file).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gltf: Option<String>,
+    /// The animation's name in that file (default: its first animation).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub animation: Option<String>,
+    /// The animated node's name (default: the node the animation's first channel targets).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub node: Option<String>,
+}
+
+/// One keyframe of `[[virtual_objects.motion.keyframes]]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KeyframeSpec {
+    /// Seconds from the sequence's first frame, or an RFC 3339 time (one kind per motion).
+    pub time: KeyTimeValue,
+    /// World position of the object's origin at this key, metres.
+    pub translation: [f64; 3],
+    /// Rotation about +Y at this key, degrees.
+    #[serde(default)]
+    pub rotation_y_deg: f64,
+}
+
+/// A keyframe's time as written.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum KeyTimeValue {
+    /// Seconds from the sequence start.
+    Seconds(f64),
+    /// An RFC 3339 time (quoted or a TOML date-time).
+    Time(TimeValue),
 }
 
 /// `[envmap]`.

@@ -9,13 +9,15 @@ pub mod lights;
 pub mod limits;
 mod load;
 mod manifest;
+pub mod motion;
+mod motion_load;
 mod paths;
 pub mod settings;
 
 pub use lights::{Light, LightKind, LightSpec, Schedule};
 pub use paths::LoadOptions;
 use paths::Within;
-pub use manifest::{AlbedoSource, CameraFile, EnvMapSpec, GridSpec, Manifest, PoseSpec, ResponseSpec, SequenceSpec, TimeSpec, VirtualObjectSpec};
+pub use manifest::{AlbedoSource, CameraFile, EnvMapSpec, GridSpec, KeyTimeValue, KeyframeSpec, Manifest, MotionSpec, PoseSpec, ResponseSpec, SequenceSpec, TimeSpec, VirtualObjectSpec};
 
 use settings::{BakeConfig, EstimatorConfig};
 use crate::geometry::Mesh;
@@ -108,8 +110,18 @@ pub struct Sequence {
 pub struct VirtualObject {
     /// Source file.
     pub path: PathBuf,
-    /// Its triangles in world coordinates.
+    /// Its triangles in world coordinates (for a moving object, where it stands at its
+    /// motion's first key).
     pub mesh: Mesh,
+    /// How it moves (`None`: it stands still).
+    pub motion: Option<motion::ObjectMotion>,
+}
+
+impl VirtualObject {
+    /// True when the object has a motion.
+    pub fn moves(&self) -> bool {
+        self.motion.is_some()
+    }
 }
 
 /// A loaded and validated scene folder.

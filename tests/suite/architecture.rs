@@ -31,7 +31,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("opencv_calib", &["camera", "geometry", "io"]),
     ("gpu", &["camera", "geometry", "io"]),
     ("render", &["camera", "geometry", "gpu", "io", "irradiance", "lighting", "scene", "sky", "vem"]),
-    ("run", &["camera", "envmap", "estimate", "geometry", "gpu", "io", "irradiance", "lighting", "render", "report", "scene", "sun", "vem"]),
+    ("run", &["camera", "cuts", "envmap", "estimate", "geometry", "gpu", "io", "irradiance", "lighting", "render", "report", "scene", "sun", "vem"]),
     ("live", &["camera", "estimate", "geometry", "gpu", "io", "irradiance", "lighting", "render", "report", "run", "scene", "vem"]),
 ];
 

@@ -14,6 +14,7 @@ mod estimate;
 mod frames;
 mod live;
 mod merge;
+mod precompute;
 mod sun;
 mod vem;
 
@@ -40,6 +41,8 @@ enum Command {
     Bench(bench::BenchArgs),
     /// Bake the normal, weighted-ambient and albedo environment maps (cached by input hashes).
     Bake(bake::BakeArgs),
+    /// Precompute the visibility cuts of the scene's moving objects (cached by input hashes, beside the bake).
+    Precompute(precompute::PrecomputeArgs),
     /// Write the environment map relit for a frame's (or given) lighting, as EXR.
     Relight(bake::RelightArgs),
     /// Irradiance from the irradiance volume at a point and normal, as JSON.
@@ -65,6 +68,7 @@ fn main() {
         Command::Estimate(a) => estimate::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Bake(a) => bake::run_bake(a),
+        Command::Precompute(a) => precompute::run(a),
         Command::Relight(a) => bake::run_relight(a),
         Command::Irradiance(a) => bake::run_irradiance(a),
         Command::Vem(a) => vem::run(a),

@@ -58,6 +58,7 @@
 mod config;
 mod context;
 mod encode;
+mod motion;
 mod receiver_update;
 mod replay;
 mod resources;
@@ -137,6 +138,8 @@ pub struct Compositor {
     receiver_pixels: ReceiverPixels,
     /// The stencil rebuild replayed frames owe (a resumed run; see `replay`).
     owed_stencil: Option<replay::OwedStencil>,
+    /// Layout of the material bind groups (for re-uploading moved objects).
+    mat_layout: wgpu::BindGroupLayout,
 }
 
 impl Compositor {

@@ -36,9 +36,9 @@ use wgpu::util::DeviceExt;
 /// The differential model computes `c_v`, `b_v` on real surfaces within this many bounding-box
 /// half-diagonals of a virtual object (an object of that size then takes less than about 2% of
 /// the sky's cosine-weighted solid angle), and at least [`MIN_NEAR_RADIUS_M`].
-const NEAR_RADIUS_HALF_DIAGONALS: f32 = 2.5;
+pub(super) const NEAR_RADIUS_HALF_DIAGONALS: f32 = 2.5;
 /// Smallest radius of the differential model's region, metres.
-const MIN_NEAR_RADIUS_M: f32 = 1.0;
+pub(super) const MIN_NEAR_RADIUS_M: f32 = 1.0;
 
 /// The occluders of the virtual objects and of the proxy, with their set-up warnings.
 fn occluders(parts: &SceneParts) -> (Vec<Occluder>, Occluder, Vec<String>) {
@@ -50,7 +50,7 @@ fn occluders(parts: &SceneParts) -> (Vec<Occluder>, Occluder, Vec<String>) {
 }
 
 /// The objects' own ambient occlusion per canvas pixel (1 everywhere without objects or rays).
-fn object_occlusion(canvas: &Canvas, scene: Option<&TransferScene>, config: &CompositorConfig) -> Vec<f32> {
+pub(super) fn object_occlusion(canvas: &Canvas, scene: Option<&TransferScene>, config: &CompositorConfig) -> Vec<f32> {
     match (config.occlusion_rays, scene) {
         (rays @ 1.., Some(scene)) => {
             // The objects alone: the transfer scene holds them in one mesh already.
@@ -195,6 +195,7 @@ impl Compositor {
             with_ray,
             transfer,
             receiver_pixels: ReceiverPixels::new(near_radius_m),
+            mat_layout,
             owed_stencil: None,
             gpu,
         })

@@ -20,18 +20,27 @@ use crate::render::plan::{Pass, Plan};
 pub struct TransferPass {
     traced: Option<(TransferScene, ObjectTransfer)>,
     rebuild_deg: f64,
+    /// Why the transfer was dropped after set-up (an object moved), for the report.
+    dropped: Option<String>,
 }
 
 impl TransferPass {
     /// The unit for `traced` (`None`: `transfer_paths = 0` or no objects), retraced past a sun
     /// motion of `rebuild_deg`.
     pub fn new(traced: Option<(TransferScene, ObjectTransfer)>, rebuild_deg: f64) -> Self {
-        Self { traced, rebuild_deg }
+        Self { traced, rebuild_deg, dropped: None }
     }
 
     /// The transfer, when it is on.
     pub fn transfer(&self) -> Option<&ObjectTransfer> {
         self.traced.as_ref().map(|(_, t)| t)
+    }
+
+    /// Drops the traced transfer (it no longer matches the objects); the plan reports `reason`
+    /// and the shading falls back to the probe grid times ambient occlusion.
+    pub fn drop_traced(&mut self, reason: &str) {
+        self.traced = None;
+        self.dropped = Some(reason.to_owned());
     }
 
     /// The lattice stride the shading pass reads the transfer with (0: off this frame).
@@ -95,6 +104,9 @@ impl Pass<FrameContext> for TransferPass {
 
     fn plan(&self, ctx: &FrameContext) -> Plan {
         let Some((_, transfer)) = &self.traced else {
+            if let Some(reason) = &self.dropped {
+                return Plan::skip(reason.clone());
+            }
             return Plan::skip("transfer_paths = 0: ambient from the probe grid times ambient occlusion");
         };
         if !ctx.switches.transfer {

@@ -118,6 +118,17 @@ impl Volumes {
         })
     }
 
+    /// Replaces the occluder of virtual object `index` (it moved); the next frame builds the
+    /// volumes again.
+    pub fn set_virtual(&mut self, gpu: &Gpu, index: usize, occ: Occluder) -> Result<(), RenderError> {
+        if let Some((c, bufs)) = &mut self.compute {
+            bufs[index] = c.upload(&gpu.device, &occ)?;
+        }
+        self.virtual_occ[index] = occ;
+        self.built_for = None;
+        Ok(())
+    }
+
     /// The builder in use.
     pub fn builder(&self) -> Builder {
         self.builder

@@ -216,6 +216,14 @@ impl Receivers {
         EnsureStats { computed, bounce_reset, ms: 0.0 }
     }
 
+    /// Forgets `c_v` and `b_v` (the virtual objects moved); the next [`Self::ensure`] with the
+    /// objects computes them again where they are needed.
+    pub fn forget_objects(&mut self) {
+        self.have_with.fill(false);
+        self.ambient_with.fill([1.0, 1.0, 1.0, 0.0]);
+        self.bounce_with.fill([0.0; 4]);
+    }
+
     /// True when replayed frames owe computations.
     pub fn owes(&self) -> bool {
         !self.owed.is_empty() || self.job_owes()

@@ -251,6 +251,7 @@ pub fn augment(scene: &Scene, input: &Input, session: &mut OutdoorSession, opts:
     } else {
         fresh(&out, opts, input, scene, first, &mut thumbs, obs)?
     };
+    follow_motion(scene, input, session)?;
     catch_up((from, first, done), &out, opts, input, source.as_mut(), session, &lin, &mut thumbs, &mut clock_check, obs)?;
     let mut report = if done > first { JsonLines::append(&out.report) } else { JsonLines::create(&out.report) }.with_context(|| format!("{}: cannot write the report", out.report.display()))?;
 
@@ -326,6 +327,16 @@ pub fn augment(scene: &Scene, input: &Input, session: &mut OutdoorSession, opts:
     Ok(AugmentOutcome { summary, outputs: out, error })
 }
 
+/// Makes the session's moving objects (if any) follow their motion; their key times in seconds
+/// count from the input's first frame.
+fn follow_motion(scene: &Scene, input: &Input, session: &mut OutdoorSession) -> Result<()> {
+    if scene.virtual_objects.iter().any(|o| o.moves()) {
+        let start = input.clock.time(0, Some(0.0), None).with_context(|| format!("{}: the time of frame 0", input.label))?;
+        session.follow_motion(scene, start);
+    }
+    Ok(())
+}
+
 /// Warns when a run that ended normally at frame `i` (before `limit`) wrote fewer frames than its
 /// input announces.
 fn warn_if_truncated(input: &Input, i: usize, limit: Option<usize>, obs: &mut dyn Observer) {
@@ -373,16 +384,17 @@ impl FrameLoop<'_> {
                 Err(e) => return (i, false, Err(e.context(format!("{}: reading frame {i}", self.input.label)))),
             };
             let decode_ms = t.elapsed().as_secs_f64() * 1e3;
-            if let Err(e) = self.frame(i, f, decode_ms) {
-                return (i, false, Err(e));
+            match self.frame(i, f, decode_ms) {
+                Ok(warnings) => warnings.iter().for_each(|w| obs.note(w)),
+                Err(e) => return (i, false, Err(e)),
             }
             i += 1;
             obs.advance();
         }
     }
 
-    /// Composites, writes and reports frame `i`.
-    fn frame(&mut self, i: usize, f: SourceFrame, decode_ms: f64) -> Result<()> {
+    /// Composites, writes and reports frame `i`; returns the frame's warnings.
+    fn frame(&mut self, i: usize, f: SourceFrame, decode_ms: f64) -> Result<Vec<String>> {
         let k = &self.scene.camera.intrinsics;
         f.frame
             .check_size(Path::new(&f.label), k.width, k.height)
@@ -428,6 +440,6 @@ impl FrameLoop<'_> {
         self.stages.relight.add(rec.relight.ms);
         self.stages.composite.add(rec.composite_ms);
         self.stages.encode.add(encode_ms);
-        Ok(())
+        Ok(done.passes.warnings.clone())
     }
 }
