@@ -219,8 +219,14 @@ impl PeakTracker {
     /// The compact regions above the threshold holding at least half of [`MIN_PEAK_SHARE`].
     fn candidates(&mut self, map: &PolarMap) -> Vec<Candidate> {
         let (w, h) = (map.width as usize, map.height as usize);
+        // One pass: the luminance of every texel and the map's power Σ Y·ΔΩ.
         self.lum.clear();
-        self.lum.extend(map.data.iter().map(|p| if is_valid(p) { luminance(*p) } else { 0.0 }));
+        let mut total = 0.0f64;
+        for j in 0..h {
+            let start = self.lum.len();
+            self.lum.extend(map.data[j * w..(j + 1) * w].iter().map(|p| if is_valid(p) { luminance(*p) } else { 0.0 }));
+            total += map.row_solid_angle(j as u32) as f64 * self.lum[start..].iter().map(|&y| y as f64).sum::<f64>();
+        }
         if self.lum.is_empty() {
             return Vec::new();
         }
@@ -229,7 +235,6 @@ impl PeakTracker {
         let mid = self.sample.len() / 2;
         let median = *self.sample.select_nth_unstable_by(mid, f32::total_cmp).1;
         let level = if median > 0.0 { median } else { self.lum.iter().sum::<f32>() / self.lum.len() as f32 };
-        let total: f64 = (0..h).map(|j| map.row_solid_angle(j as u32) as f64 * self.lum[j * w..(j + 1) * w].iter().map(|&y| y as f64).sum::<f64>()).sum();
         if !(level > 0.0) || !(total > 0.0) {
             return Vec::new();
         }
