@@ -141,7 +141,7 @@ class Decomposer:
         sampler: str = "coherent-cut",
         rate_hz: float = 21.0,
         clusters: Optional[int] = None,
-        peaks: bool = False,
+        peaks: Optional[bool] = None,
         relax: bool = True,
     ) -> None: ...
     def decompose(self, map: npt.NDArray[np.float32]) -> Dict[str, Any]:

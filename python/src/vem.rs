@@ -27,11 +27,12 @@ impl Decomposer {
     /// `lights`: N equal-power lights (default 300). `sampler`: "coherent-cut"
     /// (default), "havran", "havran-centres", "standard" or "median-cut". `rate_hz`: capture rate the temporal
     /// filter is designed for (default the paper's 21 Hz). `clusters`: cluster the lights into
-    /// at most this many. `peaks`: give the sun and other compact peaks lights of their own.
+    /// at most this many. `peaks`: give the sun, lamps and other compact peaks lights of their
+    /// own (default `None`: on with the coherent cut, off with the other samplers).
     /// `relax`: relaxed Halton samples (the paper's), else plain Halton.
     #[new]
-    #[pyo3(signature = (lights=300, sampler="coherent-cut", rate_hz=heliar::vem::fir::PAPER_RATE_HZ, clusters=None, peaks=false, relax=true))]
-    fn new(py: Python<'_>, lights: usize, sampler: &str, rate_hz: f64, clusters: Option<usize>, peaks: bool, relax: bool) -> PyResult<Self> {
+    #[pyo3(signature = (lights=300, sampler="coherent-cut", rate_hz=heliar::vem::fir::PAPER_RATE_HZ, clusters=None, peaks=None, relax=true))]
+    fn new(py: Python<'_>, lights: usize, sampler: &str, rate_hz: f64, clusters: Option<usize>, peaks: Option<bool>, relax: bool) -> PyResult<Self> {
         let sampler = match sampler {
             "havran" => SamplerKind::Havran,
             "havran-centres" => SamplerKind::HavranCentres,

@@ -106,7 +106,7 @@ mod tests {
     use rand::{Rng, SeedableRng, rngs::SmallRng};
 
     fn light(index: u32, dir: Vec3) -> Light {
-        Light { index, dir: dir.normalize(), rgb: [1.0, 0.5, 0.25] }
+        Light { index, dir: dir.normalize(), rgb: [1.0, 0.5, 0.25], radius: 0.0 }
     }
 
     #[test]

@@ -97,9 +97,11 @@ pub struct VemConfig {
     pub glossy_lights: Option<usize>,
     /// Regions of the glossy set.
     pub glossy_regions: usize,
-    /// Give concentrated peaks (the sun) lights of their own and sample the rest ([`super::peaks`];
-    /// off by default).
-    pub peaks: bool,
+    /// Give concentrated peaks (the sun, a lamp) lights of their own and sample the rest
+    /// ([`super::peaks`]). `None` (the default): on with the coherent cut, off with the other
+    /// samplers (whose behaviour stays that of Havran's paper and of median cut); see
+    /// [`VemConfig::peaks_on`].
+    pub peaks: Option<bool>,
     /// How the temporal filter runs: zero phase for recorded input ([`super::Decomposer::push`] and
     /// [`super::Decomposer::flush`]), causal (the paper's, the default of the library) or minimum
     /// phase (live).
@@ -121,7 +123,7 @@ impl Default for VemConfig {
             lut_size: regions::DEFAULT_LUT_SIZE,
             glossy_lights: None,
             glossy_regions: glossy::DEFAULT_GLOSSY_REGIONS,
-            peaks: false,
+            peaks: None,
             temporal: Temporal::Causal,
         }
     }
@@ -131,6 +133,12 @@ impl Default for VemConfig {
 pub const MAX_LIGHTS: usize = 1 << 16;
 
 impl VemConfig {
+    /// Whether peaks get lights of their own: [`VemConfig::peaks`], by default on with the
+    /// coherent cut only.
+    pub fn peaks_on(&self) -> bool {
+        self.peaks.unwrap_or(self.sampler == SamplerKind::CoherentCut)
+    }
+
     /// Checks ranges.
     pub fn validate(&self) -> Result<(), VemError> {
         let bad = |field, message: String| Err(VemError::Config { field, message });
@@ -145,8 +153,8 @@ impl VemConfig {
         {
             return bad("glossy_lights", format!("{l} must exceed lights ({}) and be at most {MAX_LIGHTS}", self.lights));
         }
-        if self.glossy_lights.is_some() && (self.peaks || self.sampler == SamplerKind::MedianCut) {
-            return bad("glossy_lights", "a glossy set needs equal-power samples: not with peaks or median cut".into());
+        if self.glossy_lights.is_some() && self.sampler == SamplerKind::MedianCut {
+            return bad("glossy_lights", "a glossy set needs equal-power samples: not with median cut".into());
         }
         if self.clusters == Some(0) {
             return bad("clusters", "must be positive".into());

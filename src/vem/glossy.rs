@@ -135,7 +135,7 @@ mod tests {
         (0..n)
             .map(|k| {
                 let r = dist.sample(SamplerKind::Havran, sample(Pattern::RelaxedHalton, k)).unwrap();
-                Light { index: k as u32, dir: r.dir, rgb: dist.light_rgb(map, &r).map(|c| c * p) }
+                Light { index: k as u32, dir: r.dir, rgb: dist.light_rgb(map, &r).map(|c| c * p), radius: 0.0 }
             })
             .collect()
     }

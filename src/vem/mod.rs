@@ -13,7 +13,9 @@
 //! 2. **Decomposition** ([`sampling`]): by default the coherent median cut
 //!    ([`sampling::coherent_cut`]): a fixed equal-energy kd-tree over the map, one light of
 //!    power `P/N` per leaf at its energy centroid, the leaf's index as the light's identity
-//!    (not progressive: changing `N` shifts the lights a little). With `--sampler havran`
+//!    (not progressive: changing `N` shifts the lights a little), with concentrated peaks (the
+//!    sun, a lamp) as lights of their own at their measured power and angular size ([`peaks`];
+//!    on by default with the coherent cut, `VemConfig::peaks`). With `--sampler havran`
 //!    ([`sampling::pattern`]; Havran §3.1–3.2): the PDF luminance × sin θ,
 //!    its CDFs, and the continuous inverse transform of fixed relaxed Halton samples give `N`
 //!    directions; every light carries `P/N` of the frame's power `P` and keeps its index (its
@@ -45,6 +47,7 @@ mod config;
 pub mod eval;
 pub mod fir;
 pub mod glossy;
+mod lights;
 pub mod peaks;
 pub mod polar;
 pub mod regions;
@@ -59,6 +62,7 @@ use sampling::{PolarDistribution, SamplerKind};
 use serde::Serialize;
 use fir::{CentredFilter, FirDesign, LightFilter, Temporal};
 pub use config::{MAX_LIGHTS, VemConfig, VemError};
+pub use lights::{irradiance, lights_of_distribution, lights_of_map, lights_with_peaks};
 use std::collections::VecDeque;
 
 /// One directional light.
@@ -70,6 +74,15 @@ pub struct Light {
     pub dir: Vec3,
     /// RGB irradiance on a surface facing the light.
     pub rgb: [f32; 3],
+    /// Angular radius (radians) of the source the light stands for: a peak's measured size
+    /// ([`peaks`]), so that soft shadows and glossy highlights can use it; 0 for a sample of the
+    /// map (not written then).
+    #[serde(skip_serializing_if = "is_point")]
+    pub radius: f32,
+}
+
+fn is_point(r: &f32) -> bool {
+    *r == 0.0
 }
 
 /// What a frame's lights mean.
@@ -116,8 +129,9 @@ struct Pending {
     sanitized: usize,
     power_rgb: [f64; 3],
     power: f64,
-    /// The frame's peak lights (unfiltered).
+    /// The frame's peak lights (unfiltered) and their power (luminance).
     peaks: Vec<Light>,
+    peak_power: f64,
     /// Median cut's lights (unfiltered), instead of filtered samples.
     unfiltered: Option<Vec<Light>>,
 }
@@ -142,6 +156,13 @@ pub struct Decomposer {
     lists: RegionLists,
     glossy: Option<(glossy::GlossyRegions, RegionLists)>,
     peaks: peaks::PeakTracker,
+    /// The causal temporal filter of the peaks' total power (no lights: a scalar FIR) and a
+    /// buffer for its (empty) light output.
+    peak_filter: LightFilter,
+    no_lights: Vec<Light>,
+    /// Zero phase: the peaks' total power of frames `peak_first …`, for the centred median.
+    peak_powers: VecDeque<f64>,
+    peak_first: u64,
     /// The coherent cut's tables and per-node axes (kept from frame to frame).
     cut: sampling::coherent_cut::CoherentCut,
     cut_lights: Vec<Light>,
@@ -156,6 +177,7 @@ impl Decomposer {
         if cfg.pattern == Pattern::RelaxedHalton {
             sampling::pattern::relaxed(); // relax once now, not inside the first frame
         }
+        let peak_filter = LightFilter::new(&design);
         let glossy = cfg.glossy_lights.map(|_| (glossy::GlossyRegions::new(cfg.glossy_regions, cfg.lut_size), RegionLists::default()));
         Ok(Self {
             filter: LightFilter::new(&design),
@@ -172,6 +194,10 @@ impl Decomposer {
             lists: RegionLists::default(),
             glossy,
             peaks: peaks::PeakTracker::new(),
+            peak_filter,
+            peak_powers: VecDeque::new(),
+            peak_first: 0,
+            no_lights: Vec::new(),
             cut: sampling::coherent_cut::CoherentCut::new(),
             cut_lights: Vec::new(),
             cfg,
@@ -230,6 +256,7 @@ impl Decomposer {
     pub fn push(&mut self, map: &PolarMap) -> Option<FrameSummary> {
         let mut pending = self.sample(map);
         if self.cfg.temporal == Temporal::ZeroPhase {
+            self.peak_powers.push_back(pending.peak_power);
             match (&pending.unfiltered, pending.status) {
                 (_, Status::Dark) => self.centred.push_dark(),
                 (Some(_), _) => self.centred.push(pending.power, &[]),
@@ -239,15 +266,21 @@ impl Decomposer {
             return if self.centred.ready() { self.emit_centred() } else { None };
         }
         let power = pending.power;
-        let step = match (pending.status, pending.unfiltered.take()) {
-            (Status::Dark, _) => self.filter.step_dark(&mut self.filtered),
+        // Causal (the paper's): the FIR with its delay; minimum phase (live, low delay first):
+        // the peaks' power of this frame, as a step through a filter would lag.
+        let peak_power = match self.cfg.temporal {
+            Temporal::MinimumPhase => pending.peak_power,
+            _ => self.peak_filter.step(pending.peak_power, &[], &mut self.no_lights).power,
+        };
+        let (step, peak_power) = match (pending.status, pending.unfiltered.take()) {
+            (Status::Dark, _) => (self.filter.step_dark(&mut self.filtered), peak_power),
             (_, Some(lights)) => {
                 self.filtered = lights;
-                fir::FilterStep { power, held: 0 }
+                (fir::FilterStep { power, held: 0 }, pending.peak_power)
             }
-            _ => self.filter.step(power, &self.raw, &mut self.filtered),
+            _ => (self.filter.step(power, &self.raw, &mut self.filtered), peak_power),
         };
-        Some(self.finish(pending, step))
+        Some(self.finish(pending, step, peak_power))
     }
 
     /// Gives out the next pending frame at the end of a recording (zero phase, with the
@@ -261,11 +294,34 @@ impl Decomposer {
         let (t, mut step) = self.centred.emit(&mut self.filtered)?;
         let mut p = self.pending.pop_front()?;
         debug_assert_eq!(p.frame, t);
+        let mut peak_power = self.centred_peak_power(t);
         if let Some(lights) = p.unfiltered.take() {
             self.filtered = lights;
             step = fir::FilterStep { power: p.power, held: 0 };
+            peak_power = p.peak_power;
         }
-        Some(self.finish(p, step))
+        Some(self.finish(p, step, peak_power))
+    }
+
+    /// The peaks' total power for frame `t` on files: the median over the FIR's centred window
+    /// (shortened at the ends like it). A median removes a lamp's flicker as the FIR does
+    /// (Havran §3.3) but keeps a step (a cloud reaching the sun) where it is, so the peaks'
+    /// lights describe their own frame. Drops the frames no later window needs.
+    fn centred_peak_power(&mut self, t: u64) -> f64 {
+        let m = self.centred.half_width() as u64;
+        let last = self.peak_first + self.peak_powers.len() as u64;
+        if t < self.peak_first || t >= last {
+            return 0.0;
+        }
+        let r = m.min(t - self.peak_first).min(last - 1 - t);
+        let mut w: Vec<f64> = (t - r..=t + r).map(|k| self.peak_powers[(k - self.peak_first) as usize]).collect();
+        let mid = w.len() / 2;
+        let v = *w.select_nth_unstable_by(mid, f64::total_cmp).1;
+        while self.peak_first + m < t + 1 && !self.peak_powers.is_empty() {
+            self.peak_powers.pop_front();
+            self.peak_first += 1;
+        }
+        v
     }
 
     /// Per frame, before filtering: peaks, the distribution and the raw samples (in `raw`), or
@@ -274,17 +330,21 @@ impl Decomposer {
         let frame = self.pushed;
         self.pushed += 1;
         let n = self.cfg.glossy_lights.unwrap_or(0).max(self.cfg.lights);
-        let map = if self.cfg.peaks {
-            self.peaks.split(map, n - 1);
-            self.peaks.remainder()
-        } else {
-            map
-        };
-        let n = n - self.peaks.peaks().len();
         let coherent = self.cfg.sampler == SamplerKind::CoherentCut;
+        let peaks_on = self.cfg.peaks_on();
+        // At most N − 1 peak lights, so that `H` keeps a sample of the remainder; with a glossy
+        // set they belong to `L` and `H` alike. The coherent cut reads the remainder as patches
+        // of the map; the others get it as a map.
+        match (peaks_on, coherent) {
+            (true, true) => self.peaks.find(map, self.cfg.lights - 1),
+            (true, false) => self.peaks.split(map, self.cfg.lights - 1),
+            _ => {}
+        }
+        let map = if peaks_on && !coherent { self.peaks.remainder() } else { map };
+        let n = n - self.peaks.peaks().len();
         // The coherent cut's summed-area tables give the power: no CDFs for it.
         let (sanitized, power, power_rgb) = if coherent {
-            self.cut.rebuild(map);
+            self.cut.rebuild_patched(map, if peaks_on { self.peaks.patches() } else { &[] });
             (self.cut.invalid_texels(), self.cut.total(), self.cut.total_rgb())
         } else {
             let s = self.dist.rebuild(map);
@@ -319,25 +379,32 @@ impl Decomposer {
             power_rgb,
             power,
             peaks: self.peaks.peaks().to_vec(),
+            peak_power: self.peaks.peaks().iter().map(|l| luminance(l.rgb) as f64).sum(),
             unfiltered,
         }
     }
 
-    /// Adds the frame's peaks to the filtered lights, clusters them, builds the region lists and
-    /// the summary.
-    fn finish(&mut self, p: Pending, mut step: fir::FilterStep) -> FrameSummary {
+    /// Adds the frame's peaks to the filtered lights (to `L` and `H` with a glossy set: `H` is
+    /// the first `N − peaks` samples of `L` rescaled, then the same peak lights), clusters them,
+    /// builds the region lists and the summary. The peaks keep their directions and share
+    /// `peak_power`, their filtered total power (Havran §3.3: a lamp's flicker is filtered
+    /// like the rest of the map's; on files by a centred median, by the FIR with the paper's
+    /// causal filter, not at all live with the minimum-phase one).
+    fn finish(&mut self, mut p: Pending, mut step: fir::FilterStep, peak_power: f64) -> FrameSummary {
         let (mut power_rgb, mut power) = (p.power_rgb, p.power);
+        let scale = if p.peak_power > 0.0 { (peak_power / p.peak_power) as f32 } else { 1.0 };
         for l in &p.peaks {
-            self.filtered.push(*l);
-            let y = polar::luminance(l.rgb) as f64;
-            (power, step.power) = (power + y, step.power + y);
+            (power, step.power) = (power + luminance(l.rgb) as f64, step.power + (luminance(l.rgb) * scale) as f64);
             for c in 0..3 {
                 power_rgb[c] += l.rgb[c] as f64;
             }
         }
+        p.peaks.iter_mut().for_each(|l| l.rgb = l.rgb.map(|c| c * scale));
         if self.glossy.is_some() {
-            glossy::high_set(&self.filtered, self.cfg.lights, &mut self.high);
+            glossy::high_set(&self.filtered, self.cfg.lights.saturating_sub(p.peaks.len()), &mut self.high);
+            self.high.extend_from_slice(&p.peaks);
         }
+        self.filtered.extend_from_slice(&p.peaks);
         let high = if self.glossy.is_some() { &self.high } else { &self.filtered };
         match self.cfg.clusters {
             Some(q) => cluster::cluster_lights(high, q, cluster::cluster_radius(q, self.cfg.cluster_cf), &mut self.clusters),
@@ -390,64 +457,4 @@ impl Decomposer {
     pub fn distribution(&self) -> &PolarDistribution {
         &self.dist
     }
-}
-
-/// Unfiltered lights of one map: `n` samples of `kind`, each with power `P/n` (what one frame
-/// gives before the temporal filter). Empty for a black map.
-pub fn lights_of_map(map: &PolarMap, kind: SamplerKind, pattern: Pattern, n: usize) -> Vec<Light> {
-    // The cuts build their own summed-area tables: no CDFs needed.
-    match kind {
-        SamplerKind::MedianCut => return sampling::median_cut::median_cut_lights(map, n),
-        SamplerKind::CoherentCut => return sampling::coherent_cut::coherent_cut_lights(map, n),
-        _ => {}
-    }
-    let dist = PolarDistribution::new(map);
-    lights_of_distribution(&dist, map, kind, pattern, n)
-}
-
-/// [`lights_of_map`] with the distribution already built.
-pub fn lights_of_distribution(dist: &PolarDistribution, map: &PolarMap, kind: SamplerKind, pattern: Pattern, n: usize) -> Vec<Light> {
-    if dist.is_empty() || n == 0 {
-        return Vec::new();
-    }
-    if kind == SamplerKind::MedianCut {
-        return sampling::median_cut::median_cut_lights(map, n);
-    }
-    if kind == SamplerKind::CoherentCut {
-        return sampling::coherent_cut::coherent_cut_lights(map, n);
-    }
-    let p = (dist.integral() / n as f64) as f32;
-    (0..n)
-        .filter_map(|k| {
-            let r = dist.sample(kind, sampling::pattern::sample(pattern, k))?;
-            Some(Light { index: k as u32, dir: r.dir, rgb: dist.light_rgb(map, &r).map(|c| c * p) })
-        })
-        .collect()
-}
-
-/// Unfiltered lights of one map with its peaks as lights of their own ([`peaks`]): at most
-/// `n − 1` peaks from `tracker` (indices tracked from its previous map), then `n − peaks`
-/// lights of `kind` on the remainder.
-pub fn lights_with_peaks(tracker: &mut peaks::PeakTracker, map: &PolarMap, kind: SamplerKind, pattern: Pattern, n: usize) -> Vec<Light> {
-    if n == 0 {
-        return Vec::new();
-    }
-    tracker.split(map, n - 1);
-    let mut l = lights_of_map(tracker.remainder(), kind, pattern, n - tracker.peaks().len());
-    l.extend_from_slice(tracker.peaks());
-    l
-}
-
-/// Irradiance (RGB) of a set of lights on a surface with unit normal `n`: `Σ rgb·max(n·l, 0)`.
-pub fn irradiance(lights: &[Light], n: Vec3) -> [f64; 3] {
-    let mut e = [0.0f64; 3];
-    for l in lights {
-        let c = n.dot(l.dir);
-        if c > 0.0 {
-            for k in 0..3 {
-                e[k] += (l.rgb[k] * c) as f64;
-            }
-        }
-    }
-    e
 }

@@ -396,7 +396,7 @@ mod tests {
             .map(|i| {
                 let mut d = random_dir(&mut rng);
                 d.y = d.y.abs();
-                Light { index: i, dir: d, rgb: [rng.random_range(0.1..2.0), 1.0, 0.5] }
+                Light { index: i, dir: d, rgb: [rng.random_range(0.1..2.0), 1.0, 0.5], radius: 0.0 }
             })
             .collect();
         let mut lists = RegionLists::default();
@@ -427,7 +427,7 @@ mod tests {
     fn byte_layout() {
         let set = RegionSet::lambertian(8, 4);
         let mut lists = RegionLists::default();
-        set.build_lists(&[Light { index: 7, dir: Vec3::Y, rgb: [1.0, 2.0, 3.0] }], &mut lists);
+        set.build_lists(&[Light { index: 7, dir: Vec3::Y, rgb: [1.0, 2.0, 3.0], radius: 0.0 }], &mut lists);
         let (l, r, i) = lists.to_bytes();
         assert_eq!(l.len(), 32);
         assert_eq!(&l[0..4], &0.0f32.to_le_bytes());

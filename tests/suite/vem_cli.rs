@@ -53,8 +53,10 @@ fn generated_sequence_to_json_lines() {
         assert_eq!(v["describes_frame"], i);
         let lights = v["lights"].as_array().unwrap();
         assert_eq!(lights.len(), 24);
+        // The samples' indices 0, 1, …, then the peaks' (the sun, by default) from 2³⁰ on.
         for (k, l) in lights.iter().enumerate() {
-            assert_eq!(l["index"], k);
+            let i = l["index"].as_u64().unwrap();
+            assert!(i == k as u64 || i >= heliar::vem::peaks::PEAK_INDEX_BASE as u64, "light {k}: index {i}");
             let d: Vec<f64> = l["dir"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
             assert!((d.iter().map(|x| x * x).sum::<f64>() - 1.0).abs() < 1e-5 && d[1] >= -1e-6);
             assert!(l["rgb"].as_array().unwrap().iter().all(|c| c.as_f64().unwrap() >= 0.0));
@@ -164,12 +166,23 @@ fn median_cut_and_peaks_from_the_command_line() {
         let p = v["power"].as_f64().unwrap();
         assert!((y - p).abs() < 1e-3 * p, "{y} vs {p}");
     }
-    let with_peaks = lines(&["--peaks"]);
-    let sun_lights = with_peaks.iter().filter(|v| v["lights"].as_array().unwrap().iter().any(|l| l["index"].as_u64().unwrap() >= 1 << 30)).count();
+    let is_peak = |l: &serde_json::Value| l["index"].as_u64().unwrap() >= 1 << 30;
+    // Peaks are the coherent cut's default: the sun gets a light of its own, with its radius.
+    let with_peaks = lines(&[]);
+    let sun_lights = with_peaks.iter().filter(|v| v["lights"].as_array().unwrap().iter().any(is_peak)).count();
     assert!(sun_lights >= 4, "the sun of the generated sky is a peak: {sun_lights} of 6 frames");
     assert!(with_peaks.iter().all(|v| v["lights"].as_array().unwrap().len() == 24));
-    let (ok, _, err) = heliar(&["vem", "--input", s(&frames), "--calib", s(&calib), "--lights", "24", "--peaks", "--glossy-lights", "48"]);
-    assert!(!ok && err.contains("glossy_lights"), "{err}");
+    for l in with_peaks.iter().flat_map(|v| v["lights"].as_array().unwrap().iter().filter(|l| is_peak(l))) {
+        let r = l["radius"].as_f64().unwrap();
+        assert!(r > 0.0 && r < 5f64.to_radians(), "a 64-pixel sun is a few degrees at most: {r}");
+    }
+    assert!(lines(&["--no-peaks"]).iter().all(|v| !v["lights"].as_array().unwrap().iter().any(|l| is_peak(l) || l.get("radius").is_some())));
+    let (ok, _, err) = heliar(&["vem", "--input", s(&frames), "--calib", s(&calib), "--peaks", "--no-peaks"]);
+    assert!(!ok && err.contains("--no-peaks"), "{err}");
+    // Peaks with a glossy set: `H` (the lines' lights) keeps N lights and the sun.
+    let glossy = lines(&["--glossy-lights", "48"]);
+    assert!(glossy.iter().all(|v| v["lights"].as_array().unwrap().len() == 24));
+    assert!(glossy.iter().filter(|v| v["lights"].as_array().unwrap().iter().any(is_peak)).count() >= 4);
     std::fs::remove_dir_all(&dir).ok();
 }
 

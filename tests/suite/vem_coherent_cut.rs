@@ -46,7 +46,7 @@ fn one_more_light_keeps_the_indices_near_their_places() {
 }
 
 fn decomposer(temporal: Temporal, clusters: Option<usize>, peaks: bool) -> Decomposer {
-    Decomposer::new(VemConfig { lights: 64, sampler: SamplerKind::CoherentCut, temporal, clusters, peaks, ..VemConfig::default() })
+    Decomposer::new(VemConfig { lights: 64, sampler: SamplerKind::CoherentCut, temporal, clusters, peaks: Some(peaks), ..VemConfig::default() })
         .expect("a valid configuration")
 }
 
@@ -86,5 +86,44 @@ fn clustering_and_peaks_work_with_the_cut_lights() {
         assert!((y - s.power).abs() < 1e-3 * s.power, "{y} vs {}", s.power);
         let c = dec.clusters();
         assert!(!c.is_empty() && c.len() <= 12, "{}", c.len());
+    }
+}
+
+#[test]
+fn peaks_are_the_default_and_join_both_glossy_sets_at_their_own_power() {
+    // Peaks are on by default with the coherent cut. With a glossy set (Havran §4.2) the sun's
+    // light is in `L` and `H` alike, unscaled; the samples of the remainder fill the rest of each
+    // set, so both sets hold the map's power (f32 sums over 256 lights: 1e-4).
+    use heliar::vem::glossy::shade_glossy_all;
+    use heliar::vem::peaks::PEAK_INDEX_BASE;
+    use heliar::vem::regions::GpuLight;
+    assert!(VemConfig::default().peaks_on());
+    assert!(!VemConfig { sampler: SamplerKind::Havran, ..VemConfig::default() }.peaks_on());
+    let bad = VemConfig { glossy_lights: Some(256), sampler: SamplerKind::MedianCut, ..VemConfig::default() };
+    assert!(Decomposer::new(bad).is_err(), "median cut has no equal-power samples for a glossy set");
+    let maps = heliar::vem::eval::sunny::polar_maps(360, 90, 2);
+    let mut dec = Decomposer::new(VemConfig { lights: 64, glossy_lights: Some(256), temporal: Temporal::ZeroPhase, ..VemConfig::default() }).expect("glossy with peaks");
+    for m in &maps {
+        let s = dec.process(m);
+        let (h, l) = (dec.lights().to_vec(), dec.glossy_lights().expect("a glossy set").to_vec());
+        assert_eq!((h.len(), l.len()), (64, 256));
+        let (sh, sl): (Vec<_>, Vec<_>) = (h.iter().filter(|x| x.index >= PEAK_INDEX_BASE).collect(), l.iter().filter(|x| x.index >= PEAK_INDEX_BASE).collect());
+        assert_eq!(sh.len(), 1);
+        assert_eq!(sh, sl, "the same sun light in both sets");
+        // Measured at the map's resolution: the sun splatted over 2×2 texels of 1°.
+        assert!(sh[0].radius > 0.0 && sh[0].radius < 2f32.to_radians(), "a sun of a few texels: {}", sh[0].radius);
+        for set in [&h, &l] {
+            let y: f64 = set.iter().map(|x| luminance(x.rgb) as f64).sum();
+            assert!((y - s.power).abs() < 1e-4 * s.power, "{y} vs {}", s.power);
+        }
+        // The cone's energy from `L` only, the rest from `H` only: with a unit factor the two
+        // strata give the map's power once. The sun holds 60% of it, so counting it in both sets
+        // would give 1.6×; the stratification of the remainder costs at most a few percent.
+        let (gl, gh): (Vec<GpuLight>, Vec<GpuLight>) = (l.iter().map(GpuLight::from_light).collect(), h.iter().map(GpuLight::from_light).collect());
+        let cos_cone = 0.1f32.cos();
+        for r in [sh[0].dir, Vec3::Y, Vec3::new(0.5, 0.5, -0.7).normalize()] {
+            let e = luminance(shade_glossy_all(&gl, &gh, r, cos_cone, None, |_| 1.0)) as f64;
+            assert!((e - s.power).abs() < 0.03 * s.power, "R = {r:?}: {e} vs {}", s.power);
+        }
     }
 }

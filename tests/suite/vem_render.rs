@@ -232,7 +232,7 @@ fn shadow_atlas_agrees_with_ray_casting() {
     for l in [Vec3::new(0.3, 0.9, 0.2), Vec3::new(-0.6, 0.5, 0.4), Vec3::new(0.1, 0.35, -0.9)] {
         let l = l.normalize();
         let mut lists = RegionLists::default();
-        set.build_lists(&[Light { index: 0, dir: l, rgb: [1.0; 3] }], &mut lists);
+        set.build_lists(&[Light { index: 0, dir: l, rgb: [1.0; 3], radius: 0.0 }], &mut lists);
         let lights = VemLights { status: Status::Ok, h: (&set, &lists), glossy: None, clusters: vec![] };
         let out = r.render(&lights, &bg, 0.05).unwrap();
         assert_eq!(out.report.shadow_maps, 1);

@@ -23,7 +23,7 @@ fn the_coherent_cut_with_peaks_is_followed_by_the_filter_without_adding_error() 
     let maps = sunny::polar_maps(180, 45, sunny::FRAMES);
     let normals = upper_normals(64, 777);
     let refs = references(&maps, &normals);
-    let c = |temporal| VemConfig { polar_width: 180, polar_height: 45, lights: 128, temporal, sampler: SamplerKind::CoherentCut, peaks: true, ..VemConfig::default() };
+    let c = |temporal| VemConfig { polar_width: 180, polar_height: 45, lights: 128, temporal, sampler: SamplerKind::CoherentCut, peaks: Some(true), ..VemConfig::default() };
     let floor = lag_error(&maps, c(Temporal::ZeroPhase), &normals, &refs).unwrap();
     let mut rel = Vec::new();
     for (m, r) in maps.iter().zip(&refs) {

@@ -238,7 +238,7 @@ fn speed(s: &VemSweep, maps: &[(String, PolarMap)]) -> Result<()> {
     let mut row = |name: &str, (w, c): (f64, f64)| t.push(vec![name.into(), format!("{w:.1}"), format!("{c:.1}")]);
     for kind in [SamplerKind::Havran, SamplerKind::Standard, SamplerKind::MedianCut, SamplerKind::CoherentCut] {
         for peaks in [false, true] {
-            let mut dec = Decomposer::new(VemConfig { lights: 300, sampler: kind, clusters: Some(72), peaks, ..VemConfig::default() })?;
+            let mut dec = Decomposer::new(VemConfig { lights: 300, sampler: kind, clusters: Some(72), peaks: Some(peaks), ..VemConfig::default() })?;
             let what = if peaks { "peaks + " } else { "" };
             row(&format!("whole frame, {}: {what}CDFs + 300 lights + FIR + clustering (Q = 72) + 200 region lists", kind.name()), time_per_call(n, |i| {
                 std::hint::black_box(dec.process(&maps[i % maps.len()].1));
@@ -249,6 +249,8 @@ fn speed(s: &VemSweep, maps: &[(String, PolarMap)]) -> Result<()> {
     let mut cut_out = Vec::new();
     row("coherent cut: summed-area tables", time_per_call(n, |i| cut.rebuild(&maps[i % maps.len()].1)));
     row("coherent cut: 300 leaves from the tables", time_per_call(n, |_| cut.lights_of_tables(300, &mut cut_out)));
+    let mut tracker = heliar::vem::peaks::PeakTracker::new();
+    row("peak detector (peaks and the remainder's patches)", time_per_call(n, |i| tracker.find(&maps[i % maps.len()].1, 299)));
     let m = &maps[0].1;
     let mut dist = PolarDistribution::default();
     row("CDFs", time_per_call(n, |_| {

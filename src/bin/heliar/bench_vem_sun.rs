@@ -56,8 +56,10 @@ fn frame_lights(cut: &mut CoherentCut, tracker: &mut PeakTracker, m: &PolarMap, 
     }
     let mut out = Vec::with_capacity(n);
     if peaks {
-        tracker.split(m, n - 1);
-        cut.lights(tracker.remainder(), n - tracker.peaks().len(), &mut out);
+        // As the decomposer does: the remainder as patches of the map, no copy.
+        tracker.find(m, n - 1);
+        cut.rebuild_patched(m, tracker.patches());
+        cut.lights_of_tables(n - tracker.peaks().len(), &mut out);
         out.extend_from_slice(tracker.peaks());
     } else {
         cut.lights(m, n, &mut out);
@@ -142,7 +144,7 @@ fn print_lag(maps: &[PolarMap], normals: &[glam::Vec3], refs: &[Vec<f64>]) -> Re
     use heliar::vem::fir::Temporal;
     let mut t = Table::new(&["sampler", "filter", "delay_frames", "err_mean_pct", "err_p95_pct", "err_max_pct"]);
     for (sname, sampler, peaks) in [("havran", SamplerKind::Havran, false), ("coherent_cut", SamplerKind::CoherentCut, false), ("coherent_cut+peaks", SamplerKind::CoherentCut, true)] {
-        let cfg = |temporal| heliar::vem::VemConfig { lights: 300, temporal, sampler, peaks, ..Default::default() };
+        let cfg = |temporal| heliar::vem::VemConfig { lights: 300, temporal, sampler, peaks: Some(peaks), ..Default::default() };
         let mut rows = vec![
             ("zero phase (files)", lag_error(maps, cfg(Temporal::ZeroPhase), normals, refs)?),
             ("minimum phase (live)", lag_error(maps, cfg(Temporal::MinimumPhase), normals, refs)?),

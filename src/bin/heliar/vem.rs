@@ -111,13 +111,18 @@ pub struct VemArgs {
     /// its minimum-phase version (low delay).
     #[arg(long, value_enum, default_value = "zero-phase")]
     temporal: TemporalArg,
-    /// How the map becomes lights (best with --peaks).
+    /// How the map becomes lights.
     #[arg(long, value_enum, default_value = "coherent-cut")]
     sampler: SamplerArg,
-    /// Give concentrated peaks (the sun) lights of their own, at their measured power and
-    /// tracked from frame to frame, and sample the rest of the map with the other lights.
-    #[arg(long)]
+    /// Give concentrated peaks (the sun, a lamp) lights of their own, at their measured power
+    /// and angular size, tracked from frame to frame, and sample the rest of the map with the
+    /// other lights. The default with the coherent cut; this turns it on for the other samplers.
+    #[arg(long, conflicts_with = "no_peaks")]
     peaks: bool,
+    /// No peak lights: every light samples the map (the default of the samplers other than the
+    /// coherent cut).
+    #[arg(long)]
+    no_peaks: bool,
     /// Use plain Halton samples instead of the relaxed ones.
     #[arg(long)]
     no_relax: bool,
@@ -175,7 +180,7 @@ pub fn run(a: VemArgs) -> Result<()> {
         rate_hz: a.rate_hz,
         clusters: a.clusters,
         glossy_lights: a.glossy_lights,
-        peaks: a.peaks,
+        peaks: if a.peaks { Some(true) } else if a.no_peaks { Some(false) } else { None },
         temporal: a.temporal.into(),
         ..VemConfig::default()
     };

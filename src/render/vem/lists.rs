@@ -82,7 +82,7 @@ mod tests {
         let lights: Vec<Light> = (0..300)
             .map(|i| {
                 let d = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(0.05..1.0), rng.random_range(-1.0..1.0)).normalize();
-                Light { index: i, dir: d, rgb: [rng.random_range(0.1..1.0), 0.5, 0.2] }
+                Light { index: i, dir: d, rgb: [rng.random_range(0.1..1.0), 0.5, 0.2], radius: 0.0 }
             })
             .collect();
         let set = RegionSet::lambertian(200, 16);

@@ -97,7 +97,7 @@ pub fn shadow_directions(lights: &[GpuLight], clusters: &[Vec3], slots: usize) -
         return clusters.iter().take(slots).copied().collect();
     }
     let lights: Vec<crate::vem::Light> =
-        lights.iter().map(|l| crate::vem::Light { index: l.index, dir: Vec3::from_array(l.dir), rgb: l.rgb }).collect();
+        lights.iter().map(|l| crate::vem::Light { index: l.index, dir: Vec3::from_array(l.dir), rgb: l.rgb, radius: 0.0 }).collect();
     let mut out = Vec::new();
     cluster_lights(&lights, slots, cluster_radius(slots, DEFAULT_CF), &mut out);
     out.iter().map(|c| c.dir).collect()

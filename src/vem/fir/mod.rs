@@ -224,7 +224,7 @@ fn finish_light(index: u32, v: Vec3, c: [f32; 3], fallback_dir: Vec3, fallback_c
     let c = c.map(|x| x.max(0.0));
     let y = luminance(c);
     let c = if y > 0.0 && y.is_finite() { c.map(|x| x / y) } else { fallback_colour };
-    (Light { index, dir, rgb: c.map(|x| x * per_light) }, held)
+    (Light { index, dir, rgb: c.map(|x| x * per_light), radius: 0.0 }, held)
 }
 
 #[cfg(test)]

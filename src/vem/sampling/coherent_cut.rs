@@ -43,7 +43,8 @@
 //!   every leaf at `P/N` and leave the lights in place when `N` changes; users who need lights
 //!   that never move when `N` grows keep `--sampler havran`.
 //! - A leaf inside one texel has that texel's centre as its centroid: a source a texel wide gets
-//!   all of its share of the leaves at one direction (use `--peaks` to give it one light).
+//!   all of its share of the leaves at one direction; the [`crate::vem::Decomposer`] gives such
+//!   a source lights of its own by default ([`crate::vem::peaks`]; `--no-peaks` turns that off).
 
 use crate::vem::Light;
 use crate::vem::polar::{PolarMap, dir_from_polar, luminance};
@@ -94,6 +95,8 @@ pub struct CoherentCut {
     counts_n: usize,
     rects: Vec<Rect>,
     invalid: usize,
+    /// A row of the map with patches applied ([`CoherentCut::rebuild_patched`]).
+    row: Vec<[f32; 3]>,
 }
 
 impl CoherentCut {
@@ -119,7 +122,16 @@ impl CoherentCut {
 
     /// Builds the tables of `map` (see the module docs); a new map size forgets the axes.
     pub fn rebuild(&mut self, map: &PolarMap) {
+        self.rebuild_patched(map, &[]);
+    }
+
+    /// Builds the tables of `map` with the texels of `patches` (`(texel, value)`, in texel
+    /// order) replaced: the remainder of [`crate::vem::peaks::PeakTracker::find`] without a
+    /// copy of the map.
+    pub fn rebuild_patched(&mut self, map: &PolarMap, patches: &[(usize, [f32; 3])]) {
         let (w, h) = (map.width as usize, map.height as usize);
+        let mut patches = patches.iter().peekable();
+        let mut row_buf = std::mem::take(&mut self.row);
         if (w, h) != (self.width, self.height) {
             self.set_geometry(map);
         }
@@ -133,7 +145,18 @@ impl CoherentCut {
             let (y_prev, y_cur) = (&y_prev[j * stride + 1..], &mut y_cur[1..stride]);
             let (s_prev, s_cur) = self.sat6.split_at_mut((j + 1) * stride);
             let (s_prev, s_cur) = (&s_prev[j * stride + 1..], &mut s_cur[1..stride]);
-            let row = &map.data[j * w..(j + 1) * w];
+            let mut row = &map.data[j * w..(j + 1) * w];
+            if patches.peek().is_some_and(|p| p.0 < (j + 1) * w) {
+                row_buf.clear();
+                row_buf.extend_from_slice(row);
+                while let Some(&&(k, v)) = patches.peek().filter(|p| p.0 < (j + 1) * w) {
+                    if k >= j * w {
+                        row_buf[k - j * w] = v;
+                    }
+                    patches.next();
+                }
+                row = &row_buf;
+            }
             // Running row sums (of radiance; ΔΩ and the row's sin θ, cos θ applied per entry).
             let mut acc = [0.0f64; 6];
             for ((((p, &(sp, mcp)), yp), yc), (sp6, sc6)) in row.iter().zip(&self.cols).zip(y_prev).zip(y_cur.iter_mut()).zip(s_prev.iter().zip(s_cur.iter_mut())) {
@@ -154,6 +177,7 @@ impl CoherentCut {
             }
         }
         self.invalid = invalid;
+        self.row = row_buf;
     }
 
     fn set_geometry(&mut self, map: &PolarMap) {
@@ -322,14 +346,14 @@ impl CoherentCut {
             self.rects[2 * v + 1] = b;
         }
         let (w, h) = (self.width as u32, self.height as u32);
-        out.resize(n, Light { index: 0, dir: glam::Vec3::Y, rgb: [0.0; 3] });
+        out.resize(n, Light { index: 0, dir: glam::Vec3::Y, rgb: [0.0; 3], radius: 0.0 });
         for v in n..2 * n {
             let r = self.rects[v];
             let s = self.energy6(&r);
             let centre = || dir_from_polar((0.5 * (r.x0 + r.x1)) as f32, (0.5 * (r.y0 + r.y1)) as f32, w, h);
             let dir = DVec3::new(s[3], s[4], s[5]).try_normalize().map_or_else(centre, |d| d.as_vec3());
             let k = leaf_index(v);
-            out[k as usize] = Light { index: k, dir, rgb: [s[0].max(0.0) as f32, s[1].max(0.0) as f32, s[2].max(0.0) as f32] };
+            out[k as usize] = Light { index: k, dir, rgb: [s[0].max(0.0) as f32, s[1].max(0.0) as f32, s[2].max(0.0) as f32], radius: 0.0 };
         }
     }
 
@@ -411,6 +435,26 @@ mod tests {
         }
         assert!(coherent_cut_lights(&PolarMap::new(36, 9), 8).is_empty());
         assert!(coherent_cut_lights(&map, 0).is_empty());
+    }
+
+    #[test]
+    fn patched_tables_are_the_tables_of_the_patched_map() {
+        // The same f64 sums in the same order: bit for bit.
+        let map = PolarMap::from_fn(72, 18, |d| [1.0 + d.x.max(0.0), 0.5 + d.y, 0.3]);
+        let patches = [(5usize, [9.0f32, 8.0, 7.0]), (6, [0.0; 3]), (72 * 3 + 71, [2.0; 3]), (72 * 17, [f32::NAN; 3])];
+        let mut copy = map.clone();
+        for &(k, v) in &patches {
+            copy.data[k] = v;
+        }
+        let (mut a, mut b) = (CoherentCut::new(), CoherentCut::new());
+        a.rebuild_patched(&map, &patches);
+        b.rebuild(&copy);
+        assert_eq!(a.sat_y, b.sat_y);
+        assert_eq!(a.sat6, b.sat6);
+        assert_eq!(a.invalid_texels(), 1);
+        a.rebuild_patched(&map, &[]);
+        b.rebuild(&map);
+        assert_eq!(a.sat6, b.sat6);
     }
 
     #[test]

@@ -174,7 +174,7 @@ pub fn median_cut_lights(map: &PolarMap, n: usize) -> Vec<Light> {
             }
             let centre = || dir_from_polar((r.x0 + r.x1) as f32 * 0.5, (r.y0 + r.y1) as f32 * 0.5, w, h);
             let dir = c.try_normalize().map_or_else(centre, |d| d.as_vec3());
-            Light { index: k as u32, dir, rgb: rgb.map(|v| v as f32) }
+            Light { index: k as u32, dir, rgb: rgb.map(|v| v as f32), radius: 0.0 }
         })
         .collect()
 }

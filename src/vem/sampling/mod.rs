@@ -71,8 +71,9 @@ pub enum SamplerKind {
     /// continuous cuts, one light of power `P/N` per leaf at its energy centroid, the leaf's
     /// index as the light's identity (so the temporal filter follows it). Not an inverse
     /// transform: [`PolarDistribution::sample`] and [`PolarDistribution::invert`] give `None`
-    /// and [`PolarDistribution::pdf`] 0 for it. The default: it beats median cut at equal `N`
-    /// (`heliar bench vem --what sun`) and follows its lights in time; it is not progressive.
+    /// and [`PolarDistribution::pdf`] 0 for it. The default, with peaks as lights of their own
+    /// ([`crate::vem::peaks`]): it beats median cut at equal `N` (`heliar bench vem --what sun`)
+    /// and follows its lights in time; it is not progressive.
     #[default]
     CoherentCut,
 }
