@@ -109,7 +109,12 @@ pub struct Setup {
 
 impl Setup {
     /// A compositor for this set-up.
+    ///
+    /// The CPU references of these tests light the scene with Jensen's uniform sky and no
+    /// terrain, so the compositor is given the same sky whatever `config` says (the library's
+    /// default `[estimator.sky]` is the Hošek–Wilkie shape).
     pub fn compositor(&self, config: CompositorConfig) -> Compositor {
+        let config = CompositorConfig { sky: heliar::sky::radiance::SkyModel::uniform(), ..config };
         let objs: Vec<(String, &Mesh)> = self.objects.iter().map(|(n, m)| (n.clone(), m)).collect();
         let parts = SceneParts { camera: &self.camera, proxy: &self.proxy, proxy_name: "yard", objects: &objs };
         Compositor::new(gpu(), &parts, Arc::new(RayScene::new(self.proxy.clone())), config).expect("compositor")
