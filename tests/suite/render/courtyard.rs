@@ -27,7 +27,6 @@ use heliar::io::frames::Frame;
 use heliar::io::image::LinearImage;
 use heliar::irradiance::{ProbeGrid, sh};
 use heliar::render::reference::{Classes, Crop, References, composite_error};
-use heliar::lighting::Lighting;
 use heliar::render::{Compositor, CompositorConfig, Darkening, VideoFrame};
 use heliar::scene::Scene;
 use std::path::Path;
@@ -63,9 +62,8 @@ fn composite_matches_the_generators_reference_frames() {
         let frame = Frame::load(&seq.files[i]).unwrap();
         let e = est.estimate(i, &seq.times[i], &frame, &lin).unwrap();
         let Some(k) = refs.frames.iter().position(|&f| f == i) else { continue };
-        let s = e.smoothed.expect("smoothed lighting");
-        let v = |a: [f64; 3]| Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
-        let lighting = Lighting { sun_dir: Vec3::from(e.sun.dir_world), above_horizon: e.sun.above_horizon, pd: v(s.pd), pa: v(s.pa) };
+        assert!(e.smoothed.is_some(), "frame {i}: smoothed lighting");
+        let lighting = heliar::run::outdoor::lighting_of(&e);
         let reference = refs.image(k).unwrap();
         if let Some(t) = seq.truth.as_ref().map(|t| t[i]) {
             eprintln!("frame {i}: Pd {:?} (true {:?}), Pa {:?} (true {:?})", lighting.pd, t.pd, lighting.pa, t.pa);

@@ -12,11 +12,9 @@
 //! these frames) and the shadow's penumbra edges at a low sun.
 
 use super::support::*;
-use glam::Vec3;
 use heliar::estimate::Estimator;
 use heliar::geometry::raycast::RayScene;
 use heliar::io::frames::Frame;
-use heliar::lighting::Lighting;
 use heliar::render::reference::{Classes, References, composite_error};
 use heliar::render::{Compositor, CompositorConfig, VideoFrame};
 use heliar::scene::Scene;
@@ -48,9 +46,8 @@ fn the_scenes_sky_in_the_renderer_halves_the_error_under_a_low_winter_sun() {
         let frame = Frame::load(&seq.files[i]).unwrap();
         let e = est.estimate(i, &seq.times[i], &frame, &lin).unwrap();
         let Some(k) = refs.frames.iter().position(|&f| f == i) else { continue };
-        let s = e.smoothed.expect("smoothed lighting");
-        let v = |a: [f64; 3]| Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
-        let lighting = Lighting { sun_dir: Vec3::from(e.sun.dir_world), above_horizon: e.sun.above_horizon, pd: v(s.pd), pa: v(s.pa) };
+        assert!(e.smoothed.is_some(), "frame {i}: smoothed lighting");
+        let lighting = heliar::run::outdoor::lighting_of(&e);
         let reference = refs.image(k).unwrap();
         let classes = Classes::new(&scene, &statue, &ray, refs.crop, lighting.sun_dir);
         let video = VideoFrame::from_frame(&frame, &lin);
