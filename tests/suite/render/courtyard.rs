@@ -21,16 +21,13 @@
 
 use super::support::*;
 use glam::Vec3;
-use heliar::estimate::Estimator;
-use heliar::geometry::raycast::RayScene;
 use heliar::io::frames::Frame;
 use heliar::io::image::LinearImage;
 use heliar::irradiance::{ProbeGrid, sh};
-use heliar::render::reference::{Classes, Crop, References, composite_error};
+use heliar::render::reference::{Classes, Crop, composite_error};
 use heliar::render::{Compositor, CompositorConfig, Darkening, VideoFrame};
 use heliar::scene::Scene;
 use std::path::Path;
-use std::sync::Arc;
 
 /// The issue's target for the relative RMSE over the statue and its shadow (issue 4, §6),
 /// enforced on the product path (measured worst frame: see DEVELOPERS.md).
@@ -43,12 +40,7 @@ fn scene() -> Scene {
 #[test]
 fn composite_matches_the_generators_reference_frames() {
     let scene = scene();
-    let refs = References::load(&scene).expect("reference.toml").expect("the courtyard has references");
-    let seq = scene.sequence(refs.sequence.as_deref()).expect("reference sequence").clone();
-    let ray = Arc::new(RayScene::new(scene.proxy.clone()));
-    let statue = RayScene::new(scene.virtual_objects[0].mesh.clone());
-    let mut est = Estimator::new(&scene, ray.clone()).expect("estimator");
-    let lin = seq.photometry.linearizer();
+    let ReferenceRun { refs, seq, lin, ray, statue, mut est } = ReferenceRun::new(&scene);
     let config = CompositorConfig::for_scene(&scene);
     let mut product = Compositor::for_scene(gpu(), &scene, ray.clone(), config.clone()).expect("compositor");
     let mut probes_only = Compositor::for_scene(gpu(), &scene, ray.clone(), CompositorConfig { transfer_paths: 0, ..config }).expect("compositor");

@@ -222,3 +222,34 @@ pub fn ambient_radiance(base: Vec3, metallic: f32, roughness: f32, nv: f32, e_n:
     let c_diff = base.lerp(Vec3::ZERO, metallic);
     c_diff / std::f32::consts::PI * e_n * (Vec3::ONE - spec) + spec * e_r / std::f32::consts::PI
 }
+
+/// What an end-to-end test against a bundled scene's reference frames starts from: the reference
+/// frames, their sequence and its linearizer, the proxy's and the first object's ray scenes, and
+/// the scene's estimator.
+pub struct ReferenceRun {
+    /// The reference frames (`reference/reference.toml`).
+    pub refs: heliar::render::reference::References,
+    /// The sequence they belong to.
+    pub seq: heliar::scene::Sequence,
+    /// Its photometry's linearizer.
+    pub lin: heliar::io::frames::Linearizer,
+    /// The real proxy.
+    pub ray: Arc<RayScene>,
+    /// The first virtual object alone (for the reference's pixel classes).
+    pub statue: RayScene,
+    /// The scene's estimator.
+    pub est: heliar::estimate::Estimator,
+}
+
+impl ReferenceRun {
+    /// The pieces for `scene`, which must have reference frames.
+    pub fn new(scene: &heliar::scene::Scene) -> Self {
+        let refs = heliar::render::reference::References::load(scene).expect("reference.toml").expect("the scene has reference frames");
+        let seq = scene.sequence(refs.sequence.as_deref()).expect("reference sequence").clone();
+        let ray = Arc::new(RayScene::new(scene.proxy.clone()));
+        let statue = RayScene::new(scene.virtual_objects[0].mesh.clone());
+        let est = heliar::estimate::Estimator::new(scene, ray.clone()).expect("estimator");
+        let lin = seq.photometry.linearizer();
+        Self { refs, seq, lin, ray, statue, est }
+    }
+}

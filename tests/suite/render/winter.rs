@@ -12,15 +12,12 @@
 //! these frames) and the shadow's penumbra edges at a low sun.
 
 use super::support::*;
-use heliar::estimate::Estimator;
-use heliar::geometry::raycast::RayScene;
 use heliar::io::frames::Frame;
-use heliar::render::reference::{Classes, References, composite_error};
+use heliar::render::reference::{Classes, composite_error};
 use heliar::render::{Compositor, CompositorConfig, VideoFrame};
 use heliar::scene::Scene;
 use heliar::sky::radiance::SkyModel;
 use std::path::Path;
-use std::sync::Arc;
 
 /// Largest relative RMSE with the scene's sky (measured 7.5% on the worse frame at MSAA 1; the
 /// margin covers the adapter's rasterisation differences).
@@ -31,12 +28,7 @@ const MAX_RATIO: f64 = 0.6;
 #[test]
 fn the_scenes_sky_in_the_renderer_halves_the_error_under_a_low_winter_sun() {
     let scene = Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/winter/snow")).expect("bundled winter scene");
-    let refs = References::load(&scene).expect("reference.toml").expect("the winter scene has references");
-    let seq = scene.sequence(refs.sequence.as_deref()).expect("reference sequence").clone();
-    let ray = Arc::new(RayScene::new(scene.proxy.clone()));
-    let statue = RayScene::new(scene.virtual_objects[0].mesh.clone());
-    let mut est = Estimator::new(&scene, ray.clone()).expect("estimator");
-    let lin = seq.photometry.linearizer();
+    let ReferenceRun { refs, seq, lin, ray, statue, mut est } = ReferenceRun::new(&scene);
     let config = CompositorConfig::for_scene(&scene);
     assert!(!config.sky.is_uniform(), "the winter scene declares a shaped sky");
     let mut with_sky = Compositor::for_scene(gpu(), &scene, ray.clone(), config.clone()).expect("compositor");
