@@ -264,15 +264,8 @@ impl Relighter {
             *out = RelitMap::new(self.width, self.height);
         }
         let direct = self.sun.as_ref().filter(|_| lighting.above_horizon).map(|s| &s.direct);
-        // A shaped sky's ambient plane holds the sky texels: the uniform sky plane adds nothing.
-        let zeros;
-        let sky_plane: &[f32] = match self.sky_plane() {
-            Some(p) => p,
-            None => {
-                zeros = vec![0.0f32; n];
-                &zeros
-            }
-        };
+        // A shaped sky's ambient plane holds the sky texels: there is no uniform sky plane to add.
+        let sky_plane = self.sky_plane();
         let ambient = self.ambient_plane();
         for c in 0..3 {
             let (pa, pd) = (lighting.pa[c], if direct.is_some() { lighting.pd[c] } else { 0.0 });
@@ -281,17 +274,29 @@ impl Relighter {
             out.rgb[c].par_chunks_mut(CHUNK).enumerate().for_each(|(k, dst)| {
                 let s = k * CHUNK;
                 let e = s + dst.len();
-                let (a, sky) = (&amb[s..e], &sky_plane[s..e]);
-                match dir_plane {
-                    Some(d) => {
-                        let d = &d[s..e];
+                let a = &amb[s..e];
+                match (dir_plane, sky_plane) {
+                    (Some(d), Some(sky)) => {
+                        let (d, sky) = (&d[s..e], &sky[s..e]);
                         for j in 0..dst.len() {
                             dst[j] = a[j] * pa + d[j] * pd + sky[j] * pa;
                         }
                     }
-                    None => {
+                    (None, Some(sky)) => {
+                        let sky = &sky[s..e];
                         for j in 0..dst.len() {
                             dst[j] = (a[j] + sky[j]) * pa;
+                        }
+                    }
+                    (Some(d), None) => {
+                        let d = &d[s..e];
+                        for j in 0..dst.len() {
+                            dst[j] = a[j] * pa + d[j] * pd;
+                        }
+                    }
+                    (None, None) => {
+                        for j in 0..dst.len() {
+                            dst[j] = a[j] * pa;
                         }
                     }
                 }
