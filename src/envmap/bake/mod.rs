@@ -46,6 +46,7 @@ use steps::{Hits, Inversion, capture_lighting, fill_flagged, hit_buffers};
 
 mod steps;
 pub mod orientation;
+pub mod terrain;
 
 /// Texels whose inverse-rendering denominator is below this fraction of `Pa` are flagged: they
 /// receive almost no light, so their radiance says nothing about their albedo.
@@ -147,6 +148,10 @@ pub struct BakeInfo {
     /// read and at the best turn ([`orientation`]); `None` without a map or without both classes.
     #[serde(default)]
     pub orientation: Option<orientation::Orientation>,
+    /// Under `terrain_albedo = "map"`: the terrain albedo the inversion used and where it came
+    /// from ([`terrain`]); absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub terrain: Option<crate::scene::settings::ResolvedTerrain>,
 }
 
 /// The baked maps, in memory. Vectors are row-major `width × height`.
@@ -272,6 +277,10 @@ pub fn bake_with_map(scene: &Scene, ray: std::sync::Arc<RayScene>, map: Option<L
     }
     lap(&mut info, "hit buffers");
 
+    // The terrain's albedo, when it is to come from the map.
+    let (estimator, terrain_used) = terrain::bake_settings(scene, &ray, captured.as_ref().map(|(img, path)| (img, path.as_path())))?;
+    info.terrain = terrain_used;
+
     // 2. Weighted ambient.
     let ambient = steps::weighted_ambient(&ray, &node, &position, &normal, cfg, progress);
     lap(&mut info, "weighted ambient");
@@ -279,10 +288,10 @@ pub fn bake_with_map(scene: &Scene, ray: std::sync::Arc<RayScene>, map: Option<L
     // 3–4. Albedo.
     let albedo = match (&captured, env.albedo) {
         (Some((img, path)), AlbedoSource::Inverse) => {
-            let (pd, pa, l, sun_above) = capture_lighting(scene, &ray, view, img, path, &mut info)?;
+            let (pd, pa, l, sun_above) = capture_lighting(scene, &estimator, &ray, view, img, path, &mut info)?;
             lap(&mut info, "lighting at capture");
             let hits = Hits { node, position, normal, base };
-            let sky = scene.estimator.sky.sky_model();
+            let sky = estimator.sky.sky_model();
             let inv = Inversion { ray: &ray, hits: &hits, ambient: &ambient, cfg, sky: &sky, progress };
             let (mut rho, valid) = inv.run(img, pd, pa, l, sun_above);
             let (from_neighbours, from_base) = fill_flagged(&mut rho, &valid, &hits.node, &hits.base, w, h);
