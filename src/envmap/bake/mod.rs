@@ -14,7 +14,9 @@
 //! 3. **Lighting at capture.** The estimator runs on the environment map itself, as an equirect
 //!    view from the capture centre at the capture time, and gives `Pd`, `Pa` and the sun direction
 //!    `l` ([`crate::estimate::Estimator::with_view`]). A manifest that knows them
-//!    (`capture_pd`, `capture_pa`) skips this.
+//!    (`capture_pd`, `capture_pa`) skips this. With `terrain_albedo = "map"` the terrain's albedo
+//!    is measured first, on the map's texels below the horizon past the proxy, iterated with this
+//!    estimate ([`terrain`]; recorded in `bake.json` as `terrain`).
 //! 4. **Albedo map, by inverse rendering.** `ρ = π·L / (c·Pa + (s·max(n·l,0) + b)·Pd)` per channel,
 //!    with `s` the texel's sun visibility and `b` its sun bounce at capture (the estimator's model,
 //!    Jensen §4.2 plus the bounce term). Under a shaped sky or with terrain (`[estimator.sky]`,
