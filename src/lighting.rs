@@ -19,4 +19,9 @@ pub struct Lighting {
     pub pd: Vec3,
     /// `Pa` (RGB).
     pub pa: Vec3,
+    /// The frame's model took the sky as uniform (an overcast frame of a scene whose
+    /// `[estimator.sky]` has a shape; issue 13): the renderer's paths then see the uniform sky,
+    /// the terrain kept, instead of the shaped one ([`crate::sky::radiance::SkyModel::for_frame`]).
+    /// Without a shaped sky in the scene it changes nothing.
+    pub uniform_sky: bool,
 }

@@ -90,6 +90,10 @@ pub struct Relighter {
     ray: Arc<RayScene>,
     /// The bake's weighted-ambient factor `c` per texel (Jensen's uniform sky).
     c_uniform: Vec<Vec3>,
+    /// The scene's sky.
+    scene_sky: SkyModel,
+    /// The sky of the current frame: the scene's, or under an overcast frame's uniform sky its
+    /// uniform variant ([`Relighter::set_uniform_sky`]).
     sky_model: SkyModel,
 }
 
@@ -126,6 +130,7 @@ impl Relighter {
             config,
             ray,
             c_uniform: baked.ambient.clone(),
+            scene_sky: SkyModel::uniform(),
             sky_model: SkyModel::uniform(),
         }
     }
@@ -134,11 +139,25 @@ impl Relighter {
     /// the current sun (the terrain below the horizon included) and the surface texels' `c` its
     /// shape, both rebuilt with the sun planes.
     pub fn with_sky(mut self, sky: SkyModel) -> Self {
+        self.scene_sky = sky.clone();
         self.sky_model = sky;
         self
     }
 
-    /// The sky model.
+    /// Relights the next frames under the uniform sky (`true`: an overcast frame, whose
+    /// estimate used it) or the scene's (`false`). Returns true when that changed the sky, which
+    /// drops the sun planes, so the next [`Self::update_sun`] rebuilds them under the new sky.
+    pub fn set_uniform_sky(&mut self, uniform_sky: bool) -> bool {
+        let model = self.scene_sky.for_frame(uniform_sky);
+        if model == self.sky_model {
+            return false;
+        }
+        self.sky_model = model;
+        self.sun = None;
+        true
+    }
+
+    /// The sky model of the current frame.
     pub fn sky_model(&self) -> &SkyModel {
         &self.sky_model
     }

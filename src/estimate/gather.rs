@@ -73,7 +73,11 @@ impl Estimator {
                 PixelState::Ok => {
                     let (a, b) = match &self.sun_sky {
                         Some(sky) => {
-                            let a = if overcast { sky.a_overcast[e] } else { sky.a[e] };
+                            let a = match self.turbidity_pick.and_then(|i| sky.by_turbidity.get(i)) {
+                                _ if overcast => sky.a_overcast[e],
+                                Some((_, a_t)) => a_t[e],
+                                None => sky.a[e],
+                            };
                             (a, std::array::from_fn(|c| sun.b[e][c] + sky.b[e][c]))
                         }
                         None => (self.pool.a[e], sun.b[e]),

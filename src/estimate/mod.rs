@@ -32,6 +32,7 @@ pub mod sky_terms;
 pub mod smoother;
 pub mod solve;
 pub mod solve_multi;
+mod turbidity;
 
 pub use crate::scene::settings::EstimatorConfig;
 use crate::geometry::raycast::RayScene;
@@ -47,6 +48,7 @@ use rand::{SeedableRng, rngs::SmallRng};
 use solve::{ChannelRows, HDR_NOISE_FLOOR_REL, LDR_NOISE_FLOOR_REL};
 use std::sync::Arc;
 use smoother::{ChangeDetector, ChangeReason, Smoother};
+pub use turbidity::TurbidityFit;
 pub use report::{EstimateError, Fallback, FrameEstimate, Intensities, LampReport, LampStatus, SampleCounts, SetupStats, Status, SunReport};
 
 /// Rec. 709 luminance weights, used to compare colour intensities.
@@ -86,6 +88,9 @@ pub struct Estimator {
     /// current sun.
     sky: Option<sky_terms::SkyTerms>,
     sun_sky: Option<sky_terms::SunSky>,
+    /// Under `turbidity = "fit"`, the candidate of `sun_sky.by_turbidity` this frame's rows use
+    /// ([`turbidity`]); `None`: the configured turbidity.
+    turbidity_pick: Option<usize>,
     /// Time of the last frame that updated the smoother.
     last_update: Option<DateTime<FixedOffset>>,
     rows: [ChannelRows; 3],
@@ -174,6 +179,7 @@ impl Estimator {
             last_update: None,
             sky,
             sun_sky: None,
+            turbidity_pick: None,
             rows: Default::default(),
             lit: Vec::new(),
             bounce_only: Vec::new(),
@@ -232,6 +238,18 @@ impl Estimator {
         }
     }
 
+    /// The sky model of this frame's fit for the report, e.g. `hosek_wilkie T=3` or `uniform`
+    /// (`None` under Jensen's configured model, whose reports stay as they were).
+    fn sky_model_name(&self, fit: Option<&TurbidityFit>) -> Option<String> {
+        self.sky.as_ref()?;
+        Some(match self.sky_used() {
+            crate::scene::settings::SkyShape::Uniform => "uniform".to_owned(),
+            crate::scene::settings::SkyShape::HosekWilkie => {
+                format!("hosek_wilkie T={}", fit.map_or(self.config.sky.turbidity.value(), |f| f.chosen))
+            }
+        })
+    }
+
     /// Sun position and world direction at `time`.
     pub fn sun_at(&self, time: &DateTime<FixedOffset>) -> Result<(SunPosition, Vec3), SunError> {
         let pos = sun_position(&self.observer, time)?;
@@ -285,6 +303,7 @@ impl Estimator {
         let t_start = std::time::Instant::now();
 
         let mut rng = SmallRng::seed_from_u64(self.config.seed ^ (index as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+        let turbidity_fit = self.choose_turbidity(frame, lin, &rng);
         let Gathered { counts, clipped_lit, saturated } = self.gather(frame, lin, &mut rng);
 
         let mut out = FrameEstimate {
@@ -308,6 +327,9 @@ impl Estimator {
             sun_rebuild_ms,
             estimate_ms: 0.0,
             sky: self.sky_used(),
+            sky_model: self.sky_model_name(turbidity_fit.as_ref()),
+            terrain: self.sky.as_ref().map(|_| self.config.sky.terrain_used()),
+            turbidity_fit,
             lamps: Vec::new(),
         };
 

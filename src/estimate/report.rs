@@ -143,6 +143,17 @@ pub struct FrameEstimate {
     pub estimate_ms: f64,
     /// The sky's shape in this frame's model (`uniform` after a frame without direct sun).
     pub sky: crate::scene::settings::SkyShape,
+    /// The sky model of this frame's fit: `"hosek_wilkie T=3"` or `"uniform"` (overcast frames,
+    /// or `shape = "uniform"`); absent under Jensen's configured model (uniform, no terrain).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sky_model: Option<String>,
+    /// The terrain albedo in the model and where it came from (`scene`, `map`, `fallback`);
+    /// absent under Jensen's model.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub terrain: Option<crate::scene::settings::ResolvedTerrain>,
+    /// Under `turbidity = "fit"`: the turbidity chosen by residual, and every candidate's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub turbidity_fit: Option<super::TurbidityFit>,
     /// One entry per `[[lights]]` of the scene, in order (absent without lights).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub lamps: Vec<LampReport>,

@@ -24,11 +24,17 @@
 //! **Overcast.** A clear-sky shape is wrong under cloud, whose sky is close to uniform. After a
 //! frame whose smoothed `Pd` is below `no_sun_ratio` of `Pa` (status `no_direct_sun`), the next
 //! frames use the uniform sky (with the terrain) until the sun is back; each frame's report says
-//! which sky it used (`sky`).
+//! which sky it used (`sky`, and `sky_model` with the turbidity).
+//!
+//! **Turbidity by residual.** With `turbidity = "fit"` the ambient column is also evaluated for
+//! each turbidity of [`FIT_TURBIDITIES`] ([`SunSky::by_turbidity`]); the estimator fits every
+//! candidate on the frame's samples and keeps the one with the smallest robust residual
+//! (`estimate::turbidity`), in the spirit of the issue's "choose turbidity by residual and then
+//! fit the scales".
 
 use super::pool::Pool;
 use crate::geometry::raycast::RayScene;
-use crate::scene::settings::{SkyShape, SkyTermsConfig};
+use crate::scene::settings::{FIT_TURBIDITIES, SkyShape, SkyTermsConfig, Turbidity};
 use crate::sky::SkyError;
 use crate::sky::quadrature::CosineSet;
 use crate::sky::radiance::ShapedSky;
@@ -58,6 +64,8 @@ pub struct SunSky {
     pub a_overcast: Vec<[f32; 3]>,
     /// `ρ/π·ρ_t/π·max(l_y,0)·E_below` per channel.
     pub b: Vec<[f32; 3]>,
+    /// Under `turbidity = "fit"`: `a` for each candidate turbidity (empty otherwise).
+    pub by_turbidity: Vec<(f64, Vec<[f32; 3]>)>,
 }
 
 /// The sky's radiance for one sun, normalised to unit irradiance on an open horizontal surface.
@@ -115,7 +123,7 @@ impl SkyTerms {
     /// Traces the visibility of every pool entry; `None` when the configuration is Jensen's
     /// (uniform sky, black terrain), whose `a` is the pool's own.
     pub fn build(pool: &Pool, scene: &RayScene, config: &SkyTermsConfig) -> Result<Option<Self>, SkyError> {
-        if config.shape == SkyShape::Uniform && config.terrain_albedo == [0.0; 3] {
+        if config.shape == SkyShape::Uniform && config.terrain_rgb() == [0.0; 3] {
             return Ok(None);
         }
         let set = CosineSet::fibonacci(config.directions)?;
@@ -133,7 +141,7 @@ impl SkyTerms {
             })
             .collect();
         let w = set.weight();
-        let rho_t = Vec3::from(config.terrain_albedo) / PI;
+        let rho_t = Vec3::from(config.terrain_rgb()) / PI;
         let (e_uniform, terrain) = (0..pool.len())
             .map(|k| {
                 let (mut e_uniform, mut below) = (0.0f32, 0u32);
@@ -156,9 +164,23 @@ impl SkyTerms {
     /// The sky's shape for the sun toward `l` (a sun below the horizon: the shape for a sun on
     /// the horizon at its azimuth).
     pub fn shape(&self, l: Vec3) -> Result<SkyShapeFn, SkyError> {
+        self.shape_with(l, self.config.turbidity.value())
+    }
+
+    /// The sky's shape for the sun toward `l` at turbidity `t` (ignored by the uniform sky).
+    pub fn shape_with(&self, l: Vec3, t: f64) -> Result<SkyShapeFn, SkyError> {
         match self.config.shape {
             SkyShape::Uniform => Ok(SkyShapeFn { hosek: None }),
-            SkyShape::HosekWilkie => Ok(SkyShapeFn { hosek: Some(ShapedSky::hosek(l, self.config.turbidity, self.config.terrain_albedo, "estimator.sky")?) }),
+            SkyShape::HosekWilkie => Ok(SkyShapeFn { hosek: Some(ShapedSky::hosek(l, t, self.config.terrain_rgb(), "estimator.sky")?) }),
+        }
+    }
+
+    /// The turbidities a frame chooses among: [`FIT_TURBIDITIES`] under `turbidity = "fit"` with
+    /// the Hošek–Wilkie shape, none otherwise.
+    pub fn fit_candidates(&self) -> &'static [f64] {
+        match (self.config.shape, self.config.turbidity) {
+            (SkyShape::HosekWilkie, Turbidity::Fit) => &FIT_TURBIDITIES,
+            _ => &[],
         }
     }
 
@@ -205,7 +227,18 @@ impl SkyTerms {
         let sun_y = if above_horizon { l.y.max(0.0) } else { 0.0 };
         let a_overcast = (0..pool.len()).map(|k| (Vec3::from(pool.a[k]) + self.terrain[k]).to_array()).collect();
         let b = self.terrain.iter().map(|t| (*t * sun_y).to_array()).collect();
-        SunSky { a, a_overcast, b }
+        // A candidate whose shape cannot be built (it cannot: the turbidities are in range and
+        // `l` was valid for `a`) is left out rather than failing the frame.
+        let main = self.config.turbidity.value();
+        let by_turbidity = self
+            .fit_candidates()
+            .iter()
+            .filter_map(|&t| {
+                let a_t = if t == main { a.clone() } else { self.ambient(pool, &self.shape_with(l, t).ok()?, 0..pool.len()) };
+                Some((t, a_t))
+            })
+            .collect();
+        SunSky { a, a_overcast, b, by_turbidity }
     }
 
     /// The terms for the sun toward `l` (a sun below the horizon: the sky's shape for a sun on
@@ -221,6 +254,7 @@ impl SkyTerms {
 mod tests {
     use super::*;
     use crate::geometry::{Material, Mesh, NodeInfo};
+    use crate::scene::settings::TerrainAlbedo;
     use glam::Vec2;
 
     /// A scene with one small triangle far away (nothing occludes the test surfaces).
@@ -262,7 +296,7 @@ mod tests {
         let normals = [Vec3::Y, Vec3::new(0.0, 0.0, -1.0), Vec3::Z];
         // Uniform `c` of an open horizontal surface is 1, of an open wall 1/2.
         let p = pool(&normals, &[1.0, 0.5, 0.5]);
-        let cfg = SkyTermsConfig { terrain_albedo: [0.4; 3], directions: 2048, ..SkyTermsConfig::default() };
+        let cfg = SkyTermsConfig { terrain_albedo: TerrainAlbedo::Rgb([0.4; 3]), directions: 2048, ..SkyTermsConfig::default() };
         let terms = SkyTerms::build(&p, &scene, &cfg).unwrap().expect("not Jensen's model");
         let s = terms.for_sun(&p, sun, true).unwrap();
         for c in 0..3 {
@@ -296,7 +330,7 @@ mod tests {
         let tilted = Vec3::new(0.3, 0.9, -0.2).normalize();
         let normals = [Vec3::Y, wall, Vec3::Y, tilted, wall, Vec3::Y];
         let p = pool(&normals, &[1.0, 0.5, 1.0, 0.9, 0.5, 1.0]);
-        let terms = SkyTerms::build(&p, &scene, &SkyTermsConfig { terrain_albedo: [0.3; 3], ..SkyTermsConfig::default() }).unwrap().unwrap();
+        let terms = SkyTerms::build(&p, &scene, &SkyTermsConfig { terrain_albedo: TerrainAlbedo::Rgb([0.3; 3]), ..SkyTermsConfig::default() }).unwrap().unwrap();
         let shape = terms.shape(Vec3::new(0.2, 0.4, -1.0).normalize()).unwrap();
         let shared = terms.ambient(&p, &shape, 0..p.len());
         for k in 0..p.len() {

@@ -133,6 +133,12 @@ impl VolumeProbes {
 
 impl ProbeSource for VolumeProbes {
     fn relight(&mut self, lighting: &Lighting) -> &ProbeGrid {
+        if self.relighter.set_uniform_sky(lighting.uniform_sky) {
+            // An overcast frame's uniform sky, or the scene's back: both responses follow (the
+            // direct one with the next sun update).
+            self.basis.ambient = self.transfer.ambient_response(&self.relighter);
+            self.basis.direct.clear();
+        }
         self.update(lighting.sun_dir, lighting.above_horizon, lighting.pd, lighting.pa)
     }
     fn name(&self) -> &'static str {

@@ -68,7 +68,9 @@ pub fn lighting_of(e: &FrameEstimate) -> Lighting {
         (Some(s), _, _) => (v(s.pd), v(s.pa)),
         (None, pd, pa) => (pd.map(v).unwrap_or(Vec3::ZERO), pa.map(v).unwrap_or(Vec3::ZERO)),
     };
-    Lighting { sun_dir: Vec3::from(e.sun.dir_world), above_horizon: e.sun.above_horizon, pd, pa }
+    // `sky_model` is reported except under Jensen's model (uniform already).
+    let uniform_sky = e.sky_model.as_deref() == Some("uniform");
+    Lighting { sun_dir: Vec3::from(e.sun.dir_world), above_horizon: e.sun.above_horizon, pd, pa, uniform_sky }
 }
 
 /// Builds the probe source `ambient` asks for. `bake` supplies the scene's bake (cached or

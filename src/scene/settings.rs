@@ -72,13 +72,132 @@ pub enum SkyShape {
 pub struct SkyTermsConfig {
     /// The sky's shape: `hosek_wilkie` (default) or `uniform`.
     pub shape: SkyShape,
-    /// Turbidity of the Hosek–Wilkie sky, 1–10 (3: a clear day).
-    pub turbidity: f64,
+    /// Turbidity of the Hosek–Wilkie sky, 1–10 (3: a clear day), or `"fit"`: per frame, the
+    /// candidate of [`FIT_TURBIDITIES`] whose fit leaves the smallest robust residual
+    /// (`estimate::turbidity`).
+    pub turbidity: Turbidity,
     /// Albedo (RGB) of the flat terrain beyond the proxy that lights surfaces from below the
-    /// horizon: 0.8 fresh snow, 0.2 grass or soil (default), 0.08 asphalt, 0 for nothing below.
-    pub terrain_albedo: [f32; 3],
+    /// horizon: 0.8 fresh snow, 0.2 grass or soil (default), 0.08 asphalt, 0 for nothing below;
+    /// or `"map"`: measured on the environment map's texels below the horizon that the proxy
+    /// does not cover (`envmap::bake::terrain`).
+    pub terrain_albedo: TerrainAlbedo,
     /// Directions per surface of the sky and terrain quadrature.
     pub directions: usize,
+    /// The albedo `terrain_albedo = "map"` resolved to (`envmap::bake::terrain::resolve_scene`);
+    /// not part of `scene.toml`.
+    #[serde(skip)]
+    pub resolved_terrain: Option<ResolvedTerrain>,
+}
+
+/// Where the terrain's albedo comes from: `terrain_albedo = [r, g, b]` or `terrain_albedo = "map"`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TerrainAlbedo {
+    /// A fixed albedo per channel.
+    Rgb([f32; 3]),
+    /// The environment map's texels below the horizon that the proxy does not cover.
+    Map,
+}
+
+/// The Hošek–Wilkie turbidity: `turbidity = 3.0` or `turbidity = "fit"`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Turbidity {
+    /// A fixed turbidity.
+    Value(f64),
+    /// Chosen per frame by residual among [`FIT_TURBIDITIES`].
+    Fit,
+}
+
+/// Candidates of `turbidity = "fit"`: clear (2) to hazy (6) skies.
+pub const FIT_TURBIDITIES: [f64; 4] = [2.0, 3.0, 4.0, 6.0];
+/// The turbidity the renderer's sky and a frame without a turbidity fit use under `"fit"`.
+pub const FIT_TURBIDITY_DEFAULT: f64 = 3.0;
+/// The terrain albedo when none is set or measured: grass or soil.
+pub const DEFAULT_TERRAIN_ALBEDO: [f32; 3] = [0.2; 3];
+
+/// Where the terrain albedo a model uses came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TerrainSource {
+    /// A number in `scene.toml` (or the built-in default).
+    Scene,
+    /// Measured on the environment map.
+    Map,
+    /// `"map"` asked for, but the map gave no estimate: [`DEFAULT_TERRAIN_ALBEDO`] (see `note`).
+    Fallback,
+}
+
+/// The terrain albedo a model uses, and where it came from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ResolvedTerrain {
+    /// Albedo per channel.
+    pub albedo_rgb: [f32; 3],
+    /// Its source.
+    pub source: TerrainSource,
+    /// Map texels the estimate used (0 unless measured on the map).
+    pub texels: usize,
+    /// Why the map gave no estimate, or how it was measured.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
+}
+
+impl Serialize for TerrainAlbedo {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Self::Rgb(v) => v.serialize(s),
+            Self::Map => s.serialize_str("map"),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for TerrainAlbedo {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Raw {
+            Rgb([f32; 3]),
+            Word(String),
+        }
+        match Raw::deserialize(d).map_err(|_| <D::Error as serde::de::Error>::custom("expected [r, g, b] or \"map\""))? {
+            Raw::Rgb(v) => Ok(Self::Rgb(v)),
+            Raw::Word(w) if w == "map" => Ok(Self::Map),
+            Raw::Word(w) => Err(serde::de::Error::custom(format!("expected [r, g, b] or \"map\", got \"{w}\""))),
+        }
+    }
+}
+
+impl Serialize for Turbidity {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Self::Value(t) => t.serialize(s),
+            Self::Fit => s.serialize_str("fit"),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Turbidity {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Raw {
+            Value(f64),
+            Word(String),
+        }
+        match Raw::deserialize(d).map_err(|_| <D::Error as serde::de::Error>::custom("expected a number or \"fit\""))? {
+            Raw::Value(t) => Ok(Self::Value(t)),
+            Raw::Word(w) if w == "fit" => Ok(Self::Fit),
+            Raw::Word(w) => Err(serde::de::Error::custom(format!("expected a number or \"fit\", got \"{w}\""))),
+        }
+    }
+}
+
+impl Turbidity {
+    /// The fixed value, or [`FIT_TURBIDITY_DEFAULT`] under `"fit"`.
+    pub fn value(&self) -> f64 {
+        match self {
+            Self::Value(t) => *t,
+            Self::Fit => FIT_TURBIDITY_DEFAULT,
+        }
+    }
 }
 
 /// The estimator's sliced budget of the live window (and of `heliar bench estimate --knob
@@ -90,7 +209,7 @@ pub const SKY_TURBIDITY_RANGE: (f64, f64) = (1.0, 10.0);
 
 impl Default for SkyTermsConfig {
     fn default() -> Self {
-        Self { shape: SkyShape::HosekWilkie, turbidity: 3.0, terrain_albedo: [0.2; 3], directions: 512 }
+        Self { shape: SkyShape::HosekWilkie, turbidity: Turbidity::Value(3.0), terrain_albedo: TerrainAlbedo::Rgb(DEFAULT_TERRAIN_ALBEDO), directions: 512, resolved_terrain: None }
     }
 }
 
@@ -98,22 +217,46 @@ impl SkyTermsConfig {
     /// The sky as the path tracers take it (the relight, the probes, the receivers and the
     /// objects' transfer see the same sky as the estimator).
     pub fn sky_model(&self) -> crate::sky::radiance::SkyModel {
-        crate::sky::radiance::SkyModel { hosek_turbidity: (self.shape == SkyShape::HosekWilkie).then_some(self.turbidity), terrain_albedo: self.terrain_albedo }
+        crate::sky::radiance::SkyModel { hosek_turbidity: (self.shape == SkyShape::HosekWilkie).then_some(self.turbidity.value()), terrain_albedo: self.terrain_rgb() }
+    }
+
+    /// The terrain albedo the model uses: the number, or the map's once resolved (before, and
+    /// when the map gave none, [`DEFAULT_TERRAIN_ALBEDO`]).
+    pub fn terrain_rgb(&self) -> [f32; 3] {
+        self.terrain_used().albedo_rgb
+    }
+
+    /// The terrain albedo the model uses and where it came from.
+    pub fn terrain_used(&self) -> ResolvedTerrain {
+        match (self.terrain_albedo, &self.resolved_terrain) {
+            (TerrainAlbedo::Rgb(v), _) => ResolvedTerrain { albedo_rgb: v, source: TerrainSource::Scene, texels: 0, note: None },
+            (TerrainAlbedo::Map, Some(r)) => r.clone(),
+            (TerrainAlbedo::Map, None) => ResolvedTerrain {
+                albedo_rgb: DEFAULT_TERRAIN_ALBEDO,
+                source: TerrainSource::Fallback,
+                texels: 0,
+                note: Some("terrain_albedo = \"map\" was not resolved against the environment map".into()),
+            },
+        }
     }
 
     /// Jensen's model: uniform sky, nothing below the horizon.
     pub fn jensen() -> Self {
-        Self { shape: SkyShape::Uniform, terrain_albedo: [0.0; 3], ..Self::default() }
+        Self { shape: SkyShape::Uniform, terrain_albedo: TerrainAlbedo::Rgb([0.0; 3]), ..Self::default() }
     }
 
     /// Checks ranges; `Err((field, message))`.
     pub fn validate(&self) -> Result<(), (&'static str, String)> {
         let (lo, hi) = SKY_TURBIDITY_RANGE;
-        if !(lo..=hi).contains(&self.turbidity) {
-            return Err(("sky.turbidity", format!("must be in [{lo}, {hi}], got {}", self.turbidity)));
+        if let Turbidity::Value(t) = self.turbidity
+            && !(lo..=hi).contains(&t)
+        {
+            return Err(("sky.turbidity", format!("must be in [{lo}, {hi}] or \"fit\", got {t}")));
         }
-        if !self.terrain_albedo.iter().all(|a| (0.0..=1.0).contains(a)) {
-            return Err(("sky.terrain_albedo", format!("must be in [0, 1] per channel, got {:?}", self.terrain_albedo)));
+        if let TerrainAlbedo::Rgb(v) = self.terrain_albedo
+            && !v.iter().all(|a| (0.0..=1.0).contains(a))
+        {
+            return Err(("sky.terrain_albedo", format!("must be in [0, 1] per channel or \"map\", got {v:?}")));
         }
         if !(16..=4096).contains(&self.directions) {
             return Err(("sky.directions", format!("must be in [16, 4096], got {}", self.directions)));

@@ -69,6 +69,15 @@ impl SkyModel {
         self.hosek_turbidity.is_none() && self.terrain_albedo == [0.0; 3]
     }
 
+    /// The model of one frame: under `uniform_sky` (an overcast frame, which the estimator fits
+    /// with the uniform sky; issue 13) the uniform sky with the same terrain, else this one.
+    pub fn for_frame(&self, uniform_sky: bool) -> SkyModel {
+        match uniform_sky {
+            true => Self { hosek_turbidity: None, terrain_albedo: self.terrain_albedo },
+            false => self.clone(),
+        }
+    }
+
     /// The sky for the sun toward `sun` (`None`: no sun, so the uniform shape and an unlit
     /// terrain). A shape the model cannot build (an invalid direction) falls back to uniform.
     pub fn for_sun(&self, sun: Option<Vec3>) -> SkyRadiance {
@@ -174,6 +183,17 @@ mod tests {
         let toward = s.escape(Vec3::new(0.8, 0.15, -0.2).normalize()).unwrap().0;
         let away = s.escape(Vec3::new(-0.8, 0.15, 0.2).normalize()).unwrap().0;
         assert!(toward.x > 2.0 * away.x, "{toward} {away}");
+    }
+
+    #[test]
+    fn an_overcast_frame_keeps_the_terrain_and_drops_the_shape() {
+        let m = SkyModel { hosek_turbidity: Some(3.0), terrain_albedo: [0.8, 0.8, 0.82] };
+        assert_eq!(m.for_frame(false), m);
+        assert_eq!(m.for_frame(true), SkyModel { hosek_turbidity: None, terrain_albedo: [0.8, 0.8, 0.82] });
+        assert_eq!(SkyModel::uniform().for_frame(true), SkyModel::uniform());
+        // The overcast sky above the horizon is exactly the uniform one.
+        let s = m.for_frame(true).for_sun(Some(Vec3::new(0.5, 0.3, 0.1)));
+        assert_eq!(s.escape(Vec3::new(0.2, 0.5, 0.1).normalize()), Some((Vec3::ONE, Vec3::ZERO)));
     }
 
     #[test]

@@ -32,7 +32,7 @@ fn v3(a: [f64; 3]) -> Vec3 {
 }
 
 fn capture_lighting(b: &Baked) -> Lighting {
-    Lighting { sun_dir: Vec3::from(b.info.capture_sun_dir), above_horizon: true, pd: v3(b.info.capture_pd), pa: v3(b.info.capture_pa) }
+    Lighting { sun_dir: Vec3::from(b.info.capture_sun_dir), above_horizon: true, pd: v3(b.info.capture_pd), pa: v3(b.info.capture_pa), uniform_sky: false }
 }
 
 #[test]
@@ -54,7 +54,7 @@ fn uniform_sky_without_geometry_closed_form() {
     };
     let ray = Arc::new(RayScene::new(Mesh::default()));
     let mut relighter = Relighter::new(&baked, ray.clone(), RelightConfig::default());
-    let lighting = Lighting { sun_dir: Vec3::new(0.3, 0.8, 0.2).normalize(), above_horizon: true, pd: Vec3::splat(3.0), pa: Vec3::new(0.5, 0.6, 0.8) };
+    let lighting = Lighting { sun_dir: Vec3::new(0.3, 0.8, 0.2).normalize(), above_horizon: true, pd: Vec3::splat(3.0), pa: Vec3::new(0.5, 0.6, 0.8), uniform_sky: false };
     relighter.update_sun(lighting.sun_dir);
     let transfer = ProbeTransfer::build(Vec3::ZERO, Vec3::splat(2.0), 1.0, &baked, &ray, 1024);
     assert_eq!(transfer.dims(), UVec3::splat(3));
@@ -140,6 +140,36 @@ fn relit_sky_is_the_ambient_colour_and_the_sun_is_gone() {
     let dark = r.relight(&Lighting { pd: Vec3::ZERO, ..l });
     let lit = (0..b.node.len()).find(|&i| b.node[i] != SKY && b.normal[i].y > 0.9 && relit.get(i).x > 2.0 * dark.get(i).x);
     assert!(lit.is_some(), "some ground texel is sunlit");
+}
+
+/// Issue 13: under a shaped sky the relit sky texels follow its shape; an overcast frame
+/// (`uniform_sky`) switches the relight to the uniform sky, exactly `Pa/π` on every sky texel
+/// above the horizon as in Jensen's model, and a clear frame switches back.
+#[test]
+fn an_overcast_frame_relights_under_the_uniform_sky() {
+    use heliar::sky::radiance::SkyModel;
+    let (scene, ray, b) = courtyard();
+    let shaped = SkyModel { hosek_turbidity: Some(3.0), terrain_albedo: [0.3; 3] };
+    let mut r = Relighter::new(b, ray.clone(), scene.bake.relight.clone()).with_sky(shaped);
+    let l = capture_lighting(b);
+    let above: Vec<usize> = (0..b.node.len())
+        .filter(|&i| b.node[i] == SKY && heliar::geometry::equirect::dir_from_texel_centre(i as u32 % b.width, i as u32 / b.width, b.width, b.height).y > 0.05)
+        .collect();
+    assert!(!above.is_empty());
+    let uniform = l.pa / std::f32::consts::PI;
+    let off = |m: &heliar::envmap::relight::RelitMap| above.iter().map(|&i| ((m.get(i) - uniform).abs() / uniform).max_element()).fold(0.0f32, f32::max);
+    assert!(!r.set_uniform_sky(false), "the scene's sky already");
+    r.update_sun(l.sun_dir);
+    let clear = r.relight(&l);
+    assert!(off(&clear) > 0.2, "the shaped sky is not uniform: {}", off(&clear));
+    assert!(r.set_uniform_sky(true) && !r.set_uniform_sky(true));
+    assert!(r.update_sun(l.sun_dir).rebuilt, "the sun planes are rebuilt under the new sky");
+    let overcast = r.relight(&Lighting { uniform_sky: true, ..l });
+    assert!(off(&overcast) < 1e-5, "uniform sky texels: {}", off(&overcast));
+    assert!(r.set_uniform_sky(false));
+    r.update_sun(l.sun_dir);
+    let back = r.relight(&l);
+    assert!(above.iter().all(|&i| back.get(i) == clear.get(i)), "the shaped sky again, bit for bit");
 }
 
 #[test]

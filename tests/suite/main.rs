@@ -25,6 +25,7 @@ mod live;
 mod object_motion;
 mod scene_errors;
 mod shader_validation;
+mod sky_terrain;
 mod uniform_branches;
 mod vem_allocation;
 mod vem_cli;

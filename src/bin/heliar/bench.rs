@@ -39,8 +39,12 @@ enum Knob {
     /// Pool size.
     PoolSize,
     /// The sky in the model (`[estimator.sky]`): uniform without terrain (Jensen), uniform with
-    /// terrain, Hošek–Wilkie at turbidity 2, 3, 4 (terrain 0.2), and Hošek–Wilkie without terrain.
+    /// terrain, Hošek–Wilkie at turbidity 2, 3, 4 (terrain 0.2), Hošek–Wilkie without terrain,
+    /// and Hošek–Wilkie with the turbidity chosen per frame by residual (`turbidity = "fit"`).
     Sky,
+    /// The terrain's albedo (Hošek–Wilkie, the scene's turbidity): the default 0.2, the winter
+    /// scenes' true albedos 0.08 and 0.8, and `"map"` (measured on the environment map).
+    Terrain,
     /// Quadrature directions of the sky and terrain terms: 32 … 1024.
     SkyDirections,
     /// Time per frame when the sun moves past `sun_rebuild_deg` every frame, with the bounce and
@@ -153,15 +157,16 @@ fn knob_configs(knob: Knob, base: &EstimatorConfig) -> Vec<(String, EstimatorCon
             .map(|&p| (p.to_string(), EstimatorConfig { pool_size: p, samples: base.samples.min(p), ..base.clone() }))
             .collect(),
         Knob::Sky => {
-            use heliar::scene::settings::{SkyShape, SkyTermsConfig};
+            use heliar::scene::settings::{SkyShape, SkyTermsConfig, TerrainAlbedo, Turbidity};
             let d = SkyTermsConfig::default();
             let skies = [
                 ("uniform", SkyTermsConfig::jensen()),
                 ("uniform+terrain", SkyTermsConfig { shape: SkyShape::Uniform, ..d.clone() }),
-                ("hosek_t2", SkyTermsConfig { turbidity: 2.0, ..d.clone() }),
+                ("hosek_t2", SkyTermsConfig { turbidity: Turbidity::Value(2.0), ..d.clone() }),
                 ("hosek_t3", d.clone()),
-                ("hosek_t4", SkyTermsConfig { turbidity: 4.0, ..d.clone() }),
-                ("hosek_t3_no_terrain", SkyTermsConfig { terrain_albedo: [0.0; 3], ..d.clone() }),
+                ("hosek_t4", SkyTermsConfig { turbidity: Turbidity::Value(4.0), ..d.clone() }),
+                ("hosek_t3_no_terrain", SkyTermsConfig { terrain_albedo: TerrainAlbedo::Rgb([0.0; 3]), ..d.clone() }),
+                ("hosek_fit", SkyTermsConfig { turbidity: Turbidity::Fit, ..d.clone() }),
             ];
             skies.into_iter().map(|(name, sky)| (name.to_string(), EstimatorConfig { sky, ..base.clone() })).collect()
         }
@@ -173,8 +178,28 @@ fn knob_configs(knob: Knob, base: &EstimatorConfig) -> Vec<(String, EstimatorCon
                 (n.to_string(), c)
             })
             .collect(),
-        Knob::MovingSun => Vec::new(),
+        Knob::MovingSun | Knob::Terrain => Vec::new(),
     }
+}
+
+/// The configurations of `--knob terrain`: fixed albedos, and the map's (resolved here).
+fn terrain_configs(scene: &heliar::scene::Scene, ray: &std::sync::Arc<heliar::geometry::raycast::RayScene>) -> Result<Vec<(String, EstimatorConfig)>> {
+    use heliar::scene::settings::TerrainAlbedo;
+    let mut out: Vec<(String, EstimatorConfig)> = [0.2f32, 0.08, 0.8]
+        .iter()
+        .map(|&v| {
+            let mut c = scene.estimator.clone();
+            c.sky.terrain_albedo = TerrainAlbedo::Rgb([v; 3]);
+            (v.to_string(), c)
+        })
+        .collect();
+    let mut with_map = scene.clone();
+    with_map.estimator.sky.terrain_albedo = TerrainAlbedo::Map;
+    with_map.estimator.sky.resolved_terrain = None;
+    let t = heliar::envmap::bake::terrain::resolve_scene(&mut with_map, ray).with_context(|| format!("measuring the terrain albedo of {}", scene.root.display()))?;
+    let label = t.map_or_else(|| "map".to_owned(), |t| format!("map ({:.3}, {:.3}, {:.3}; {:?})", t.albedo_rgb[0], t.albedo_rgb[1], t.albedo_rgb[2], t.source));
+    out.push((label, with_map.estimator));
+    Ok(out)
 }
 
 pub fn run(a: BenchArgs) -> Result<()> {
@@ -196,13 +221,17 @@ pub fn run(a: BenchArgs) -> Result<()> {
     if let Knob::MovingSun = s.knob {
         return crate::bench_estimate_sun::run(&scene, ray, &seq, &frames, s.frames.max(2), s.sun_step_s, &s.csv);
     }
-    let configs = knob_configs(s.knob, &scene.estimator);
+    let configs = match s.knob {
+        Knob::Terrain => terrain_configs(&scene, &ray)?,
+        _ => knob_configs(s.knob, &scene.estimator),
+    };
     let knob_name = match s.knob {
         Knob::Samples => "samples",
         Knob::AmbientPaths => "ambient_paths",
         Knob::BouncePaths => "bounce_paths",
         Knob::PoolSize => "pool_size",
         Knob::Sky => "sky",
+        Knob::Terrain => "terrain_albedo",
         Knob::SkyDirections => "sky_directions",
         Knob::MovingSun => "moving_sun",
     };
@@ -225,7 +254,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
         // Time axis: per-frame time for the sample count; set-up time for the set-up knobs.
         let t = match s.knob {
             Knob::Samples => median(&r.ms),
-            Knob::AmbientPaths | Knob::PoolSize | Knob::Sky | Knob::SkyDirections => r.setup_ms,
+            Knob::AmbientPaths | Knob::PoolSize | Knob::Sky | Knob::Terrain | Knob::SkyDirections => r.setup_ms,
             Knob::BouncePaths | Knob::MovingSun => median(&r.rebuild_ms),
         };
         pd_pts.push((t, 100.0 * mean(&r.errs_pd)));
@@ -251,7 +280,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
     if let Some(path) = &s.plot {
         let x_label = match s.knob {
             Knob::Samples => "median estimate time per frame (ms)",
-            Knob::AmbientPaths | Knob::PoolSize | Knob::Sky | Knob::SkyDirections => "estimator set-up time (ms)",
+            Knob::AmbientPaths | Knob::PoolSize | Knob::Sky | Knob::Terrain | Knob::SkyDirections => "estimator set-up time (ms)",
             Knob::BouncePaths | Knob::MovingSun => "sun-visibility rebuild time (ms)",
         };
         let series = vec![

@@ -109,9 +109,19 @@ pub fn read_scene(dir: &Path) -> Result<Scene> {
 /// Loads a scene and builds the proxy's BVH.
 pub fn load_scene(dir: &Path) -> Result<(Scene, Arc<RayScene>)> {
     let scene = read_scene(dir)?;
+    let mut scene = scene;
     let ray = Arc::new(RayScene::new(scene.proxy.clone()));
     if ray.skipped_degenerate() > 0 {
         eprintln!("note: {} degenerate proxy triangles left out of ray casts", ray.skipped_degenerate());
+    }
+    // `terrain_albedo = "map"`: measured once here, so every stage of the run uses the same value.
+    let terrain = heliar::envmap::bake::terrain::resolve_scene(&mut scene, &ray).with_context(|| format!("measuring the terrain albedo on the environment map of {}", dir.display()))?;
+    if let Some(t) = terrain {
+        let [r, g, b] = t.albedo_rgb;
+        match t.source {
+            heliar::scene::settings::TerrainSource::Fallback => eprintln!("warning: {}", t.note.as_deref().unwrap_or("no terrain albedo from the map")),
+            _ => eprintln!("terrain albedo ({r:.3}, {g:.3}, {b:.3}) from the environment map ({})", t.note.as_deref().unwrap_or("")),
+        }
     }
     Ok((scene, ray))
 }

@@ -14,7 +14,9 @@
 //! 3. **Lighting at capture.** The estimator runs on the environment map itself, as an equirect
 //!    view from the capture centre at the capture time, and gives `Pd`, `Pa` and the sun direction
 //!    `l` ([`crate::estimate::Estimator::with_view`]). A manifest that knows them
-//!    (`capture_pd`, `capture_pa`) skips this.
+//!    (`capture_pd`, `capture_pa`) skips this. With `terrain_albedo = "map"` the terrain's albedo
+//!    is measured first, on the map's texels below the horizon past the proxy, iterated with this
+//!    estimate ([`terrain`]; recorded in `bake.json` as `terrain`).
 //! 4. **Albedo map, by inverse rendering.** `ρ = π·L / (c·Pa + (s·max(n·l,0) + b)·Pd)` per channel,
 //!    with `s` the texel's sun visibility and `b` its sun bounce at capture (the estimator's model,
 //!    Jensen §4.2 plus the bounce term). Under a shaped sky or with terrain (`[estimator.sky]`,
@@ -46,6 +48,7 @@ use steps::{Hits, Inversion, capture_lighting, fill_flagged, hit_buffers};
 
 mod steps;
 pub mod orientation;
+pub mod terrain;
 
 /// Texels whose inverse-rendering denominator is below this fraction of `Pa` are flagged: they
 /// receive almost no light, so their radiance says nothing about their albedo.
@@ -147,6 +150,10 @@ pub struct BakeInfo {
     /// read and at the best turn ([`orientation`]); `None` without a map or without both classes.
     #[serde(default)]
     pub orientation: Option<orientation::Orientation>,
+    /// Under `terrain_albedo = "map"`: the terrain albedo the inversion used and where it came
+    /// from ([`terrain`]); absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub terrain: Option<crate::scene::settings::ResolvedTerrain>,
 }
 
 /// The baked maps, in memory. Vectors are row-major `width × height`.
@@ -272,6 +279,10 @@ pub fn bake_with_map(scene: &Scene, ray: std::sync::Arc<RayScene>, map: Option<L
     }
     lap(&mut info, "hit buffers");
 
+    // The terrain's albedo, when it is to come from the map.
+    let (estimator, terrain_used) = terrain::bake_settings(scene, &ray, captured.as_ref().map(|(img, path)| (img, path.as_path())))?;
+    info.terrain = terrain_used;
+
     // 2. Weighted ambient.
     let ambient = steps::weighted_ambient(&ray, &node, &position, &normal, cfg, progress);
     lap(&mut info, "weighted ambient");
@@ -279,10 +290,10 @@ pub fn bake_with_map(scene: &Scene, ray: std::sync::Arc<RayScene>, map: Option<L
     // 3–4. Albedo.
     let albedo = match (&captured, env.albedo) {
         (Some((img, path)), AlbedoSource::Inverse) => {
-            let (pd, pa, l, sun_above) = capture_lighting(scene, &ray, view, img, path, &mut info)?;
+            let (pd, pa, l, sun_above) = capture_lighting(scene, &estimator, &ray, view, img, path, &mut info)?;
             lap(&mut info, "lighting at capture");
             let hits = Hits { node, position, normal, base };
-            let sky = scene.estimator.sky.sky_model();
+            let sky = estimator.sky.sky_model();
             let inv = Inversion { ray: &ray, hits: &hits, ambient: &ambient, cfg, sky: &sky, progress };
             let (mut rho, valid) = inv.run(img, pd, pa, l, sun_above);
             let (from_neighbours, from_base) = fill_flagged(&mut rho, &valid, &hits.node, &hits.base, w, h);

@@ -64,9 +64,11 @@ pub(super) fn weighted_ambient(ray: &RayScene, node: &[u32], position: &[Vec3], 
 }
 
 /// The lighting when the map was captured: the manifest's `capture_pd`/`capture_pa`, or the
-/// estimator run on the map itself. Returns `(Pd, Pa, sun direction, sun above the horizon)`.
+/// estimator (with the settings `estimator`) run on the map itself. Returns `(Pd, Pa, sun
+/// direction, sun above the horizon)`.
 pub(super) fn capture_lighting(
     scene: &Scene,
+    estimator: &crate::estimate::EstimatorConfig,
     ray: &std::sync::Arc<RayScene>,
     view: View,
     img: &LinearImage,
@@ -85,7 +87,7 @@ pub(super) fn capture_lighting(
         }
         _ => {
             let (w, h) = (img.width, img.height);
-            let mut est = Estimator::with_view(scene.estimator.clone(), scene.observer, scene.geo, view, ray.clone())?;
+            let mut est = Estimator::with_view(estimator.clone(), scene.observer, scene.geo, view, ray.clone())?;
             let frame = Frame { width: w, height: h, data: FrameData::Hdr(img.clone()) };
             // An environment map is often 32-bit float with a bright sun: no clip level.
             let lin = Linearizer::new(&Response::Linear, 1.0, 1.0, Some(f32::INFINITY));

@@ -50,6 +50,9 @@ pub struct FrameContext {
     pub switches: PassSwitches,
     /// The reason a switched-off pass is reported with.
     pub off: String,
+    /// The frame's paths see the uniform sky instead of the scene's shaped one (an overcast
+    /// frame, [`Lighting::uniform_sky`]).
+    pub uniform_sky: bool,
 }
 
 /// A frame-level condition that leaves several passes out for one reason.
@@ -156,11 +159,14 @@ impl Compositor {
         };
         let (sun_dir, no_sun) = sun_of(lighting, self.config.no_sun_ratio);
         let sun = (no_objects.is_none() && no_sun.is_none()).then_some(sun_dir);
+        // A switch of the sky (an overcast frame, or the first clear one after) recomputes the
+        // receivers, so the stored stencil does not serve.
         let reuse = match no_objects {
+            None if self.receivers.sky_switch_pending(lighting.uniform_sky) => None,
             None => self.stencil.serves(sun, self.config.debug_masks, self.config.reuse_sun_deg),
             Some(_) => None,
         };
-        FrameContext { no_objects, no_sun, sun_dir, reuse, switches: self.switches, off }
+        FrameContext { no_objects, no_sun, sun_dir, reuse, switches: self.switches, off, uniform_sky: lighting.uniform_sky }
     }
 }
 
@@ -176,6 +182,7 @@ mod tests {
             reuse: None,
             switches: PassSwitches::default(),
             off: "off".into(),
+            uniform_sky: false,
         }
     }
 
@@ -194,7 +201,7 @@ mod tests {
 
     #[test]
     fn the_sun_is_missing_below_the_horizon_without_power_or_without_direction() {
-        let l = |dir: Vec3, above: bool, pd: f32| Lighting { sun_dir: dir, above_horizon: above, pd: Vec3::splat(pd), pa: Vec3::splat(1.0) };
+        let l = |dir: Vec3, above: bool, pd: f32| Lighting { sun_dir: dir, above_horizon: above, pd: Vec3::splat(pd), pa: Vec3::splat(1.0), uniform_sky: false };
         assert!(sun_of(&l(Vec3::Y, false, 3.0), 0.05).1.unwrap().contains("below the horizon"));
         // Pd/Pa = 0.01 < 0.05; NaN power is no power.
         assert!(sun_of(&l(Vec3::Y, true, 0.01), 0.05).1.unwrap().contains("Pd/Pa = 0.010"));

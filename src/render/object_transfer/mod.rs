@@ -293,8 +293,11 @@ pub struct ObjectTransfer {
     slice: usize,
     /// The re-trace for a new sun in progress.
     job: Option<retrace::SunJob>,
-    /// The sky the paths see (`R_a` depends on the sun unless it is uniform).
+    /// The sky the paths see (`R_a` depends on the sun unless it is uniform): the scene's, or
+    /// on overcast frames its uniform variant ([`ObjectTransfer::set_uniform_sky`]).
     sky_model: SkyModel,
+    /// The scene's sky.
+    scene_sky: SkyModel,
     quality: TransportQuality,
     seed: u64,
 }
@@ -315,7 +318,7 @@ impl ObjectTransfer {
             point[s.pixel as usize] = [s.point.x, s.point.y, s.point.z, s.footprint_m];
             normal[s.pixel as usize] = [s.normal.x, s.normal.y, s.normal.z, 0.0];
         }
-        Self { surfaces, object_pixels, stride, sky: vec![[0.0; 4]; n], sun: vec![[0.0; 4]; n], point, normal, traced_sun: None, traced: false, owed: None, slice: 0, job: None, sky_model: SkyModel::uniform(), quality, seed }
+        Self { surfaces, object_pixels, stride, sky: vec![[0.0; 4]; n], sun: vec![[0.0; 4]; n], point, normal, traced_sun: None, traced: false, owed: None, slice: 0, job: None, sky_model: SkyModel::uniform(), scene_sky: SkyModel::uniform(), quality, seed }
     }
 
     /// Re-traces `R_d` after a sun move in slices of about `paths_per_frame` paths, one slice per
@@ -329,8 +332,28 @@ impl ObjectTransfer {
     /// Traces under `sky` instead of Jensen's uniform sky; `R_a` is then re-traced with `R_d`
     /// when the sun moves (the sky's shape follows it).
     pub fn with_sky(mut self, sky: SkyModel) -> Self {
+        self.scene_sky = sky.clone();
         self.sky_model = sky;
         self
+    }
+
+    /// True when [`Self::set_uniform_sky`] with `uniform_sky` would change the sky the paths see
+    /// (and there are pixels to trace): the next frame traces everything again.
+    pub fn sky_switch_pending(&self, uniform_sky: bool) -> bool {
+        !self.surfaces.is_empty() && self.scene_sky.for_frame(uniform_sky) != self.sky_model
+    }
+
+    /// Traces under the uniform sky (`true`: an overcast frame, whose estimate used it) or the
+    /// scene's (`false`) from now on. A change drops the traced state and any re-trace in
+    /// progress, so the next [`Self::ensure`] (or [`Self::replay`]) traces in full under the new
+    /// sky; this depends on the frames' lighting only, so replayed frames decide alike.
+    pub fn set_uniform_sky(&mut self, uniform_sky: bool) {
+        let model = self.scene_sky.for_frame(uniform_sky);
+        if model != self.sky_model {
+            self.sky_model = model;
+            self.traced = false;
+            self.job = None;
+        }
     }
 
     /// The traced pixels (the object pixels on the lattice).

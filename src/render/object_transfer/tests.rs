@@ -223,3 +223,42 @@ fn values_are_kept_until_the_sun_moves_past_the_threshold() {
     // Same paths: R_a does not depend on the sun.
     assert_eq!(t.sky, sky);
 }
+
+/// An overcast frame switches a shaped sky's transfer to the uniform sky (issue 13): the switch is
+/// announced to the plan, traced in full, and gives the bits of a transfer built under the
+/// uniform sky from the start; the next clear frame switches back the same way.
+#[test]
+fn an_overcast_frame_retraces_under_the_uniform_sky_and_back() {
+    let cam = Camera {
+        intrinsics: Intrinsics::brown_conrady(32, 24, 30.0, 30.0, 16.0, 12.0, [0.0; 5]),
+        pose: Pose::look_at(DVec3::new(0.0, 2.0, 4.0), DVec3::new(0.0, 2.0, 0.0), DVec3::Y).unwrap(),
+    };
+    let canvas = Canvas::new(&cam, 1.0);
+    let ball = lambert_ball();
+    let scene = TransferScene::new(&Mesh::default(), &[&ball]);
+    let q = TransportQuality { paths: 16, max_bounces: 2 };
+    let shaped = SkyModel { hosek_turbidity: Some(3.0), terrain_albedo: [0.5; 3] };
+    let l = Vec3::new(0.6, 0.2, 0.3).normalize();
+    let mut t = ObjectTransfer::new(&canvas, &scene, q, 1, 1).with_sky(shaped.clone());
+    let n = t.surfaces().len();
+    assert!(n > 0 && !t.sky_switch_pending(false));
+    assert_eq!(t.ensure(&scene, Some(l), 0.25).traced, n);
+    let clear = t.sky.clone();
+    assert!(t.sky_switch_pending(true));
+    t.set_uniform_sky(true);
+    assert!(t.needs_trace(Some(l), 0.25));
+    assert_eq!(t.ensure(&scene, Some(l), 0.25).traced, n, "the whole lattice under the uniform sky");
+    let mut fresh = ObjectTransfer::new(&canvas, &scene, q, 1, 1).with_sky(shaped.for_frame(true));
+    fresh.ensure(&scene, Some(l), 0.25);
+    assert_eq!(t.sky, fresh.sky, "the uniform sky's R_a");
+    assert_ne!(t.sky, clear, "a low sun's shaped sky differs from the uniform one");
+    // The same frame again changes nothing; a clear frame goes back to the shaped sky's values.
+    t.set_uniform_sky(true);
+    assert_eq!(t.ensure(&scene, Some(l), 0.25).traced, 0);
+    t.set_uniform_sky(false);
+    assert_eq!(t.ensure(&scene, Some(l), 0.25).traced, n);
+    assert_eq!(t.sky, clear);
+    // Under Jensen's model there is nothing to switch.
+    let jensen = ObjectTransfer::new(&canvas, &scene, q, 1, 1);
+    assert!(!jensen.sky_switch_pending(true));
+}

@@ -20,6 +20,8 @@
 //! same random numbers whatever it is), so it comes out as stored. Under a shaped sky or with
 //! terrain (`with_sky`, the scene's `[estimator.sky]`) `c` and `c_v` do follow the sun; every
 //! computation for a sun gives them for that sun's sky, so they are recomputed with `b`.
+//! Overcast frames, which the estimator fits under the uniform sky, switch the integrals to it
+//! ([`Receivers::set_uniform_sky`]; issue 13), and the next clear frame back.
 
 mod retrace;
 
@@ -70,8 +72,13 @@ pub struct Receivers {
     budget_paths: u64,
     /// The recomputation for a new sun in progress.
     job: Option<retrace::BounceJob>,
-    /// The sky the integrals see (under a shaped sky `c` follows the sun with `b`).
+    /// The sky the integrals see (under a shaped sky `c` follows the sun with `b`): the scene's,
+    /// or on overcast frames its uniform variant.
     sky_model: SkyModel,
+    /// The scene's sky.
+    scene_sky: SkyModel,
+    /// `sky_model` is the scene's uniform variant.
+    uniform_sky: bool,
 }
 
 /// One pixel's computed values: pixel, `c`, `b`, sunlit fraction, and (`c_v`, `b_v`).
@@ -87,7 +94,9 @@ const LIT_SUBPIXELS: u32 = 4;
 #[derive(Clone, Debug, PartialEq)]
 enum Owed {
     Reset,
-    Compute { todo: Vec<u32>, bounce_sun: Option<Vec3>, with: bool },
+    /// The sky switched: every value dropped ([`Receivers::set_uniform_sky`]).
+    Drop,
+    Compute { todo: Vec<u32>, bounce_sun: Option<Vec3>, with: bool, uniform_sky: bool },
 }
 
 /// The fraction of pixel `p` (footage grid) whose first proxy surface sees the sun `l`.
@@ -153,6 +162,8 @@ impl Receivers {
             budget_paths: 0,
             job: None,
             sky_model: SkyModel::uniform(),
+            scene_sky: SkyModel::uniform(),
+            uniform_sky: false,
         }
     }
 
@@ -167,8 +178,46 @@ impl Receivers {
     /// Integrates under `sky` instead of Jensen's uniform sky. Every computation with a sun
     /// gives `c` for that sun's sky, so `c` follows the sun wherever `b` does.
     pub fn with_sky(mut self, sky: SkyModel) -> Self {
+        self.scene_sky = sky.clone();
         self.sky_model = sky;
         self
+    }
+
+    /// Integrates under the uniform sky (`true`: an overcast frame, whose estimate used it) or
+    /// the scene's (`false`) from now on. A change drops every computed value (integrated under
+    /// the other sky) and any recomputation in progress, so the pixels the next [`Self::ensure`]
+    /// needs are computed again; while `replaying` ([`Self::replay`]) the drop of the values is
+    /// owed in order, so [`Self::restore`] redoes it where the uninterrupted run did. Returns
+    /// true on a change.
+    pub fn set_uniform_sky(&mut self, uniform_sky: bool, replaying: bool) -> bool {
+        let model = self.scene_sky.for_frame(uniform_sky);
+        if model == self.sky_model {
+            return false;
+        }
+        (self.sky_model, self.uniform_sky) = (model, uniform_sky);
+        self.have_ambient.fill(false);
+        self.have_bounce.fill(false);
+        self.have_with.fill(false);
+        self.bounce_sun = None;
+        self.job = None;
+        match replaying {
+            true => self.owed.push(Owed::Drop),
+            false => self.drop_values(),
+        }
+        true
+    }
+
+    /// True when [`Self::set_uniform_sky`] with `uniform_sky` would change the sky.
+    pub fn sky_switch_pending(&self, uniform_sky: bool) -> bool {
+        self.scene_sky.for_frame(uniform_sky) != self.sky_model
+    }
+
+    /// Every pixel back to its value before any computation (`c = 1`, `b = 0`, no `c_v`).
+    fn drop_values(&mut self) {
+        self.ambient.fill([1.0; 4]);
+        self.bounce.fill([0.0; 4]);
+        self.ambient_with.fill([1.0, 1.0, 1.0, 0.0]);
+        self.bounce_with.fill([0.0; 4]);
     }
 
     /// Makes sure `c` (and, with `sun` given, `b` and `s` for that sun) is known at `pixels`,
@@ -211,7 +260,7 @@ impl Receivers {
         }
         let computed = todo.len();
         if computed > 0 {
-            self.owed.push(Owed::Compute { todo, bounce_sun, with });
+            self.owed.push(Owed::Compute { todo, bounce_sun, with, uniform_sky: self.uniform_sky });
         }
         EnsureStats { computed, bounce_reset, ms: 0.0 }
     }
@@ -234,19 +283,23 @@ impl Receivers {
     /// computed before it); returns the pixels computed.
     pub fn restore(&mut self, proxy: &RayScene, with: Option<&RayScene>, ambient_quality: TransportQuality, bounce_quality: TransportQuality) -> usize {
         let mut computed = 0;
+        let current = self.sky_model.clone();
         for step in std::mem::take(&mut self.owed) {
             match step {
+                Owed::Drop => self.drop_values(),
                 Owed::Reset => {
                     self.bounce.iter_mut().for_each(|b| *b = [0.0; 4]);
                     self.bounce_with.iter_mut().for_each(|b| *b = [0.0; 4]);
                 }
-                Owed::Compute { todo, bounce_sun, with: with_on } => {
+                Owed::Compute { todo, bounce_sun, with: with_on, uniform_sky } => {
+                    self.sky_model = self.scene_sky.for_frame(uniform_sky);
                     let q = if bounce_sun.is_some() { bounce_quality } else { ambient_quality };
                     self.compute(proxy, with.filter(|_| with_on), &todo, bounce_sun, q);
                     computed += todo.len();
                 }
             }
         }
+        self.sky_model = current;
         computed + self.restore_job(proxy, with, bounce_quality)
     }
 

@@ -111,7 +111,7 @@ impl Receivers {
             self.reset_bounce(job.sun);
             self.mark(&job.todo, true, job.with);
             self.owed.push(super::Owed::Reset);
-            self.owed.push(super::Owed::Compute { todo: job.todo, bounce_sun: Some(job.sun), with: job.with });
+            self.owed.push(super::Owed::Compute { todo: job.todo, bounce_sun: Some(job.sun), with: job.with, uniform_sky: self.uniform_sky });
         }
         Some(super::EnsureStats { computed: range.len(), bounce_reset: complete, ms: 0.0 })
     }
