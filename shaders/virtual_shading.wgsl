@@ -3,7 +3,8 @@
 // that no shadow volume covers, from the shadow-mask pass), plus ambient light: the per-pixel
 // transfer R_a·Pa + R_d·Pd traced on the CPU (src/render/object_transfer.rs), reconstructed from the
 // lattice entries around the pixel that lie on the fragment's surface, otherwise the probe grid
-// evaluated per pixel times the objects' own ambient occlusion. Depth-tested for equality against
+// evaluated per pixel times the objects' own ambient occlusion; for objects that moved, the
+// per-vertex ambient of the visibility cuts instead (issue 15 §2). Depth-tested for equality against
 // the prepass, so the real proxy hides them. Output is premultiplied linear radiance with alpha 1.
 // Paired with src/render/virtual_shading.rs.
 
@@ -33,6 +34,48 @@
 @group(0) @binding(8) var transfer_sun: texture_2d<f32>;
 @group(0) @binding(9) var transfer_point: texture_2d<f32>;
 @group(0) @binding(10) var transfer_normal: texture_2d<f32>;
+
+// Per vertex of the objects (the order of their vertex buffer), the ambient from the visibility
+// cuts (src/cuts/frame.rs, issue 15 §2; mirrors `VertexAmbient` there), four entries per vertex:
+// irradiance per unit Pa about the normal (w = 1 where the cuts serve the vertex), about the
+// reflected view direction, and the same two per unit Pd. Written when an object has moved by
+// translation; zero (unused) before.
+@group(0) @binding(11) var<storage, read> cut_ambient: array<vec4<f32>>;
+
+// VertexOut (common/object.wgsl) with the vertex's cut ambient, interpolated over the triangle.
+struct ShadeVertex {
+    @invariant @builtin(position) position: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+    @location(3) pa_n: vec4<f32>,
+    @location(4) pa_r: vec3<f32>,
+    @location(5) pd_n: vec3<f32>,
+    @location(6) pd_r: vec3<f32>,
+}
+
+// vs_object's invariant position arithmetic (the depth test against the prepass passes exactly
+// on the visible surface), plus the vertex's cut ambient.
+@vertex
+fn vs_shade(v: VertexIn, @builtin(vertex_index) index: u32) -> ShadeVertex {
+    var out: ShadeVertex;
+    out.position = clip_from_world_point(camera, vec4<f32>(v.position, 1.0));
+    out.world = v.position;
+    out.normal = v.normal;
+    out.uv = v.uv;
+    out.pa_n = vec4<f32>(0.0);
+    out.pa_r = vec3<f32>(0.0);
+    out.pd_n = vec3<f32>(0.0);
+    out.pd_r = vec3<f32>(0.0);
+    let i = index * 4u;
+    if (i + 3u < arrayLength(&cut_ambient)) {
+        out.pa_n = cut_ambient[i];
+        out.pa_r = cut_ambient[i + 1u].xyz;
+        out.pd_n = cut_ambient[i + 2u].xyz;
+        out.pd_r = cut_ambient[i + 3u].xyz;
+    }
+    return out;
+}
 
 // An entry takes part in a fragment's value when its normal is within ~25° of the fragment's
 // and its point lies within this many lattice footprints (footprint radius times the stride; a
@@ -144,7 +187,7 @@ fn multi_bounce_ao(visibility: f32, albedo: vec3<f32>) -> vec3<f32> {
 }
 
 @fragment
-fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
+fn fs_main(in: ShadeVertex, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
     let n = facing_normal(in.normal, front);
     let v = normalize(camera.eye_world.xyz - in.world);
     let s = object_surface(in.uv);
@@ -158,7 +201,17 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
     if (lighting.params.w > 0.5) {
         transfer = transfer_lookup(px, i32(lighting.params.w + 0.5), in.world, n);
     }
-    if (transfer.found) {
+    if (in.pa_n.w > 0.5) {
+        // The visibility cuts: the objects' and the proxy's visibility are in the irradiances
+        // already, so no ambient occlusion on top.
+        var e_n = in.pa_n.rgb * lighting.pa.rgb;
+        var e_r = in.pa_r * lighting.pa.rgb;
+        if (sun_on) {
+            e_n += in.pd_n * lighting.pd.rgb;
+            e_r += in.pd_r * lighting.pd.rgb;
+        }
+        radiance = ambient_radiance(s, nv, max(e_n, vec3<f32>(0.0)), max(e_r, vec3<f32>(0.0)));
+    } else if (transfer.found) {
         radiance = transfer.sky * lighting.pa.rgb;
         if (sun_on) {
             radiance += transfer.sun * lighting.pd.rgb;

@@ -100,7 +100,7 @@ impl CutScene<'_> {
 
     /// The interpolated fields of every object but `skip` that can reach the point `x` with
     /// normal `n` (bounding sphere not wholly below the tangent plane, §V-B).
-    fn occluder_cuts(&self, x: Vec3, n: Vec3, skip: Option<usize>) -> Result<Vec<Cut>, CutsError> {
+    pub(crate) fn occluder_cuts(&self, x: Vec3, n: Vec3, skip: Option<usize>) -> Result<Vec<Cut>, CutsError> {
         let mut cuts = Vec::new();
         for (b, obj) in self.objects.iter().enumerate() {
             if Some(b) == skip {

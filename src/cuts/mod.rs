@@ -1,7 +1,7 @@
 //! Visibility cuts: all-frequency environment lighting and shadows of rigid objects that move,
 //! after the rendering subsystem of the captured-lighting paper
 //! (`../shared/papers/cyberworlds-captured-lighting-cuts.txt` §V, "cyberworlds" below). This is
-//! the CPU core of the method; the frame loop and the GPU compositor call it later.
+//! the CPU core of the method; the frame loop and the GPU compositor call it ([`frame`]).
 //!
 //! # How it works
 //! - **Directions and tree** ([`tree`]). `S = 2^levels` directions spread evenly over the sphere
@@ -28,6 +28,9 @@
 //!   `V = V_s · Π_i V_i` (Eqs. 3 and 4).
 //! - **Files and sweeps**: [`mod@file`] stores a scene's cuts with a hash of their inputs;
 //!   [`sweep`] measures error against cost.
+//! - **Frames** ([`frame`]): the objects' ambient per vertex and the receivers' sky visibility
+//!   for one frame's translations, under the relit map split per unit `Pa` and `Pd`; the frame
+//!   loop (`crate::run::motion`) hands them to the compositor.
 //!
 //! # Frames and limits
 //! Every cut is over world directions, so a field or a self-visibility cut holds for its object
@@ -38,6 +41,7 @@
 pub mod cut;
 pub mod eval;
 pub mod file;
+pub mod frame;
 pub mod lighting;
 pub mod packed;
 pub mod proxy_field;

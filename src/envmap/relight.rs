@@ -62,6 +62,17 @@ impl RelitMap {
     }
 }
 
+/// A relit map split by what it is linear in ([`Relighter::unit_maps`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct UnitMaps {
+    /// Sky texels' radiance per unit `Pa` (zero on surfaces).
+    pub sky_pa: LinearImage,
+    /// Surface texels' radiance per unit `Pa` (zero on sky).
+    pub surface_pa: LinearImage,
+    /// Surface texels' radiance per unit `Pd`, once a sun is built.
+    pub surface_pd: Option<LinearImage>,
+}
+
 /// The sun-dependent planes.
 #[derive(Clone, Debug)]
 struct SunPlanes {
@@ -273,6 +284,31 @@ impl Relighter {
         let build_ms = t0.elapsed().as_secs_f64() * 1e3;
         self.sun = Some(SunPlanes { dir, direct, ambient: Some(ambient), lit_texels: lit });
         SunUpdate { rebuilt: true, build_ms, lit_texels: lit }
+    }
+
+    /// The sun direction of the current sun planes (`None` before the first).
+    pub fn sun_dir(&self) -> Option<Vec3> {
+        self.sun.as_ref().map(|s| s.dir)
+    }
+
+    /// The relit map split by what it is linear in (for the visibility cuts, `crate::cuts::frame`):
+    /// sky texels per unit `Pa`, surface texels per unit `Pa`, and surface texels per unit `Pd`
+    /// (the current sun's direct plane; `None` before the first sun). `relight_into` is
+    /// `(sky + surface_pa)·Pa + surface_pd·Pd` texel for texel.
+    pub fn unit_maps(&self) -> UnitMaps {
+        let n = self.sky.len();
+        let mut surface = vec![false; n];
+        for &i in &self.surface {
+            surface[i as usize] = true;
+        }
+        let (amb, sky) = (self.ambient_plane(), self.sky_plane());
+        let image = |keep_surface: bool| LinearImage {
+            width: self.width,
+            height: self.height,
+            data: (0..n).map(|i| if surface[i] == keep_surface { std::array::from_fn(|c| amb[c][i] + sky.map_or(0.0, |s| s[i])) } else { [0.0; 3] }).collect(),
+        };
+        let surface_pd = self.direct_plane().map(|d| LinearImage { width: self.width, height: self.height, data: (0..n).map(|i| std::array::from_fn(|c| d[c][i])).collect() });
+        UnitMaps { sky_pa: image(false), surface_pa: image(true), surface_pd }
     }
 
     /// Relights into `out` (resized as needed). Without a built sun (or with the sun down), the

@@ -136,6 +136,17 @@ pub fn object_vertices(mesh: &Mesh) -> (Vec<VirtualVertex>, Vec<[u32; 3]>) {
     }
 }
 
+/// The mesh vertex each vertex of [`object_vertices`] comes from (the identity when the mesh
+/// has normals, the triangle corners otherwise), so per-mesh-vertex data can follow the GPU
+/// vertex order.
+pub fn vertex_sources(mesh: &Mesh) -> Vec<u32> {
+    if mesh.normals.len() == mesh.positions.len() && !mesh.normals.is_empty() {
+        (0..mesh.positions.len() as u32).collect()
+    } else {
+        mesh.triangles.iter().flatten().copied().collect()
+    }
+}
+
 fn texture_rgba8(mesh: &Mesh, t: u32) -> Option<(u32, u32, Vec<u8>)> {
     let tex = mesh.textures.get(t as usize)?;
     let mut data = Vec::with_capacity(tex.data.len() * 4);

@@ -30,6 +30,11 @@ pub trait ProbeSource {
     fn relight(&mut self, lighting: &Lighting) -> &ProbeGrid;
     /// Short name for reports.
     fn name(&self) -> &'static str;
+    /// The relighter whose map the probes come from, when there is one (the visibility cuts
+    /// cluster its map, `crate::cuts::frame`).
+    fn relighter(&self) -> Option<&Relighter> {
+        None
+    }
 }
 
 /// Every probe holds the irradiance of an unoccluded uniform sky of the frame's `Pa` (for
@@ -143,5 +148,8 @@ impl ProbeSource for VolumeProbes {
     }
     fn name(&self) -> &'static str {
         "irradiance_volume"
+    }
+    fn relighter(&self) -> Option<&Relighter> {
+        Some(&self.relighter)
     }
 }

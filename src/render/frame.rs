@@ -126,6 +126,9 @@ pub struct FrameTimings {
     pub gpu_ms: f64,
     /// Copying the output to a buffer and mapping it.
     pub readback_ms: f64,
+    /// The visibility cuts (issue 15 §2): the objects' per-vertex ambient and the receivers'
+    /// sky visibility with the objects present.
+    pub cuts_ms: f64,
 }
 
 /// The compositor's report of one frame (part of the per-frame JSON line).
@@ -181,6 +184,10 @@ pub mod pass {
     /// Bringing moved virtual objects to their place for the frame (`run::motion`); objects
     /// that did not move are reported skipped under this name.
     pub const OBJECT_MOTION: &str = "object_motion";
+    /// The visibility cuts evaluated for the objects' translations (`crate::cuts::frame`):
+    /// their ambient per vertex and the receivers' sky visibility; reported, ran or skipped with
+    /// its reason, in scenes with moving objects.
+    pub const VISIBILITY_CUTS: &str = "visibility_cuts";
     /// CPU (or compute) shadow-volume construction.
     pub const VOLUME_BUILD: &str = "volume_build";
     /// Depth prepass.

@@ -6,7 +6,9 @@
 //! the object. The sun term is weighted by the fraction of the pixel's virtual-surface samples
 //! that no shadow volume covers, read from the shadow-mask pass (which therefore runs first);
 //! this keeps the objects to one geometry pass per frame, which is what a software rasteriser
-//! pays for. Closed meshes are drawn with back faces culled, open ones two-sided. The layer is
+//! pays for. The ambient comes from the per-vertex ambient of the visibility cuts where it is set
+//! (objects that moved, issue 15 §2), else the per-pixel transfer, else the probes times ambient
+//! occlusion. Closed meshes are drawn with back faces culled, open ones two-sided. The layer is
 //! premultiplied linear radiance, alpha 1 where covered.
 
 use super::RenderError;
@@ -23,7 +25,8 @@ pub struct VirtualShading {
     /// Two-sided (open meshes).
     pub open: wgpu::RenderPipeline,
     /// Group 0: camera, lighting, probe header, coefficients, validity, ambient occlusion, masks,
-    /// and the transfer's `R_a`, `R_d`, points and normals.
+    /// the transfer's `R_a`, `R_d`, points and normals, and the per-vertex ambient of the
+    /// visibility cuts (`crate::cuts::frame`).
     pub frame_layout: wgpu::BindGroupLayout,
 }
 
@@ -45,6 +48,8 @@ impl VirtualShading {
                 texture_entry(8, false),
                 texture_entry(9, false),
                 texture_entry(10, false),
+                // The objects' per-vertex ambient from the visibility cuts, read by the vertex stage.
+                wgpu::BindGroupLayoutEntry { visibility: wgpu::ShaderStages::VERTEX, ..storage_entry(11) },
             ],
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -60,7 +65,7 @@ impl VirtualShading {
                 layout: Some(&layout),
                 vertex: wgpu::VertexState {
                     module: &module,
-                    entry_point: Some("vs_object"),
+                    entry_point: Some("vs_shade"),
                     compilation_options: Default::default(),
                     buffers: &[Some(wgpu::VertexBufferLayout {
                         array_stride: std::mem::size_of::<VirtualVertex>() as u64,

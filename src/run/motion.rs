@@ -9,7 +9,15 @@
 //! irradiance-volume box gets a warning (once per object, and in the frame's report); the
 //! probe lookups clamp to the box's edge (`shaders/virtual_shading.wgsl`, `probe_irradiance`),
 //! so its shading stays finite.
+//!
+//! With the scene's visibility cuts ([`super::motion_cuts`], set with
+//! [`MovingObjects::with_cuts`]), a frame where the objects moved by translation evaluates them
+//! (the objects' ambient per vertex, the receivers' sky visibility) and hands them to the
+//! compositor instead of its re-trace; a frame where an object turned re-traces as before. The
+//! report names the pass `visibility_cuts`, with its time when it ran and its reason when not.
 
+use super::motion_cuts::{CutOutcome, CutState};
+use crate::envmap::relight::Relighter;
 use crate::geometry::Mesh;
 use crate::render::frame::pass;
 use crate::render::{Compositor, PassReport, RenderError};
@@ -17,6 +25,9 @@ use crate::scene::Scene;
 use crate::scene::motion::ObjectMotion;
 use chrono::{DateTime, FixedOffset};
 use glam::{Mat4, Vec3};
+
+/// Steps between two keys at which [`MovingObjects::reach`] takes the objects' boxes.
+pub const REACH_STEPS_PER_KEY: usize = 8;
 
 /// One object of the scene, moving or not.
 struct Object {
@@ -39,6 +50,8 @@ pub struct MovingObjects {
     /// standing on the ground reaches a little below the box; beyond one spacing its lookups are
     /// clamped extrapolations).
     volume_box: Option<(Vec3, Vec3)>,
+    /// The visibility cuts, or why there are none.
+    cuts: Result<CutState, String>,
 }
 
 /// What the motion did in one frame.
@@ -73,7 +86,8 @@ impl MovingObjects {
             let margin = Vec3::splat(g.spacing_m as f32);
             (Vec3::from(g.min.map(|v| v as f32)) - margin, Vec3::from(g.max.map(|v| v as f32)) + margin)
         });
-        Some(Self { objects, proxy: scene.proxy.clone(), start, volume_box })
+        let cuts = Err("the visibility cuts were not loaded: every move is re-traced".to_owned());
+        Some(Self { objects, proxy: scene.proxy.clone(), start, volume_box, cuts })
     }
 
     /// Poses every moving object for frame `index` at `time`; returns which moved.
@@ -109,10 +123,93 @@ impl MovingObjects {
         out
     }
 
-    /// Hands the objects that moved to `compositor`.
-    pub fn apply(&self, compositor: &mut Compositor, frame: &FrameMotion) -> Result<(), RenderError> {
+    /// Loads (or computes) `scene`'s visibility cuts (`super::motion_cuts`); `proxy` is the
+    /// proxy's BVH. Without them every move is re-traced, and the report says why.
+    pub fn with_cuts(mut self, scene: &Scene, proxy: &crate::geometry::raycast::RayScene) -> Self {
+        self.cuts = CutState::load(scene, proxy);
+        self
+    }
+
+    /// True when the visibility cuts are loaded.
+    pub fn has_cuts(&self) -> bool {
+        self.cuts.is_ok()
+    }
+
+    /// The objects' bounding boxes along their motion where they are translated, not turned
+    /// (where the cuts serve): at every key and at [`REACH_STEPS_PER_KEY`] steps between keys
+    /// (the region whose receivers the compositor prepares at set-up, `Compositor::reach_motion`).
+    pub fn reach(&self) -> Vec<(Vec3, Vec3)> {
+        let mut boxes = Vec::new();
+        for o in &self.objects {
+            let Some(m) = &o.motion else {
+                boxes.extend(o.mesh.bounds());
+                continue;
+            };
+            let mut keys: Vec<f64> = m.motion.translation.iter().flat_map(|t| t.times.clone()).collect();
+            keys.extend(m.motion.rotation.iter().flat_map(|t| t.times.clone()));
+            keys.sort_by(f64::total_cmp);
+            keys.dedup();
+            let mut times = keys.clone();
+            for w in keys.windows(2) {
+                times.extend((1..REACH_STEPS_PER_KEY).map(|k| w[0] + (w[1] - w[0]) * k as f64 / REACH_STEPS_PER_KEY as f64));
+            }
+            if times.is_empty() {
+                times.push(m.motion.start_seconds());
+            }
+            let origin = m.motion.world_from_rest(m.motion.start_seconds()).inverse();
+            for t in times {
+                let pose = m.motion.world_from_rest(t);
+                // Only where the cuts serve: the object translated, not turned.
+                if !glam::Mat3::from_mat4(pose * origin).abs_diff_eq(glam::Mat3::IDENTITY, super::motion_cuts::TURN_TOLERANCE) {
+                    continue;
+                }
+                let pts = m.rest.positions.iter().map(|p| pose.transform_point3(*p));
+                if let Some(b) = pts.fold(None, |acc: Option<(Vec3, Vec3)>, p| Some(acc.map_or((p, p), |(lo, hi)| (lo.min(p), hi.max(p))))) {
+                    boxes.push(b);
+                }
+            }
+        }
+        boxes
+    }
+
+    /// Hands the objects that moved to `compositor`: by the visibility cuts when they serve
+    /// (objects translated), else by its re-trace. `relighter` is the probe source's (the
+    /// lighting the cuts shade with).
+    pub fn apply(&mut self, compositor: &mut Compositor, frame: &FrameMotion, relighter: Option<&Relighter>) -> Result<(), RenderError> {
         let list: Vec<(String, &Mesh)> = self.objects.iter().map(|o| (o.name.clone(), &o.mesh)).collect();
-        compositor.move_objects(&self.proxy, &list, &frame.moved)
+        let any = frame.moved.iter().any(|m| *m);
+        let Ok(cuts) = &mut self.cuts else {
+            return compositor.move_objects(&self.proxy, &list, &frame.moved);
+        };
+        if !any && !(compositor.cuts_serve() && cuts.lighting_changed(relighter)) {
+            cuts.outcome = CutOutcome::Skipped(match compositor.cuts_serve() {
+                true => "nothing moved and the lighting's sun planes did not change: the last ambient and receiver visibility serve".into(),
+                false => "nothing moved and the cuts are not serving (no move yet, or the last one was re-traced): the objects' ambient stays as it is".into(),
+            });
+            return Ok(());
+        }
+        let poses: Vec<Option<Mat4>> = self.objects.iter().map(|o| o.pose).collect();
+        let translations = match cuts.translations(&poses) {
+            Ok(t) => t,
+            Err(k) => {
+                let name = self.objects.get(k).map_or("an object", |o| o.name.as_str());
+                cuts.outcome = CutOutcome::Skipped(format!("{name} turned since its first key and the cuts hold for translation only: re-traced"));
+                return compositor.move_objects(&self.proxy, &list, &frame.moved);
+            }
+        };
+        let t = std::time::Instant::now();
+        match cuts.evaluate(&translations, relighter, compositor.eye_world()) {
+            Ok((ambient, receivers)) => {
+                // The objects' part; the receivers' part is timed where it runs (the compositor's
+                // receiver step) and added to the same `cuts_ms`.
+                cuts.outcome = CutOutcome::Ran(t.elapsed().as_secs_f64() * 1e3);
+                compositor.move_objects_with_cuts(&list, &frame.moved, &ambient.vertices, Box::new(move |s: &[(Vec3, Vec3)]| receivers.visibility(s)))
+            }
+            Err(e) => {
+                cuts.outcome = CutOutcome::Skipped(format!("the cuts could not be evaluated ({e}): re-traced"));
+                compositor.move_objects(&self.proxy, &list, &frame.moved)
+            }
+        }
     }
 
     /// Writes the frame's motion into `report`: the objects that moved, the others skipped with
@@ -137,5 +234,15 @@ impl MovingObjects {
             report.skip(pass::OBJECT_MOTION, format!("{}: {since}: {reused}", o.name));
         }
         report.warnings.extend(frame.warnings.iter().cloned());
+        match &self.cuts {
+            Ok(c) => match &c.outcome {
+                CutOutcome::Ran(ms) => {
+                    report.ran.insert(0, pass::VISIBILITY_CUTS);
+                    report.timings.cuts_ms += ms;
+                }
+                CutOutcome::Skipped(reason) => report.skip(pass::VISIBILITY_CUTS, reason.clone()),
+            },
+            Err(reason) => report.skip(pass::VISIBILITY_CUTS, reason.clone()),
+        }
     }
 }

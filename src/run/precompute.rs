@@ -57,6 +57,16 @@ impl Default for PrecomputeOptions {
     }
 }
 
+impl PrecomputeOptions {
+    /// What the frame loop computes when a scene with moving objects has no usable
+    /// `baked/cuts.bin` (`run::motion_cuts`): `S = 2^10` and 8 spheres × 16² points, which take
+    /// seconds where the paper's settings take minutes (docs/measurements.md, "Moving objects");
+    /// `heliar precompute` with finer settings beforehand is used instead when present.
+    pub fn frame_loop() -> Self {
+        Self { levels: 10, vcf: VcfSampling { spheres: 8, rows: 16, cols: 16, ..VcfSampling::default() }, ..Self::default() }
+    }
+}
+
 /// What a precompute did (the JSON summary line).
 #[derive(Clone, Debug, Serialize)]
 pub struct PrecomputeSummary {

@@ -55,17 +55,24 @@ impl OutdoorSession {
     }
 
     /// Makes the scene's moving objects follow their motion from the next frame on; `start` is
-    /// the time of the sequence's first frame (key times in seconds count from it). Nothing
-    /// changes for a scene where nothing moves.
+    /// the time of the sequence's first frame (key times in seconds count from it). Their
+    /// visibility cuts are loaded from `baked/cuts.bin` or computed (`super::motion_cuts`).
+    /// Nothing changes for a scene where nothing moves.
     pub fn follow_motion(&mut self, scene: &Scene, start: DateTime<FixedOffset>) {
-        self.motion = MovingObjects::for_scene(scene, start);
+        let proxy = self.compositor.proxy_ray().clone();
+        self.motion = MovingObjects::for_scene(scene, start).map(|m| m.with_cuts(scene, &proxy));
+        if let Some(m) = self.motion.as_ref().filter(|m| m.has_cuts()) {
+            // The receivers along the motion get `c`, `b` at set-up, so that a move costs no trace.
+            self.compositor.reach_motion(m.reach());
+        }
     }
 
-    /// Poses the moving objects for frame `index` and hands those that moved to the compositor.
+    /// Poses the moving objects for frame `index` and hands those that moved to the compositor
+    /// (after the relight: the cuts shade with the relit map).
     fn pose_objects(&mut self, index: usize, time: &DateTime<FixedOffset>) -> anyhow::Result<Option<FrameMotion>> {
         let Some(m) = &mut self.motion else { return Ok(None) };
         let frame = m.advance(index, time);
-        m.apply(&mut self.compositor, &frame)?;
+        m.apply(&mut self.compositor, &frame, self.stage.probes.relighter())?;
         Ok(Some(frame))
     }
 
@@ -87,13 +94,14 @@ impl OutdoorSession {
     /// decisions (replayed without their work: see `render::compositor::replay`), so the frames
     /// that follow equal an uninterrupted run's.
     pub fn replay(&mut self, index: usize, time: &DateTime<FixedOffset>, frame: &Frame, lin: &Linearizer) -> anyhow::Result<FrameEstimate> {
-        self.pose_objects(index, time)?;
         let light = self.stage.light(index, time, frame, lin)?;
         if let Some(grid) = light.grid {
             self.compositor.set_probes(grid);
         }
-        self.compositor.replay(&light.lighting);
-        Ok(light.estimate)
+        let (lighting, estimate) = (light.lighting, light.estimate);
+        self.pose_objects(index, time)?;
+        self.compositor.replay(&lighting);
+        Ok(estimate)
     }
 
     /// One frame: estimate, relight when needed, composite offscreen and read back.

@@ -22,6 +22,7 @@ mod interrupt_resume;
 mod irradiance_volume;
 mod lamps_estimate;
 mod live;
+mod object_cuts;
 mod object_motion;
 mod scene_errors;
 mod shader_validation;

@@ -15,7 +15,9 @@
 //!    ([`super::object_transfer`], traced on the CPU on the first frame; its sun part re-traced
 //!    when the sun has moved past `bounce_rebuild_deg`, a slice of `trace_paths_per_frame` paths
 //!    per frame while the previous one serves), or SH ambient from the probe grid times the
-//!    objects' own ambient occlusion where the transfer has no entry (or is off).
+//!    objects' own ambient occlusion where the transfer has no entry (or is off); after the
+//!    objects moved by translation, the per-vertex ambient of the visibility cuts instead
+//!    (`motion`, issue 15 §2).
 //!
 //! Then, in the footage's pixel grid, the composite warps the canvas layers through the lens
 //! model and darkens the footage: under the virtual shadow with the proxy's normal and `c`, and,
@@ -70,6 +72,7 @@ mod volumes;
 
 pub use config::{CompositorConfig, HALF_PRECISION, PassSwitches, REUSE_SUN_DEG, RenderedFrame, SceneParts, TRACE_PATHS_PER_FRAME};
 pub use context::{FrameContext, Gate};
+pub use motion::{ReceiverVisibility, VertexAmbient};
 pub use resources::Resources;
 pub use stencil_cache::StencilCache;
 pub use volumes::{BuildStats, Builder, RealVolumes, VirtualVolumes, Volumes};
@@ -140,6 +143,12 @@ pub struct Compositor {
     owed_stencil: Option<replay::OwedStencil>,
     /// Layout of the material bind groups (for re-uploading moved objects).
     mat_layout: wgpu::BindGroupLayout,
+    /// The objects' per-vertex ambient from the visibility cuts (shading group 0, binding 11).
+    cut_ambient: wgpu::Buffer,
+    /// Per object, the mesh vertex of each of its vertices in the vertex buffer.
+    vertex_sources: Vec<Vec<u32>>,
+    /// The receivers' sky visibility from the visibility cuts, while they serve (see `motion`).
+    cuts: Option<motion::ReceiverVisibility>,
 }
 
 impl Compositor {
@@ -208,7 +217,7 @@ impl Compositor {
             self.probes.write(&self.gpu.queue, grid);
         } else {
             self.probes = GpuProbes::new(&self.gpu.device, &self.gpu.queue, grid);
-            self.shading_bg = Self::shading_bind_group(&self.gpu.device, &self.shading, &self.camera_buf, &self.lighting_buf, &self.probes, &self.res);
+            self.shading_bg = Self::shading_bind_group(&self.gpu.device, &self.shading, &self.camera_buf, &self.lighting_buf, &self.probes, &self.res, &self.cut_ambient);
         }
     }
 

@@ -1,35 +1,72 @@
-//! Virtual objects that moved since the last frame (issue 15 §1): what the compositor keeps of
-//! them is brought to their new place before the frame is encoded.
+//! Virtual objects that moved since the last frame (issue 15 §1 and §2): what the compositor
+//! keeps of them is brought to their new place before the frame is encoded.
 //!
 //! # How it works
-//! For each moved object its shadow-volume occluder is rebuilt; the objects' vertex buffer,
-//! their bounds, the combined proxy-and-objects BVH and the objects' own per-pixel ambient
-//! occlusion follow them; the receivers forget `c_v` and `b_v` (recomputed where the next frame
-//! needs them) and the stored stencil is dropped. The per-pixel transfer traced for the objects'
-//! old places is stale: it is dropped and the shading falls back to the probe grid times the
-//! objects' ambient occlusion (reported as the `object_transfer` pass's reason) until the
-//! visibility cuts are evaluated per frame (`crate::cuts`, not yet wired). Objects that did not
-//! move keep their occluders and are reported as skipped with that reason.
+//! Two ways, chosen by the frame loop (`crate::run::motion`):
+//! - **With the visibility cuts** ([`Compositor::move_objects_with_cuts`]; objects translated
+//!   since the cuts were computed, cyberworlds §V). Each moved object's shadow-volume occluder is
+//!   rebuilt (the sun keeps its exact stencil shadow volumes) and the vertex buffer and bounds
+//!   follow; the ambient of every object comes from the per-vertex ambient of the cuts
+//!   (`cuts::frame`, uploaded for `shaders/virtual_shading.wgsl`), and the receivers'
+//!   `c_v`, `b_v` from their sky visibility with the objects present (`c·V`, `b·V`, set where
+//!   the next frame needs them, `receiver_update`) instead of a re-trace. Nothing is traced
+//!   against the objects: no BVH with them, no ambient occlusion, no transfer.
+//! - **The re-trace** ([`Compositor::move_objects`]; a turned object, or a scene without cuts):
+//!   the objects' buffers, bounds, the combined proxy-and-objects BVH and the objects' own
+//!   per-pixel ambient occlusion follow them; the receivers forget `c_v` and `b_v` (traced again
+//!   where the next frame needs them). The shading falls back to the probe grid times the
+//!   objects' ambient occlusion.
+//!
+//! Either way the per-pixel transfer traced for the objects' old places is stale: it is dropped
+//! (reported as the `object_transfer` pass's reason) and the stored stencil is dropped.
 
 use super::setup::{MIN_NEAR_RADIUS_M, NEAR_RADIUS_HALF_DIAGONALS, object_occlusion};
-use super::{Compositor, ReceiverPixels};
+use super::Compositor;
 use crate::geometry::Mesh;
+use crate::geometry::raycast::RayScene;
 use crate::gpu::mesh::VirtualBuffers;
 use crate::render::RenderError;
 use crate::render::object_transfer::TransferScene;
 use crate::render::occluder::Occluder;
+use glam::Vec3;
+use std::sync::Arc;
 
-/// Why the transfer is off after a move.
+/// One vertex's ambient from the visibility cuts: irradiance per unit `Pa` about the normal
+/// (`w = 1`: served by the cuts) and about the reflected view direction, then the same per unit
+/// `Pd`. Mirrors `cut_ambient` in `shaders/virtual_shading.wgsl` (and `cuts::frame::VertexAmbient`).
+pub type VertexAmbient = [[f32; 4]; 4];
+
+/// The receivers' sky visibility with the objects present, in `[0, 1]`, at `(point, normal)`
+/// pairs (world frame); from the objects' visibility cut fields (`run::motion_cuts`).
+pub type ReceiverVisibility = Box<dyn Fn(&[(Vec3, Vec3)]) -> Vec<f32> + Send + Sync>;
+
+/// Why the transfer is off after a move (re-trace).
 const TRANSFER_DROPPED: &str =
     "an object moved: the traced transfer belongs to the old places; ambient from the probe grid times ambient occlusion";
+/// Why the transfer is off after a move (cuts).
+const TRANSFER_BY_CUTS: &str = "an object moved: the traced transfer belongs to the old places; ambient from the visibility cuts per vertex";
 
 impl Compositor {
-    /// Moves the virtual objects to `objects` (every object, in set-up order, in world
-    /// coordinates, with its name); `moved[k]` says which changed. See the module docs.
-    pub fn move_objects(&mut self, proxy: &Mesh, objects: &[(String, &Mesh)], moved: &[bool]) -> Result<(), RenderError> {
-        if !moved.iter().any(|m| *m) {
-            return Ok(());
-        }
+    /// The camera centre, world frame (the eye the objects' radiance is seen from).
+    pub fn eye_world(&self) -> Vec3 {
+        let e = self.canvas.uniform().eye_world;
+        Vec3::new(e[0], e[1], e[2])
+    }
+
+    /// The proxy's BVH.
+    pub fn proxy_ray(&self) -> &Arc<RayScene> {
+        &self.proxy_ray
+    }
+
+    /// True while the visibility cuts serve the objects' ambient and the receivers' `c_v`.
+    pub fn cuts_serve(&self) -> bool {
+        self.cuts.is_some()
+    }
+
+    /// Rebuilds the moved objects' occluders and the objects' vertex buffer and bounds; the
+    /// transfer is dropped with `reason`, the receivers forget `c_v`, `b_v`, the stencil is
+    /// dropped. Returns the meshes.
+    fn follow<'a>(&mut self, objects: &'a [(String, &'a Mesh)], moved: &[bool], reason: &str) -> Result<Vec<&'a Mesh>, RenderError> {
         let meshes: Vec<&Mesh> = objects.iter().map(|(_, m)| *m).collect();
         for (k, (name, mesh)) in objects.iter().enumerate() {
             if moved.get(k).copied().unwrap_or(false) {
@@ -40,13 +77,58 @@ impl Compositor {
         self.virt = VirtualBuffers::new(&self.gpu.device, &self.gpu.queue, &self.mat_layout, &meshes, &closed)?;
         self.virtual_bounds = meshes.iter().filter_map(|m| m.bounds()).collect();
         let near_radius_m = self.virtual_bounds.iter().map(|(lo, hi)| (*hi - *lo).length() / 2.0 * NEAR_RADIUS_HALF_DIAGONALS).fold(MIN_NEAR_RADIUS_M, f32::max);
+        self.transfer.drop_traced(reason);
+        self.receivers.forget_objects();
+        self.receiver_pixels = self.receiver_pixels.rebuilt(near_radius_m);
+        self.invalidate();
+        Ok(meshes)
+    }
+
+    /// Moves the virtual objects to `objects` (every object, in set-up order, in world
+    /// coordinates, with its name) and traces what depends on them again; `moved[k]` says which
+    /// changed. See the module docs.
+    pub fn move_objects(&mut self, proxy: &Mesh, objects: &[(String, &Mesh)], moved: &[bool]) -> Result<(), RenderError> {
+        if !moved.iter().any(|m| *m) {
+            return Ok(());
+        }
+        let meshes = self.follow(objects, moved, TRANSFER_DROPPED)?;
+        if self.cuts.take().is_some() {
+            self.write_cut_ambient(&[]);
+        }
         let scene = TransferScene::new(proxy, &meshes);
         self.with_ray = Some(scene.world.clone());
         self.res.occlusion.write(&self.gpu.queue, &object_occlusion(&self.canvas, Some(&scene), &self.config));
-        self.transfer.drop_traced(TRANSFER_DROPPED);
-        self.receivers.forget_objects();
-        self.receiver_pixels = ReceiverPixels::new(near_radius_m);
-        self.invalidate();
         Ok(())
+    }
+
+    /// Moves the virtual objects (as [`Self::move_objects`]) with their ambient and the
+    /// receivers' visibility from the visibility cuts: `ambient[k][v]` for vertex `v` of object
+    /// `k`'s mesh. See the module docs.
+    pub fn move_objects_with_cuts(&mut self, objects: &[(String, &Mesh)], moved: &[bool], ambient: &[Vec<VertexAmbient>], receivers: ReceiverVisibility) -> Result<(), RenderError> {
+        if moved.iter().any(|m| *m) {
+            self.follow(objects, moved, TRANSFER_BY_CUTS)?;
+        }
+        self.set_cuts(ambient, receivers);
+        Ok(())
+    }
+
+    /// Replaces the per-vertex cut ambient and the receivers' visibility (the lighting changed
+    /// while the cuts serve; the receivers' values follow at the next stencil rebuild).
+    pub fn set_cuts(&mut self, ambient: &[Vec<VertexAmbient>], receivers: ReceiverVisibility) {
+        self.write_cut_ambient(ambient);
+        self.cuts = Some(receivers);
+    }
+
+    /// Uploads `ambient` in the vertex buffer's order (zero where missing: not served).
+    fn write_cut_ambient(&self, ambient: &[Vec<VertexAmbient>]) {
+        let mut data: Vec<VertexAmbient> = Vec::with_capacity(self.vertex_sources.iter().map(Vec::len).sum::<usize>().max(1));
+        for (k, sources) in self.vertex_sources.iter().enumerate() {
+            let obj = ambient.get(k);
+            data.extend(sources.iter().map(|&v| obj.and_then(|a| a.get(v as usize)).copied().unwrap_or([[0.0; 4]; 4])));
+        }
+        if data.is_empty() {
+            data.push([[0.0; 4]; 4]);
+        }
+        self.gpu.queue.write_buffer(&self.cut_ambient, 0, bytemuck::cast_slice(&data));
     }
 }

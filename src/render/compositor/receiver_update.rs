@@ -11,7 +11,9 @@
 //! when `b` is (past `bounce_rebuild_deg`) or the model changes. Changed values are uploaded.
 //! A recomputation after a sun move that exceeds the per-frame budget runs a slice per frame
 //! (the receivers' `retrace`), on frames that reuse the stored stencil too, and is uploaded when
-//! complete.
+//! complete. While the visibility cuts serve (objects moved by translation, `motion`), `c_v` and
+//! `b_v` are `c` and `b` times the pixel's sky visibility with the objects present, from the
+//! objects' visibility cut fields (`crate::cuts::frame`), instead of a trace with the objects.
 
 use super::Compositor;
 use super::context::{FrameContext, angle_deg};
@@ -34,12 +36,25 @@ pub struct ReceiverPixels {
     near: Option<Vec<u32>>,
     /// The pixels, and the sun and model they were chosen for.
     chosen: Option<(PixelKey, Vec<u32>)>,
+    /// The objects' boxes along their motion, whose region gets `c` and `b` on the first
+    /// frame (see [`Compositor::reach_motion`]); `None` once done or without motion.
+    reach: Option<Vec<(Vec3, Vec3)>>,
 }
 
 impl ReceiverPixels {
     /// No pixels chosen yet; the differential region reaches `near_radius_m` from the objects.
     pub fn new(near_radius_m: f32) -> Self {
-        Self { near_radius_m, near: None, chosen: None }
+        Self { near_radius_m, near: None, chosen: None, reach: None }
+    }
+
+    /// The same, keeping the motion's reach of `self` (a move rebuilds the pixel lists).
+    pub(super) fn rebuilt(&mut self, near_radius_m: f32) -> Self {
+        Self { reach: self.reach.take(), ..Self::new(near_radius_m) }
+    }
+
+    /// The pixels chosen last (none before the first frame).
+    pub(super) fn chosen(&self) -> &[u32] {
+        self.chosen.as_ref().map(|(_, p)| p.as_slice()).unwrap_or(&[])
     }
 
     /// The pixels for `sun` (`None`: no sun term) and the model, rebuilt past `rebuild_deg`.
@@ -71,6 +86,33 @@ impl ReceiverPixels {
 }
 
 impl Compositor {
+    /// Makes the first frame compute `c` and `b` (not `c_v`, `b_v`) wherever the differential
+    /// model's region and the objects' shadow (for the first frame's sun) can reach along the
+    /// objects' motion, the objects' boxes `boxes` at
+    /// sampled times: frames where the objects move by translation then take `c_v`, `b_v` from
+    /// the visibility cuts without tracing any pixel (the set-up pays once). The values of the
+    /// pixels the frame needs anyway do not change (each pixel's paths have their own seed).
+    pub fn reach_motion(&mut self, boxes: Vec<(Vec3, Vec3)>) {
+        self.receiver_pixels.reach = Some(boxes);
+    }
+
+    /// `c`, `b` over the motion's reach, once (see [`Self::reach_motion`]); true when it
+    /// computed (the values must be uploaded).
+    fn warm_reach(&mut self, ctx: &FrameContext, report: &mut PassReport) -> bool {
+        let Some(boxes) = self.receiver_pixels.reach.take() else { return false };
+        let c = &self.config;
+        let mut pixels = self.receivers.near(&boxes, self.receiver_pixels.near_radius_m);
+        if let Some(l) = ctx.sun() {
+            pixels.extend(self.receivers.in_shadow_reach(&boxes, l, RECEIVER_GROW_PX));
+            pixels.sort_unstable();
+            pixels.dedup();
+        }
+        let s = self.receivers.ensure(&self.proxy_ray, None, &pixels, ctx.sun(), c.ambient_quality, c.bounce_quality, c.bounce_rebuild_deg);
+        report.receivers_computed += s.computed;
+        report.timings.receivers_ms += s.ms;
+        s.computed > 0
+    }
+
     /// Computes the receiver data this frame needs and uploads what changed.
     pub(super) fn update_receivers(&mut self, ctx: &FrameContext, report: &mut PassReport) {
         // First, so that a switch of the sky (which made `frame_context` rebuild the stencil) is
@@ -81,8 +123,11 @@ impl Compositor {
         if !ctx.has_objects() || !(differential || normal_with_sun) {
             return;
         }
+        let warmed = differential && !ctx.reuses() && self.warm_reach(ctx, report);
         let c = &self.config;
-        let with = if differential { self.with_ray.as_deref() } else { None };
+        // With the visibility cuts serving, `c_v`, `b_v` come from them, not from a trace.
+        let with = if differential && self.cuts.is_none() { self.with_ray.as_deref() } else { None };
+        let mut pixels = Vec::new();
         let s = if ctx.reuses() {
             // The stored stencil serves, but a recomputation in progress moves on.
             match self.receivers.continue_job(&self.proxy_ray, with, c.bounce_quality) {
@@ -90,18 +135,32 @@ impl Compositor {
                 None => return,
             }
         } else {
-            let pixels = self.receiver_pixels.pixels(&self.receivers, &self.virtual_bounds, ctx.sun(), differential, c.bounce_rebuild_deg);
-            self.receivers.ensure(&self.proxy_ray, with, pixels, ctx.sun(), c.ambient_quality, c.bounce_quality, c.bounce_rebuild_deg)
+            pixels = self.receiver_pixels.pixels(&self.receivers, &self.virtual_bounds, ctx.sun(), differential, c.bounce_rebuild_deg).to_vec();
+            self.receivers.ensure(&self.proxy_ray, with, &pixels, ctx.sun(), c.ambient_quality, c.bounce_quality, c.bounce_rebuild_deg)
         };
-        report.receivers_computed = s.computed;
-        report.timings.receivers_ms = s.ms;
+        report.receivers_computed += s.computed;
+        report.timings.receivers_ms += s.ms;
+        let by_cuts = differential && !ctx.reuses() && self.cut_receivers(&pixels, report);
         // A slice of a recomputation in progress changes nothing served yet.
         let staged = s.computed > 0 && !s.bounce_reset && self.receivers.retrace_progress().is_some();
-        if (s.computed > 0 || s.bounce_reset) && !staged {
+        if (s.computed > 0 || s.bounce_reset || by_cuts || warmed) && !staged {
             let t = std::time::Instant::now();
             self.upload_receivers();
             report.timings.upload_ms += t.elapsed().as_secs_f64() * 1e3;
         }
+    }
+
+    /// Sets `c_v`, `b_v` at `pixels` from the visibility cuts when they serve (module docs of
+    /// `motion`); true when it did. Its time goes to the report's `cuts_ms`.
+    pub(super) fn cut_receivers(&mut self, pixels: &[u32], report: &mut PassReport) -> bool {
+        let Some(cuts) = &self.cuts else { return false };
+        let t = std::time::Instant::now();
+        let kept: Vec<u32> = pixels.iter().copied().filter(|&p| self.receivers.surface(p).is_some()).collect();
+        let surfaces: Vec<(Vec3, Vec3)> = kept.iter().filter_map(|&p| self.receivers.surface(p)).collect();
+        let vis = cuts(&surfaces);
+        self.receivers.set_with_from_visibility(&kept, &vis);
+        report.timings.cuts_ms += t.elapsed().as_secs_f64() * 1e3;
+        true
     }
 
     /// Uploads the receivers' `c`, `b`, `c_v`, `b_v`.

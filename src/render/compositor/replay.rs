@@ -67,14 +67,20 @@ impl Compositor {
         }
         let rebuild = self.config.bounce_rebuild_deg;
         let pixels = self.receiver_pixels.pixels(&self.receivers, &self.virtual_bounds, ctx.sun(), differential, rebuild).to_vec();
-        self.receivers.replay(&pixels, ctx.sun(), rebuild, differential, self.config.bounce_quality.paths);
+        // With the visibility cuts serving, `c_v`, `b_v` are not traced (`receiver_update`).
+        self.receivers.replay(&pixels, ctx.sun(), rebuild, differential && self.cuts.is_none(), self.config.bounce_quality.paths);
     }
 
     /// Pays what replayed frames owe before the frame `now` is recorded into `encoder`.
     pub(super) fn restore(&mut self, now: &FrameContext, encoder: &mut wgpu::CommandEncoder, report: &mut PassReport) {
-        let with = if self.config.darkening == Darkening::Differential { self.with_ray.as_deref() } else { None };
+        let differential = self.config.darkening == Darkening::Differential;
+        let with = if differential && self.cuts.is_none() { self.with_ray.as_deref() } else { None };
         let t = std::time::Instant::now();
         let computed = self.receivers.restore(&self.proxy_ray, with, self.config.ambient_quality, self.config.bounce_quality);
+        if computed > 0 && differential {
+            let pixels = self.receiver_pixels.chosen().to_vec();
+            self.cut_receivers(&pixels, report);
+        }
         if computed > 0 {
             self.upload_receivers();
             report.receivers_computed += computed;

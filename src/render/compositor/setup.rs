@@ -11,7 +11,7 @@ use crate::geometry::Mesh;
 use crate::geometry::ambient::TransportQuality;
 use crate::geometry::raycast::RayScene;
 use crate::gpu::canvas::{Canvas, camera_layout};
-use crate::gpu::mesh::{ProxyBuffers, VirtualBuffers, VirtualVertex, material_layout};
+use crate::gpu::mesh::{ProxyBuffers, VirtualBuffers, VirtualVertex, material_layout, vertex_sources};
 use crate::gpu::{Gpu, MASK_FORMAT};
 use crate::irradiance::ProbeGrid;
 use crate::render::RenderError;
@@ -69,6 +69,17 @@ fn object_transfer(canvas: &Canvas, scene: Option<TransferScene>, config: &Compo
     res.transfer_point.write(queue, &t.point);
     res.transfer_normal.write(queue, &t.normal);
     Some((scene, t))
+}
+
+/// The objects' per-vertex ambient from the visibility cuts (`cuts::frame`): four
+/// `vec4<f32>` per vertex of the objects' vertex buffer, zero (unused) until an object moves.
+fn cut_ambient_buffer(d: &wgpu::Device, vertices: usize) -> wgpu::Buffer {
+    d.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("cut ambient"),
+        size: (vertices.max(1) * std::mem::size_of::<super::VertexAmbient>()) as u64,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
 }
 
 /// The uniform buffers and the camera bind group.
@@ -162,7 +173,9 @@ impl Compositor {
         let probes = GpuProbes::new(d, &gpu.queue, &ProbeGrid::filled(Vec3::ZERO, Vec3::ZERO, 1.0, [[0.0; 3]; 9]));
         res.occlusion.write(&gpu.queue, &object_occlusion(&canvas, transfer_scene.as_ref(), &config));
         let transfer = TransferPass::new(object_transfer(&canvas, transfer_scene, &config, &res, &gpu.queue), config.bounce_rebuild_deg);
-        let shading_bg = Self::shading_bind_group(d, &p.shading, &uniforms.camera_buf, &uniforms.lighting_buf, &probes, &res);
+        let vertex_sources: Vec<Vec<u32>> = meshes.iter().map(|m| vertex_sources(m)).collect();
+        let cut_ambient = cut_ambient_buffer(d, vertex_sources.iter().map(Vec::len).sum());
+        let shading_bg = Self::shading_bind_group(d, &p.shading, &uniforms.camera_buf, &uniforms.lighting_buf, &probes, &res, &cut_ambient);
         res.write_receivers(&gpu.queue, &canvas, &receivers);
         Ok(Self {
             config,
@@ -197,12 +210,15 @@ impl Compositor {
             receiver_pixels: ReceiverPixels::new(near_radius_m),
             mat_layout,
             owed_stencil: None,
+            cut_ambient,
+            vertex_sources,
+            cuts: None,
             gpu,
         })
     }
 
     /// Group 0 of the shading pass: camera, lighting, probes, the objects' occlusion, the
-    /// resolved masks and the transfer textures.
+    /// resolved masks, the transfer textures and the per-vertex cut ambient.
     pub(super) fn shading_bind_group(
         d: &wgpu::Device,
         shading: &VirtualShading,
@@ -210,6 +226,7 @@ impl Compositor {
         lighting: &wgpu::Buffer,
         probes: &GpuProbes,
         res: &Resources,
+        cut_ambient: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
         d.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("shading frame"),
@@ -226,6 +243,7 @@ impl Compositor {
                 wgpu::BindGroupEntry { binding: 8, resource: wgpu::BindingResource::TextureView(&res.transfer_sun.view) },
                 wgpu::BindGroupEntry { binding: 9, resource: wgpu::BindingResource::TextureView(&res.transfer_point.view) },
                 wgpu::BindGroupEntry { binding: 10, resource: wgpu::BindingResource::TextureView(&res.transfer_normal.view) },
+                wgpu::BindGroupEntry { binding: 11, resource: cut_ambient.as_entire_binding() },
             ],
         })
     }

@@ -273,6 +273,30 @@ impl Receivers {
         self.bounce_with.fill([0.0; 4]);
     }
 
+    /// The surface point and normal of pixel `p`, where it sees the proxy.
+    pub fn surface(&self, p: u32) -> Option<(Vec3, Vec3)> {
+        let i = p as usize;
+        let point = (*self.point.get(i)?)?;
+        let n = self.normal[i];
+        Some((point, Vec3::new(n[0], n[1], n[2])))
+    }
+
+    /// Sets `c_v = c·V` and `b_v = b·V` at `pixels` from each one's sky visibility with the
+    /// objects present `visibility` (the visibility cuts, `crate::cuts::frame`) instead of
+    /// tracing them with the objects. Pixels whose `c` is not known are left alone.
+    pub fn set_with_from_visibility(&mut self, pixels: &[u32], visibility: &[f32]) {
+        for (&p, &v) in pixels.iter().zip(visibility) {
+            let i = p as usize;
+            if i >= self.point.len() || !self.have_ambient[i] {
+                continue;
+            }
+            let (c, b) = (self.ambient[i], self.bounce[i]);
+            self.ambient_with[i] = [c[0] * v, c[1] * v, c[2] * v, 1.0];
+            self.bounce_with[i] = [b[0] * v, b[1] * v, b[2] * v, 1.0];
+            self.have_with[i] = true;
+        }
+    }
+
     /// True when replayed frames owe computations.
     pub fn owes(&self) -> bool {
         !self.owed.is_empty() || self.job_owes()

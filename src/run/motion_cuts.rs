@@ -1,0 +1,142 @@
+//! The visibility cuts of a scene's moving objects in the frame loop (issue 15 §2; cyberworlds
+//! §V, `../shared/papers/cyberworlds-captured-lighting-cuts.txt`): loaded or computed at the
+//! start, evaluated for the objects' translations on the frames they move.
+//!
+//! # How it works
+//! - **Loading** ([`CutState::load`]): `baked/cuts.bin` when it holds cuts of this scene's objects
+//!   (same count, the same vertex positions at the first key), whatever settings `heliar
+//!   precompute` used; otherwise the cuts are computed with [`PrecomputeOptions::frame_loop`]
+//!   and cached there as `heliar precompute` does. When neither works, the frame loop re-traces
+//!   on every move and each frame reports the cuts pass skipped with the reason.
+//! - **Translation** ([`CutState::translations`]): an object's cuts hold for it translated, not
+//!   turned (`crate::cuts` module docs). Its pose this frame times the inverse of its pose at the
+//!   first key must be a pure translation (the linear part within [`TURN_TOLERANCE`] of the
+//!   identity); otherwise the frame falls back to the re-trace and says which object turned.
+//! - **Lighting** ([`CutState::lighting`]): the relighter's map split per unit `Pa` and `Pd`
+//!   (`crate::envmap::relight::Relighter::unit_maps`), clustered again only when its sun planes
+//!   change; the uniform sky without a bake.
+
+use super::precompute::{self, PrecomputeOptions};
+use crate::cuts::file::{self, PrecomputedCuts};
+use crate::cuts::frame::{FrameCuts, ObjectAmbient, ReceiverCuts, UnitLighting};
+use crate::cuts::{CutsError, no_progress};
+use crate::envmap::relight::Relighter;
+use crate::geometry::raycast::RayScene;
+use crate::scene::Scene;
+use glam::{Mat3, Mat4, Vec3};
+use std::sync::Arc;
+
+/// Largest difference between an entry of an object's rotation since its first key and the
+/// identity's for the object to count as translated only (1e-4 rad, 0.006°: rounding of the
+/// pose's product, not a turn).
+pub const TURN_TOLERANCE: f32 = 1e-4;
+
+/// Largest difference between a stored and a scene vertex position for `baked/cuts.bin` to be
+/// taken as this scene's cuts, m.
+const POSITION_TOLERANCE_M: f32 = 1e-5;
+
+/// What the cuts pass did in one frame, for the report.
+#[derive(Clone, Debug, PartialEq)]
+pub enum CutOutcome {
+    /// It ran, taking this many ms.
+    Ran(f64),
+    /// It was skipped for this reason.
+    Skipped(String),
+}
+
+/// Lighting key: whether there is a relighter, and its sun planes' direction.
+type LightKey = Option<Option<Vec3>>;
+
+/// The cuts of a scene's objects and what the frame loop keeps of them.
+pub struct CutState {
+    frame: FrameCuts,
+    /// Per object, the pose its cuts were computed at (`None`: a static object).
+    origin: Vec<Option<Mat4>>,
+    lighting: Option<(LightKey, Arc<UnitLighting>)>,
+    /// This frame's outcome.
+    pub outcome: CutOutcome,
+}
+
+fn same_objects(cuts: &PrecomputedCuts, scene: &Scene) -> bool {
+    cuts.objects.len() == scene.virtual_objects.len()
+        && cuts.objects.iter().zip(&scene.virtual_objects).all(|(c, o)| {
+            c.positions.len() == o.mesh.positions.len() && c.positions.iter().zip(&o.mesh.positions).all(|(a, b)| (*a - *b).abs().max_element() <= POSITION_TOLERANCE_M)
+        })
+}
+
+impl CutState {
+    /// The cuts of `scene` (module docs); `proxy` is the proxy's BVH. The error is the reason
+    /// the frame loop reports.
+    pub fn load(scene: &Scene, proxy: &RayScene) -> Result<Self, String> {
+        let path = precompute::cuts_path(scene);
+        let cuts = match file::read(&path) {
+            Ok(c) if same_objects(&c, scene) => c,
+            _ => {
+                precompute::precompute(scene, proxy, &PrecomputeOptions::frame_loop(), &no_progress)
+                    .map_err(|e| format!("no usable visibility cuts for {}: {e:#}: every move is re-traced", scene.root.display()))?;
+                file::read(&path).map_err(|e| format!("{e}: every move is re-traced"))?
+            }
+        };
+        let frame = FrameCuts::new(cuts).map_err(|e| format!("{}: {e}: every move is re-traced", path.display()))?;
+        let origin = scene.virtual_objects.iter().map(|o| o.motion.as_ref().map(|m| m.motion.world_from_rest(m.motion.start_seconds()))).collect();
+        Ok(Self { frame, origin, lighting: None, outcome: CutOutcome::Skipped("no object has moved yet: the traced per-pixel transfer serves".into()) })
+    }
+
+    /// Each object's translation since its cuts were computed, from its pose this frame
+    /// (`None`: the object has no motion); `Err(k)` when object `k` turned.
+    pub fn translations(&self, poses: &[Option<Mat4>]) -> Result<Vec<Vec3>, usize> {
+        self.origin
+            .iter()
+            .enumerate()
+            .map(|(k, origin)| match (origin, poses.get(k).copied().flatten()) {
+                (Some(o), Some(p)) => {
+                    let d = p * o.inverse();
+                    match Mat3::from_mat4(d).abs_diff_eq(Mat3::IDENTITY, TURN_TOLERANCE) {
+                        true => Ok(d.w_axis.truncate()),
+                        false => Err(k),
+                    }
+                }
+                _ => Ok(Vec3::ZERO),
+            })
+            .collect()
+    }
+
+    /// True when `relighter`'s sun planes changed since the lighting was last clustered.
+    pub fn lighting_changed(&self, relighter: Option<&Relighter>) -> bool {
+        self.lighting.as_ref().is_none_or(|(k, _)| *k != relighter.map(Relighter::sun_dir))
+    }
+
+    /// The lighting per unit `Pa`, `Pd` on the cuts' tree (module docs).
+    pub fn lighting(&mut self, relighter: Option<&Relighter>) -> Arc<UnitLighting> {
+        let key = relighter.map(Relighter::sun_dir);
+        if let Some((k, l)) = &self.lighting
+            && *k == key
+        {
+            return l.clone();
+        }
+        let tree = &self.frame.tree;
+        let l = match relighter {
+            Some(r) => {
+                let m = r.unit_maps();
+                // A map the tree cannot take (a negative texel of a shaped sky) falls back to the
+                // uniform sky rather than failing the frame.
+                UnitLighting::from_maps(tree, &m.sky_pa, &m.surface_pa, m.surface_pd.as_ref()).unwrap_or_else(|_| UnitLighting::uniform_sky(tree))
+            }
+            None => UnitLighting::uniform_sky(tree),
+        };
+        let l = Arc::new(l);
+        self.lighting = Some((key, l.clone()));
+        l
+    }
+
+    /// The objects' ambient per vertex and the receivers' visibility for `translations`, seen
+    /// from `eye`. Vertices outside the proxy field's box (the `[irradiance]` box, whose floor
+    /// lies a little above the ground) take the box's edge: finite, and an object that leaves
+    /// the box is warned of by `super::motion`.
+    pub fn evaluate(&mut self, translations: &[Vec3], relighter: Option<&Relighter>, eye: Vec3) -> Result<(ObjectAmbient, ReceiverCuts), CutsError> {
+        let light = self.lighting(relighter);
+        let ambient = self.frame.object_ambient(&light, translations, eye)?;
+        let receivers = self.frame.receivers(light, translations.to_vec());
+        Ok((ambient, receivers))
+    }
+}
