@@ -39,7 +39,7 @@ fn material(rgb: [f32; 3], roughness: f32, name: &str) -> Material {
 /// ball (an occluder for a lamp above).
 fn objects(plate: bool) -> Vec<(String, Mesh)> {
     let mut o = vec![
-        ("ball".into(), icosphere(Vec3::new(-1.0, 0.6, 0.3), 0.5, 3, material([0.7, 0.6, 0.5], 0.8, "clay"), "ball")),
+        ("ball".into(), icosphere(Vec3::new(-1.0, 0.6, 0.3), 0.5, 2, material([0.7, 0.6, 0.5], 0.8, "clay"), "ball")),
         ("block".into(), cube(Vec3::new(0.2, 0.0, -0.6), Vec3::new(0.8, 0.8, 0.0), material([0.5, 0.6, 0.7], 0.5, "paint"), "block")),
     ];
     if plate {
@@ -133,7 +133,7 @@ fn boundary(s: &Setup, exp: &[Expected]) -> Vec<bool> {
 /// and the mean lit radiance.
 fn compare(label: &str, got: &[[f32; 3]], exp: &[Expected], skip: &[bool]) -> (f64, Vec3) {
     let lit: Vec<&Expected> = exp.iter().filter(|e| e.visible && !skip[e.index] && e.radiance.max_element() > 0.0).collect();
-    assert!(lit.len() > 800, "{label}: only {} lit interior pixels", lit.len());
+    assert!(lit.len() > 1500, "{label}: only {} lit interior pixels", lit.len());
     let mut worst = 0.0f64;
     for c in 0..3 {
         let (lo, hi) = lit.iter().fold((f32::MAX, f32::MIN), |(a, b), e| (a.min(e.radiance[c]), b.max(e.radiance[c])));
@@ -148,7 +148,7 @@ fn compare(label: &str, got: &[[f32; 3]], exp: &[Expected], skip: &[bool]) -> (f
 
 #[test]
 fn a_spot_lamp_at_night_matches_the_cpu_model() {
-    let s = setup(false, [2.5, 1.8, 5.0]);
+    let s = setup(false, [1.2, 1.7, 2.8]);
     let lamp = spot(Vec3::new(0.8, 3.5, 2.5), Vec3::new(-0.5, 0.4, 0.0));
     let (got, report, _) = render(&s, &lamp, LampOptions::default(), K);
     assert!(report.ran(pass::LAMP_SHADOWS) && report.ran(pass::LAMP_TERM), "{report:?}");
@@ -163,8 +163,8 @@ fn occluders_between_lamp_and_object_darken_exactly_the_pixels_behind_them() {
     // wall (x ≈ −3), whose top cuts the ball's light. Both: shadowed pixels dark, the
     // others the reference's.
     for (label, lamp, eye) in [
-        ("virtual plate", spot(Vec3::new(-1.0, 4.0, 0.3), Vec3::new(-1.0, 0.0, 0.3)), [2.5, 2.6, 4.0]),
-        ("real wall", spot(Vec3::new(-4.0, 4.0, 0.3), Vec3::new(-1.0, 0.6, 0.3)), [-1.0, 1.6, 5.0]),
+        ("virtual plate", spot(Vec3::new(-1.0, 4.0, 0.3), Vec3::new(-1.0, 0.0, 0.3)), [0.8, 2.4, 2.4]),
+        ("real wall", spot(Vec3::new(-4.0, 4.0, 0.3), Vec3::new(-1.0, 0.6, 0.3)), [-1.0, 1.6, 3.0]),
     ] {
         let s = setup(true, eye);
         let (got, _, _) = render(&s, &lamp, LampOptions::default(), K);
@@ -175,21 +175,34 @@ fn occluders_between_lamp_and_object_darken_exactly_the_pixels_behind_them() {
         // Pixels facing the lamp, in its light, that the reference finds occluded.
         let lum = |v: Vec3| v.dot(Vec3::new(0.2126, 0.7152, 0.0722));
         let blocked: Vec<usize> = blocked_pixels(&s, &lamp, &exp, &skip);
-        assert!(blocked.len() > 150, "{label}: only {} occluded pixels facing the lamp", blocked.len());
         let bright = blocked.iter().filter(|&&i| lum(Vec3::from(got[i])) > MAX_SHADOWED_FRACTION * lum(mean)).count();
         eprintln!("{label}: {} occluded pixels, {bright} brighter than {MAX_SHADOWED_FRACTION} of the mean lit {:.4}", blocked.len(), lum(mean));
+        assert!(blocked.len() > 100, "{label}: only {} occluded pixels facing the lamp", blocked.len());
         assert!(bright * 100 <= blocked.len(), "{label}: {bright} of {} occluded pixels are lit", blocked.len());
     }
 }
 
-/// Interior virtual pixels that face the lamp, get light from its model, and are occluded.
+/// Pixels of an occluded region this close to a lit one are left out of the shadow check: the
+/// map's texels (about 1 cm on the ball at 256² over the objects' box) and its normal offset of
+/// 1.5 texels move the edge by up to two pixels of this camera (1.2 cm at 3 m).
+const SHADOW_EDGE_PX: i64 = 3;
+/// Surfaces this close to grazing (`n·l`) are left out too: on a faceted sphere the reference's
+/// shadow rays from the terminator hit the neighbouring facets, which the map's offsets clear.
+const MIN_SHADOW_COS: f32 = 0.05;
+
+/// Interior virtual pixels that face the lamp, get light from its model, and are occluded,
+/// away from lit pixels and grazing angles.
 fn blocked_pixels(s: &Setup, lamp: &Lamp, exp: &[Expected], skip: &[bool]) -> Vec<usize> {
     let r = reference(s, Vec3::Y);
+    let w = s.camera.intrinsics.width as i64;
+    let lit: std::collections::HashSet<i64> = exp.iter().filter(|e| e.visible).map(|e| e.index as i64).collect();
+    let near_lit = |i: i64| (-SHADOW_EDGE_PX..=SHADOW_EDGE_PX).any(|dy| (-SHADOW_EDGE_PX..=SHADOW_EDGE_PX).any(|dx| lit.contains(&(i + dy * w + dx))));
     exp.iter()
-        .filter(|e| !e.visible && !skip[e.index])
+        .filter(|e| !e.visible && !skip[e.index] && !near_lit(e.index as i64))
         .filter(|e| {
             let p = &r[e.index];
-            lamp.irradiance(p.point.as_dvec3(), p.normal.as_dvec3()).iter().any(|&x| x > 0.0)
+            let l = (lamp.light.position.as_vec3() - p.point).normalize();
+            p.normal.dot(l) > MIN_SHADOW_COS && lamp.irradiance(p.point.as_dvec3(), p.normal.as_dvec3()).iter().any(|&x| x > 0.0)
         })
         .map(|e| e.index)
         .collect()
@@ -212,7 +225,7 @@ fn a_light_field_lamp_is_its_textured_spots() {
     // spots, each with its own shadow map, against `lamps::model` (Eq. 14) — the visibility of
     // the reference is the lamp centre's, the GPU's each spot's; they differ only at shadow
     // edges, which are left out.
-    let s = setup(false, [2.5, 1.8, 5.0]);
+    let s = setup(false, [1.2, 1.7, 2.8]);
     let lamp = ramp_field(3);
     let k = [0.05, 0.04, 0.06];
     let options = LampOptions { support_points: 2, ..LampOptions::default() };
@@ -228,7 +241,7 @@ fn lamps_that_are_off_or_out_of_reach_change_nothing_and_say_why() {
     // Without lamps, with a lamp off (k = 0) and with a spot aimed away from the objects, the
     // frame is the same to the bit, and the lamp term says why it did not run; a scene without
     // lamps reports nothing of them.
-    let s = setup(false, [2.5, 1.8, 5.0]);
+    let s = setup(false, [1.2, 1.7, 2.8]);
     let (w, h) = (320, 240);
     let video = VideoFrame { width: w, height: h, rgba: (0..w * h).map(|i| [0.1 + (i % w) as f32 * 1e-3, 0.2, 0.3, 1.0]).collect() };
     let day = Lighting { sun_dir: courtyard_sun(), above_horizon: true, pd: Vec3::splat(3.0), pa: Vec3::new(0.55, 0.62, 0.8), lamps: LampScales::from_slice(&[K]) };
@@ -256,7 +269,7 @@ fn lamps_that_are_off_or_out_of_reach_change_nothing_and_say_why() {
 #[test]
 #[ignore]
 fn measure_lamp_cost_and_error() {
-    let s = setup(false, [2.5, 1.8, 5.0]);
+    let s = setup(false, [1.2, 1.7, 2.8]);
     let (w, h) = (320, 240);
     let video = VideoFrame { width: w, height: h, rgba: vec![[0.0, 0.0, 0.0, 1.0]; (w * h) as usize] };
     let time = |comp: &mut Compositor, l: &Lighting| -> f64 {
