@@ -4,7 +4,9 @@
 //! The outdoor stage (estimator → relight → probes) fills the sun direction and the sun and sky
 //! intensities (crate docs, "Radiometry": `Pd` is the sun's irradiance on a surface facing it,
 //! `Pa` the sky's on an unoccluded horizontal surface). The environment relighting, the probe
-//! update and the compositor all read this one type.
+//! update and the compositor all read this one type. With `[[lights]]` it also carries each
+//! lamp's scale `k` (issue 16 §3), which the compositor's lamp term multiplies the lamp's model
+//! by.
 
 use glam::Vec3;
 
@@ -24,4 +26,49 @@ pub struct Lighting {
     /// the terrain kept, instead of the shaped one ([`crate::sky::radiance::SkyModel::for_frame`]).
     /// Without a shaped sky in the scene it changes nothing.
     pub uniform_sky: bool,
+    /// The scale of each lamp ([`LampScales::NONE`] without lamps).
+    pub lamps: LampScales,
+}
+
+/// Most lamps whose scales a frame's [`Lighting`] carries; lamps past it give no light.
+pub const MAX_LAMPS: usize = 16;
+
+/// The scale `k` per channel of each of the scene's lamps (`[[lights]]`, in order) for one frame:
+/// the estimator's fitted `k`, or the prior when the lamp was not fitted, and zero for a lamp
+/// that is off (issue 16 §3). Empty when the scene has no lamps or the lighting says nothing of
+/// them (then the lamps give no light).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LampScales {
+    k: [[f32; 3]; MAX_LAMPS],
+    len: usize,
+}
+
+impl LampScales {
+    /// No lamp.
+    pub const NONE: Self = Self { k: [[0.0; 3]; MAX_LAMPS], len: 0 };
+
+    /// The scales of the first [`MAX_LAMPS`] lamps of `k`.
+    pub fn from_slice(k: &[[f32; 3]]) -> Self {
+        let mut out = Self::NONE;
+        for (dst, src) in out.k.iter_mut().zip(k) {
+            *dst = *src;
+        }
+        out.len = k.len().min(MAX_LAMPS);
+        out
+    }
+
+    /// The scales, one per lamp.
+    pub fn as_slice(&self) -> &[[f32; 3]] {
+        &self.k[..self.len]
+    }
+
+    /// The scale of lamp `i` (zero past the end: a lamp the lighting says nothing of is dark).
+    pub fn get(&self, i: usize) -> [f32; 3] {
+        self.as_slice().get(i).copied().unwrap_or([0.0; 3])
+    }
+
+    /// True without lamps.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
 }

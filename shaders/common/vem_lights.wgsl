@@ -38,12 +38,15 @@ const VEM_GLOSSY: u32 = 4u;
 // A light without a shadow map (and the "no map read yet" state of the shading loops).
 const NO_SLOT: u32 = 0xffffffffu;
 
-// One orthographic shadow map of the atlas.
+// One shadow map of the atlas: orthographic (the VEM lights), or perspective from a point (the
+// compositor's lamps, shaders/lamps.wgsl).
 struct ShadowView {
     // World → clip: x, y in [-1, 1] over the tile, z in [0, 1] from the casters' side nearest
-    // the light.
+    // the light (after the division by w for a perspective map).
     light_from_world: mat4x4<f32>,
-    // x: depth bias (clip z units); y: normal offset (metres); zw: unused.
+    // Orthographic (w = 0): x depth bias (clip z units), y normal offset (metres). Perspective
+    // (w = 1): x, y the offsets toward the light and along the normal per metre of distance to
+    // the light. z: unused.
     bias: vec4<f32>,
 }
 

@@ -21,6 +21,7 @@ pub const SOURCES: &[(&str, &str)] = &[
     ("common/vem_lights.wgsl", include_str!("../../shaders/common/vem_lights.wgsl")),
     ("composite.wgsl", include_str!("../../shaders/composite.wgsl")),
     ("depth_prepass.wgsl", include_str!("../../shaders/depth_prepass.wgsl")),
+    ("lamps.wgsl", include_str!("../../shaders/lamps.wgsl")),
     ("shadow_mask.wgsl", include_str!("../../shaders/shadow_mask.wgsl")),
     ("shadow_volume.wgsl", include_str!("../../shaders/shadow_volume.wgsl")),
     ("shadow_volume/extrude.wgsl", include_str!("../../shaders/shadow_volume/extrude.wgsl")),

@@ -11,7 +11,8 @@
 //! - [`model`]: a scene's `[[lights]]` with their models, irradiance at world points.
 //! - [`storage`]: signed RGBE (Granier §4.2), RGB9E5 and half float encodings and their errors.
 //!
-//! This is the CPU core: the references the GPU pass and the estimator will be checked against.
+//! This is the CPU core: the references the GPU pass (`render::lamps`, Granier §3.2, §4) and the
+//! estimator (`estimate::lamps`) are checked against.
 //!
 //! # The luminaire frame
 //! Every light is described in its own right-handed frame, metres: **`−Z` is the main emission

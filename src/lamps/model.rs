@@ -14,7 +14,8 @@
 //!   estimator evaluates each pool entry once.
 //!
 //! Visibility (the proxy between the lamp and the point) is not part of the model: the estimator
-//! traces it against its ray scene.
+//! traces it against its ray scene, the compositor's lamp term (`render::lamps`) reads it from
+//! shadow maps.
 
 use super::lightfield::reconstruct::Method;
 use super::lightfield::{Footprint, LightField, LightFieldError};

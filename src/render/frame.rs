@@ -204,6 +204,12 @@ pub mod pass {
     pub const SHADOW_MASK: &str = "shadow_mask";
     /// The sun term of the virtual objects and the darkening of real pixels.
     pub const SUN_TERM: &str = "sun_term";
+    /// The lamps' shadow maps (`render::lamps`).
+    pub const LAMP_SHADOWS: &str = "lamp_shadows";
+    /// The lamps' light on the virtual objects (`render::lamps`).
+    pub const LAMP_TERM: &str = "lamp_term";
+    /// One lamp left out of the lamp term (the reason names it).
+    pub const LAMP: &str = "lamp";
     /// The output frame.
     pub const COMPOSITE: &str = "composite";
     /// Copy to the CPU.

@@ -12,6 +12,7 @@
 //! | [`shadow_volume`] + [`stencil`] | z-fail shadow volumes of the directional sun, real parts down, virtual up, each resolved to a flag |
 //! | [`shadow_mask`] | samples in virtual but not real shadow, real surfaces in real shadow, and virtual-surface samples in any shadow, as MSAA coverage |
 //! | [`virtual_shading`] | glTF metallic–roughness sun term times the unshadowed fraction; ambient from the per-pixel [`object_transfer`] (`R_a·Pa + R_d·Pd`), or SH ambient per pixel times self-occlusion where it has no entry |
+//! | [`lamps`] | the scene's lamps on the virtual objects (Granier §3.2, §4): one additive draw over every lit spot (far-field lamps, light-field filter positions) inside the shading pass, with perspective shadow maps in the VEM atlas |
 //! | [`composite`] | in the footage's own pixel grid: lens warp of the canvas layers, footage darkened with the proxy's normal and `c` (and `c_v`, `b_v` with the objects present: contact shadows) |
 //!
 //! Volumes come from [`occluder`] (welded adjacency, closed or not) and [`volume`] (rayon) or
@@ -35,6 +36,7 @@ pub mod composite;
 pub mod compositor;
 pub mod depth_prepass;
 pub mod frame;
+pub mod lamps;
 pub mod object_transfer;
 pub mod occluder;
 pub mod occlusion;
@@ -74,4 +76,7 @@ pub enum RenderError {
     /// An output file could not be written.
     #[error(transparent)]
     Io(#[from] crate::io::IoError),
+    /// A lamp's model could not be built (the message names `scene.toml` and the field).
+    #[error(transparent)]
+    Lamp(#[from] crate::lamps::LampError),
 }

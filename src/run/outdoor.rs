@@ -8,12 +8,12 @@
 //! the renderer uses, and the relit probe grid when there is a new one.
 
 use crate::envmap::bake::{Baked, Progress};
-use crate::estimate::{Estimator, FrameEstimate};
+use crate::estimate::{Estimator, FrameEstimate, LampReport, LampStatus};
 use crate::geometry::raycast::RayScene;
 use crate::io::frames::{Frame, Linearizer};
 use crate::irradiance::ProbeGrid;
 use crate::irradiance::sources::{ProbeSource, UniformSky, VolumeProbes};
-use crate::lighting::Lighting;
+use crate::lighting::{LampScales, Lighting};
 use crate::scene::Scene;
 use chrono::{DateTime, FixedOffset};
 use glam::Vec3;
@@ -61,7 +61,8 @@ pub struct OutdoorLight<'a> {
 }
 
 /// The lighting the renderer uses for an estimate: the smoothed values, else the frame's own,
-/// else none (a frame the estimator could not use).
+/// else none (a frame the estimator could not use). Each lamp of the scene gets the estimate's
+/// `k` ([`lamp_scales`]).
 pub fn lighting_of(e: &FrameEstimate) -> Lighting {
     let v = |a: [f64; 3]| Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
     let (pd, pa) = match (&e.smoothed, e.pd, e.pa) {
@@ -70,7 +71,21 @@ pub fn lighting_of(e: &FrameEstimate) -> Lighting {
     };
     // `sky_model` is reported except under Jensen's model (uniform already).
     let uniform_sky = e.sky_model.as_deref() == Some("uniform");
-    Lighting { sun_dir: Vec3::from(e.sun.dir_world), above_horizon: e.sun.above_horizon, pd, pa, uniform_sky }
+    Lighting { sun_dir: Vec3::from(e.sun.dir_world), above_horizon: e.sun.above_horizon, pd, pa, uniform_sky, lamps: lamp_scales(&e.lamps) }
+}
+
+/// The scale of each lamp for the render (issue 16 §3): the report's `k` (fitted, or the prior
+/// when the lamp was unreached, not separable or the frame not fitted), and zero for a lamp off
+/// by its schedule. A negative or non-finite `k` gives no light.
+pub fn lamp_scales(lamps: &[LampReport]) -> LampScales {
+    let k: Vec<[f32; 3]> = lamps
+        .iter()
+        .map(|l| match l.status {
+            LampStatus::Off => [0.0; 3],
+            _ => l.k.map(|k| if k.is_finite() && k > 0.0 { k as f32 } else { 0.0 }),
+        })
+        .collect();
+    LampScales::from_slice(&k)
 }
 
 /// Builds the probe source `ambient` asks for. `bake` supplies the scene's bake (cached or
@@ -156,5 +171,19 @@ impl OutdoorStage {
         let grid = self.probes.relight(&lighting);
         let relight = RelightReport { ran: true, source, reason, ms: t.elapsed().as_secs_f64() * 1e3 };
         Ok(OutdoorLight { estimate, lighting, relight, estimate_ms, grid: Some(grid) })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_lamp_gets_its_k_and_an_off_lamp_none() {
+        let report = |status, k: f64| LampReport { name: "l".into(), status, k: [k, 0.5 * k, f64::NAN], k_se: None, samples: 0, condition_number: None, reason: None };
+        let s = lamp_scales(&[report(LampStatus::Fitted, 2.0), report(LampStatus::Off, 3.0), report(LampStatus::Unreached, 1.0), report(LampStatus::NotFitted, -1.0)]);
+        // fitted and prior scales pass; off, negative and NaN give no light
+        assert_eq!(s.as_slice(), &[[2.0, 1.0, 0.0], [0.0; 3], [1.0, 0.5, 0.0], [0.0; 3]]);
+        assert!(lamp_scales(&[]).is_empty());
     }
 }

@@ -30,7 +30,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("sky", &["geometry"]),
     ("opencv_calib", &["camera", "geometry", "io"]),
     ("gpu", &["camera", "geometry", "io"]),
-    ("render", &["camera", "geometry", "gpu", "io", "irradiance", "lighting", "scene", "sky", "vem"]),
+    ("render", &["camera", "geometry", "gpu", "io", "irradiance", "lamps", "lighting", "scene", "sky", "vem"]),
     ("run", &["camera", "cuts", "envmap", "estimate", "geometry", "gpu", "io", "irradiance", "lighting", "render", "report", "scene", "sun", "vem"]),
     ("live", &["camera", "estimate", "geometry", "gpu", "io", "irradiance", "lighting", "render", "report", "run", "scene", "vem"]),
 ];

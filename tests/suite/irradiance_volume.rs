@@ -32,7 +32,7 @@ fn v3(a: [f64; 3]) -> Vec3 {
 }
 
 fn capture_lighting(b: &Baked) -> Lighting {
-    Lighting { sun_dir: Vec3::from(b.info.capture_sun_dir), above_horizon: true, pd: v3(b.info.capture_pd), pa: v3(b.info.capture_pa), uniform_sky: false }
+    Lighting { sun_dir: Vec3::from(b.info.capture_sun_dir), above_horizon: true, pd: v3(b.info.capture_pd), pa: v3(b.info.capture_pa), uniform_sky: false, lamps: heliar::lighting::LampScales::NONE }
 }
 
 #[test]
@@ -54,7 +54,7 @@ fn uniform_sky_without_geometry_closed_form() {
     };
     let ray = Arc::new(RayScene::new(Mesh::default()));
     let mut relighter = Relighter::new(&baked, ray.clone(), RelightConfig::default());
-    let lighting = Lighting { sun_dir: Vec3::new(0.3, 0.8, 0.2).normalize(), above_horizon: true, pd: Vec3::splat(3.0), pa: Vec3::new(0.5, 0.6, 0.8), uniform_sky: false };
+    let lighting = Lighting { sun_dir: Vec3::new(0.3, 0.8, 0.2).normalize(), above_horizon: true, pd: Vec3::splat(3.0), pa: Vec3::new(0.5, 0.6, 0.8), uniform_sky: false, lamps: heliar::lighting::LampScales::NONE };
     relighter.update_sun(lighting.sun_dir);
     let transfer = ProbeTransfer::build(Vec3::ZERO, Vec3::splat(2.0), 1.0, &baked, &ray, 1024);
     assert_eq!(transfer.dims(), UVec3::splat(3));

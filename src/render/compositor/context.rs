@@ -201,7 +201,7 @@ mod tests {
 
     #[test]
     fn the_sun_is_missing_below_the_horizon_without_power_or_without_direction() {
-        let l = |dir: Vec3, above: bool, pd: f32| Lighting { sun_dir: dir, above_horizon: above, pd: Vec3::splat(pd), pa: Vec3::splat(1.0), uniform_sky: false };
+        let l = |dir: Vec3, above: bool, pd: f32| Lighting { sun_dir: dir, above_horizon: above, pd: Vec3::splat(pd), pa: Vec3::splat(1.0), uniform_sky: false, lamps: crate::lighting::LampScales::NONE };
         assert!(sun_of(&l(Vec3::Y, false, 3.0), 0.05).1.unwrap().contains("below the horizon"));
         // Pd/Pa = 0.01 < 0.05; NaN power is no power.
         assert!(sun_of(&l(Vec3::Y, true, 0.01), 0.05).1.unwrap().contains("Pd/Pa = 0.010"));

@@ -60,8 +60,9 @@ impl Compositor {
             self.record_mask(&mut encoder);
             self.stencil.store(ctx.sun(), self.config.debug_masks, self.frames);
         }
+        let lamps = self.prepare_lamps(&ctx, lighting, &mut encoder, &mut report);
         if ctx.admit(&self.shading, &mut report) {
-            self.record_shading(&mut encoder);
+            self.record_shading(&mut encoder, lamps);
         }
         ctx.admit(&SunTerm, &mut report);
         let composite = self.composite_for(format)?;

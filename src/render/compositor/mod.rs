@@ -52,7 +52,8 @@
 //! | footage, lighting uniform | | upload |
 //! | `depth_prepass`, `real_volumes`, `virtual_volumes` | [`DepthPrepass`](crate::render::depth_prepass::DepthPrepass), [`RealVolumes`], [`VirtualVolumes`] | one render pass |
 //! | `shadow_mask` | [`ShadowMask`](crate::render::shadow_mask::ShadowMask) | render pass |
-//! | `virtual_shading`, `sun_term` | [`VirtualShading`](crate::render::virtual_shading::VirtualShading), `SunTerm` (a term of its shader and the composite's) | render pass |
+//! | `lamp_shadows`, `lamp_term` (with `[[lights]]` only) | [`LampPass`](crate::render::lamps::LampPass) (`lamps.rs`) | atlas render pass; upload |
+//! | `virtual_shading`, `sun_term` | [`VirtualShading`](crate::render::virtual_shading::VirtualShading), `SunTerm` (a term of its shader and the composite's); the lamp term drawn after it in its render pass | render pass |
 //! | `composite` | [`Composite`](crate::render::composite::Composite) | render pass(es) |
 //!
 //! The plans of the GPU passes and the render passes they share are in `units.rs`; `setup.rs`
@@ -60,6 +61,7 @@
 mod config;
 mod context;
 mod encode;
+mod lamps;
 mod motion;
 mod receiver_update;
 mod replay;
@@ -149,6 +151,8 @@ pub struct Compositor {
     vertex_sources: Vec<Vec<u32>>,
     /// The receivers' sky visibility from the visibility cuts, while they serve (see `motion`).
     cuts: Option<motion::ReceiverVisibility>,
+    /// The lamp stage (`None`: the scene has no lamps).
+    lamps: Option<super::lamps::LampPass>,
 }
 
 impl Compositor {
@@ -209,6 +213,9 @@ impl Compositor {
     /// Forgets the stored stencil, so the next frame rebuilds everything.
     pub fn invalidate(&mut self) {
         self.stencil.invalidate();
+        if let Some(l) = &mut self.lamps {
+            l.invalidate();
+        }
     }
 
     /// Replaces the probe grid (call when the lighting was relit).

@@ -141,11 +141,16 @@ impl Pipelines {
 }
 
 impl Compositor {
-    /// Sets up the compositor for a loaded scene. `proxy_ray` is the proxy's BVH (the
-    /// estimator's).
+    /// Sets up the compositor for a loaded scene, with its lamps when it has `[[lights]]`.
+    /// `proxy_ray` is the proxy's BVH (the estimator's).
     pub fn for_scene(gpu: Arc<Gpu>, scene: &Scene, proxy_ray: Arc<RayScene>, config: CompositorConfig) -> Result<Self, RenderError> {
         let objects = SceneParts::object_list(scene);
-        Self::new(gpu, &SceneParts::of(scene, &objects), proxy_ray, config)
+        let mut c = Self::new(gpu, &SceneParts::of(scene, &objects), proxy_ray, config)?;
+        if !scene.lights.is_empty() {
+            let lamps = crate::lamps::Lamp::load_all(&scene.root.join(crate::scene::MANIFEST_FILE), &scene.lights)?;
+            c.set_lamps(&lamps, crate::render::lamps::LampOptions::default())?;
+        }
+        Ok(c)
     }
 
     /// Sets up the compositor for a camera, a proxy and virtual objects. `proxy_ray` is the
@@ -213,6 +218,7 @@ impl Compositor {
             cut_ambient,
             vertex_sources,
             cuts: None,
+            lamps: None,
             gpu,
         })
     }

@@ -9,7 +9,8 @@
 //! |---|---|---|
 //! | depth and stencil | [`DepthPrepass`], [`RealVolumes`], [`VirtualVolumes`] | no objects; the stored stencil serves (then all three); no sun (the volumes) |
 //! | shadow mask | [`ShadowMask`] | no objects; the stored stencil serves |
-//! | virtual shading | [`VirtualShading`], and the [`SunTerm`] in its shader | no objects (no sun: the sun term) |
+//! | lamp shadow atlas | `lamp_shadows` ([`crate::render::lamps`]) | no lamps; no lamp lights the objects; the maps drawn serve |
+//! | virtual shading | [`VirtualShading`], and the [`SunTerm`] in its shader; then `lamp_term` (additive) | no objects (no sun: the sun term; no lit lamp: the lamp term) |
 //! | composite | [`Composite`] | never |
 //!
 //! The 3D passes are scissored to the stored stencil's canvas region.
@@ -126,8 +127,8 @@ impl Compositor {
     }
 
     /// The virtual shading render pass (after the masks, whose virtual-surface channels give the
-    /// sun visibility).
-    pub(super) fn record_shading(&self, encoder: &mut wgpu::CommandEncoder) {
+    /// sun visibility), then the lamp term added onto it when `lamps`.
+    pub(super) fn record_shading(&self, encoder: &mut wgpu::CommandEncoder, lamps: bool) {
         let mut pb = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("virtual shading"),
             color_attachments: &[Some(self.res.layer.attachment())],
@@ -136,6 +137,9 @@ impl Compositor {
         });
         set_scissor(&mut pb, self.stencil.region());
         self.shading.record(&mut pb, &self.shading_bg, &self.virt);
+        if let Some(l) = self.lamps.as_ref().filter(|_| lamps) {
+            l.record(&mut pb, &self.virt);
+        }
     }
 
     /// The composite pipelines writing `format`.

@@ -19,6 +19,12 @@
 //!   self-shadowing acne.
 //! - **As a unit.** [`ShadowAtlasPass`] runs when the frame has shadow maps to draw (shadows on,
 //!   objects, lights with power: [`VemFrame::no_shadows`]) and records one viewport per map.
+//! - **Perspective maps.** The outdoor compositor's lamps (issue 16 §2, Granier §4: one shadow
+//!   map per filter position) use the same atlas, pipeline and lookup with perspective views
+//!   from a point ([`fit_spot_view`]), and draw more than one mesh into it
+//!   ([`ShadowAtlasPass::with_strides`], [`ShadowAtlasPass::record_geometry`]): the objects and
+//!   the real proxy, so both cast lamp shadows. Their bias grows with the distance to the light
+//!   (a texel's footprint does), so it is stored per metre and `bias.w` is 1.
 
 use super::frame::VemFrame;
 use super::pass;
@@ -41,6 +47,12 @@ pub const NORMAL_OFFSET_TEXELS: f32 = 1.5;
 pub const DEPTH_BIAS_TEXELS: f32 = 1.0;
 /// Depth format of the atlas.
 pub const ATLAS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+/// Near plane of a perspective map, metres from the light: casters closer than this (a
+/// luminaire's own housing in the proxy) cast no shadow.
+pub const SPOT_NEAR_M: f32 = 0.02;
+/// Widest half-angle of a perspective map (its tangent, ~80°): a light inside or beside the
+/// receivers' box keeps a usable map and loses the rest of the box.
+pub const SPOT_MAX_TAN_HALF: f32 = 5.67;
 
 /// Mirrors `ShadowView` in `shaders/common/vem_lights.wgsl`.
 #[repr(C)]
@@ -48,7 +60,9 @@ pub const ATLAS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 pub struct ShadowView {
     /// World → clip of the map, column-major.
     pub light_from_world: [[f32; 4]; 4],
-    /// Depth bias (clip z units), normal offset (metres), unused, unused.
+    /// Orthographic (`w = 0`): depth bias (clip z units), normal offset (metres), unused.
+    /// Perspective (`w = 1`): the offsets toward the light and along the normal per metre of
+    /// distance to the light, unused.
     pub bias: [f32; 4],
 }
 
@@ -90,6 +104,31 @@ pub fn fit_view(to_light: Vec3, lo: Vec3, hi: Vec3, tile: u32) -> ShadowView {
     ShadowView { light_from_world: m.to_cols_array_2d(), bias: [DEPTH_BIAS_TEXELS * texel_m / dr, NORMAL_OFFSET_TEXELS * texel_m, 0.0, 0.0] }
 }
 
+/// The perspective map from the point `eye` (a lamp, or one filter position of a light field)
+/// fitted to the receivers' box `lo..hi`, for `tile`² texels: centred on the box, wide enough to
+/// hold its corners (at most [`SPOT_MAX_TAN_HALF`]), depth from [`SPOT_NEAR_M`] to the farthest
+/// corner. Every caster between the light and a receiver in the box is then inside it.
+pub fn fit_spot_view(eye: Vec3, lo: Vec3, hi: Vec3, tile: u32) -> ShadowView {
+    let axis = (0.5 * (lo + hi) - eye).normalize_or(Vec3::NEG_Y);
+    let up = if axis.y.abs() < 0.99 { Vec3::Y } else { Vec3::X };
+    let view = glam::camera::rh::view::look_at_mat4(eye, eye + axis, up);
+    let (mut tan_half, mut far) = (0.0f32, SPOT_NEAR_M);
+    for k in 0..8 {
+        let p = Vec3::new(if k & 1 == 0 { lo.x } else { hi.x }, if k & 2 == 0 { lo.y } else { hi.y }, if k & 4 == 0 { lo.z } else { hi.z });
+        let q = view.transform_point3(p);
+        far = far.max(q.length());
+        let depth = -q.z;
+        tan_half = if depth > 1e-6 { tan_half.max(q.x.abs() / depth).max(q.y.abs() / depth) } else { SPOT_MAX_TAN_HALF };
+    }
+    // One texel of margin on each side, and a little depth margin past the farthest corner.
+    let tile = tile.max(1) as f32;
+    let tan_half = (tan_half * (1.0 + 2.0 / tile)).clamp(1e-4, SPOT_MAX_TAN_HALF);
+    let far = far * 1.01 + 0.01;
+    let proj = glam::camera::rh::proj::directx::perspective(2.0 * tan_half.atan(), 1.0, SPOT_NEAR_M, far.max(2.0 * SPOT_NEAR_M));
+    let texel_per_m = 2.0 * tan_half / tile;
+    ShadowView { light_from_world: (proj * view).to_cols_array_2d(), bias: [DEPTH_BIAS_TEXELS * texel_per_m, NORMAL_OFFSET_TEXELS * texel_per_m, 0.0, 1.0] }
+}
+
 /// The directions of the shadow maps: `clusters` when given, else `lights` clustered into at
 /// most `slots` (Havran §4.3). At most `slots` directions.
 pub fn shadow_directions(lights: &[GpuLight], clusters: &[Vec3], slots: usize) -> Vec<Vec3> {
@@ -121,12 +160,43 @@ pub struct ShadowAtlasPass {
     pub pipeline: wgpu::RenderPipeline,
     /// Group 0: the views (storage, vertex stage).
     pub layout: wgpu::BindGroupLayout,
+    /// The same pipeline for further vertex strides ([`Self::with_strides`]).
+    pub others: Vec<wgpu::RenderPipeline>,
+}
+
+/// A mesh drawn into every map of the atlas: vertices (position first) of the stride of
+/// pipeline `pipeline` (0: [`ShadowAtlasPass::pipeline`], `i`: `others[i − 1]`), indices and
+/// the index ranges to draw.
+pub struct AtlasGeometry<'a> {
+    /// Which pipeline (stride).
+    pub pipeline: usize,
+    /// Vertex buffer.
+    pub vertices: &'a wgpu::Buffer,
+    /// Index buffer (`u32`).
+    pub indices: &'a wgpu::Buffer,
+    /// Index ranges.
+    pub ranges: Vec<std::ops::Range<u32>>,
+}
+
+impl AtlasGeometry<'_> {
+    /// The virtual objects, with pipeline 0.
+    pub fn objects(objects: &VirtualBuffers) -> AtlasGeometry<'_> {
+        AtlasGeometry { pipeline: 0, vertices: &objects.vertices, indices: &objects.indices, ranges: objects.draws.iter().map(|d| d.indices.clone()).collect() }
+    }
 }
 
 impl ShadowAtlasPass {
+    /// Builds the pipelines for vertices of `strides` bytes (position first; at least one).
+    pub fn with_strides(device: &wgpu::Device, strides: &[u64]) -> Result<Self, RenderError> {
+        let mut pass = Self::new(device, strides.first().copied().unwrap_or(12))?;
+        for &stride in strides.iter().skip(1) {
+            pass.others.push(Self::pipeline(device, &pass.layout, stride)?);
+        }
+        Ok(pass)
+    }
+
     /// Builds the pipeline for vertices of `stride` bytes (position first).
     pub fn new(device: &wgpu::Device, stride: u64) -> Result<Self, RenderError> {
-        let module = shaders::module(device, "vem/shadow_atlas.wgsl")?;
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("vem shadow views"),
             entries: &[wgpu::BindGroupLayoutEntry {
@@ -136,9 +206,15 @@ impl ShadowAtlasPass {
                 count: None,
             }],
         });
-        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("vem shadow atlas"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
+        let pipeline = Self::pipeline(device, &layout, stride)?;
+        Ok(Self { pipeline, layout, others: Vec::new() })
+    }
+
+    fn pipeline(device: &wgpu::Device, layout: &wgpu::BindGroupLayout, stride: u64) -> Result<wgpu::RenderPipeline, RenderError> {
+        let module = shaders::module(device, "vem/shadow_atlas.wgsl")?;
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("vem shadow atlas"), bind_group_layouts: &[Some(layout)], immediate_size: 0 });
         let attrs = [wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x3, offset: 0, shader_location: 0 }];
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        Ok(device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("vem shadow atlas"),
             layout: Some(&pl),
             vertex: wgpu::VertexState {
@@ -159,8 +235,7 @@ impl ShadowAtlasPass {
             fragment: None,
             multiview_mask: None,
             cache: None,
-        });
-        Ok(Self { pipeline, layout })
+        }))
     }
 }
 
@@ -169,6 +244,12 @@ impl ShadowAtlasPass {
     /// `tile`² in rows of `tiles`, each map's view read from `views` by its slot (the instance).
     #[allow(clippy::too_many_arguments)] // the pass's inputs, each named; a struct would only rename them
     pub fn record(&self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder, atlas: &wgpu::TextureView, views: &wgpu::Buffer, objects: &VirtualBuffers, maps: u32, tiles: u32, tile: u32) {
+        self.record_geometry(device, encoder, atlas, views, &[AtlasGeometry::objects(objects)], maps, tiles, tile);
+    }
+
+    /// [`Self::record`] for any meshes: each of `geometry` once per map.
+    #[allow(clippy::too_many_arguments)] // as `record`
+    pub fn record_geometry(&self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder, atlas: &wgpu::TextureView, views: &wgpu::Buffer, geometry: &[AtlasGeometry<'_>], maps: u32, tiles: u32, tile: u32) {
         let views_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("vem shadow views"),
             layout: &self.layout,
@@ -184,16 +265,25 @@ impl ShadowAtlasPass {
             }),
             ..Default::default()
         });
-        pa.set_pipeline(&self.pipeline);
         pa.set_bind_group(0, &views_bg, &[]);
-        pa.set_vertex_buffer(0, objects.vertices.slice(..));
-        pa.set_index_buffer(objects.indices.slice(..), wgpu::IndexFormat::Uint32);
-        for slot in 0..maps {
-            let (x, y) = ((slot % tiles) * tile, (slot / tiles) * tile);
-            pa.set_viewport(x as f32, y as f32, tile as f32, tile as f32, 0.0, 1.0);
-            pa.set_scissor_rect(x, y, tile, tile);
-            for d in &objects.draws {
-                pa.draw_indexed(d.indices.clone(), 0, slot..slot + 1);
+        for g in geometry {
+            let pipeline = match g.pipeline {
+                0 => &self.pipeline,
+                i => match self.others.get(i - 1) {
+                    Some(p) => p,
+                    None => continue,
+                },
+            };
+            pa.set_pipeline(pipeline);
+            pa.set_vertex_buffer(0, g.vertices.slice(..));
+            pa.set_index_buffer(g.indices.slice(..), wgpu::IndexFormat::Uint32);
+            for slot in 0..maps {
+                let (x, y) = ((slot % tiles) * tile, (slot / tiles) * tile);
+                pa.set_viewport(x as f32, y as f32, tile as f32, tile as f32, 0.0, 1.0);
+                pa.set_scissor_rect(x, y, tile, tile);
+                for r in &g.ranges {
+                    pa.draw_indexed(r.clone(), 0, slot..slot + 1);
+                }
             }
         }
     }
@@ -238,6 +328,24 @@ mod tests {
         }
         assert_eq!(tiles_per_side(72), 9);
         assert_eq!(tiles_per_side(1), 1);
+    }
+
+    #[test]
+    fn a_spot_view_holds_the_box_in_perspective_and_orders_depth_from_the_light() {
+        let (lo, hi) = (Vec3::new(-0.5, 0.0, -0.5), Vec3::new(0.5, 1.2, 0.5));
+        for eye in [Vec3::new(0.0, 4.0, 0.0), Vec3::new(3.0, 2.5, -1.0), Vec3::new(-2.0, 0.6, 0.2)] {
+            let v = fit_spot_view(eye, lo, hi, 256);
+            for k in 0..8 {
+                let p = Vec3::new(if k & 1 == 0 { lo.x } else { hi.x }, if k & 2 == 0 { lo.y } else { hi.y }, if k & 4 == 0 { lo.z } else { hi.z });
+                let q = apply(&v, p);
+                assert!(q.x.abs() < 1.0 && q.y.abs() < 1.0 && q.z > 0.0 && q.z < 1.0, "{eye} {p} -> {q}");
+            }
+            // Along a ray from the light depth grows; points on one ray share x, y.
+            let c = 0.5 * (lo + hi);
+            let (near, far) = (apply(&v, eye + 0.5 * (c - eye)), apply(&v, c));
+            assert!(near.z < far.z && (near.x - far.x).abs() < 1e-4 && (near.y - far.y).abs() < 1e-4);
+            assert!(v.bias[0] > 0.0 && v.bias[1] > 0.0 && v.bias[3] == 1.0);
+        }
     }
 
     #[test]

@@ -1,0 +1,42 @@
+//! The compositor's lamp stage (issue 16 §2): the scene's `[[lights]]` set up as a
+//! [`LampPass`], and per frame its plan, shadow maps and upload. The lamp term itself is drawn
+//! in the virtual shading's render pass (`units.rs`); see [`crate::render::lamps`].
+
+use super::Compositor;
+use super::context::FrameContext;
+use crate::lamps::Lamp;
+use crate::lighting::Lighting;
+use crate::render::RenderError;
+use crate::render::frame::PassReport;
+use crate::render::lamps::{LampOptions, LampPass};
+
+impl Compositor {
+    /// Lights the virtual objects with `lamps` from the next frame on (scene order: lamp `i`
+    /// takes the scale `i` of the frame's [`crate::lighting::LampScales`]); an empty list removes
+    /// the lamp stage.
+    pub fn set_lamps(&mut self, lamps: &[Lamp], options: LampOptions) -> Result<(), RenderError> {
+        self.lamps = if lamps.is_empty() { None } else { Some(LampPass::new(&self.gpu, lamps, options, &self.camera_buf, &self.mat_layout)?) };
+        Ok(())
+    }
+
+    /// The lamp stage, when the scene has lamps.
+    pub fn lamps(&self) -> Option<&LampPass> {
+        self.lamps.as_ref()
+    }
+
+    /// Plans the frame's lamps, draws their shadow maps when they must be, uploads the frame's
+    /// spots; true when the lamp term runs. Nothing at all without lamps.
+    pub(super) fn prepare_lamps(&mut self, ctx: &FrameContext, lighting: &Lighting, encoder: &mut wgpu::CommandEncoder, report: &mut PassReport) -> bool {
+        let Some(lamps) = self.lamps.as_mut() else { return false };
+        let bounds = self.virtual_bounds.iter().copied().reduce(|(a, b), (c, d)| (a.min(c), b.max(d)));
+        lamps.plan_frame(ctx.no_objects.as_deref(), &lighting.lamps, bounds);
+        if ctx.admit(&lamps.shadows_unit(), report) {
+            lamps.record_shadows(&self.gpu, encoder, &self.virt, &self.proxy);
+        }
+        let run = ctx.admit(&lamps.term_unit(), report);
+        if run {
+            lamps.upload(&self.gpu.queue, report);
+        }
+        run
+    }
+}
