@@ -16,6 +16,7 @@ mod chunks;
 mod cli;
 mod cloud_lag;
 mod estimate_courtyard;
+mod estimate_dusk;
 mod estimate_slices;
 mod estimator_stiff;
 mod interrupt_resume;

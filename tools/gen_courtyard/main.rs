@@ -16,6 +16,7 @@
 //!
 //! `cargo run --release --bin gen-courtyard -- --out scenes/courtyard`
 
+mod dusk;
 mod render;
 mod sky_render;
 mod statue;
@@ -79,6 +80,10 @@ struct Args {
     /// 15 m away (`winter.rs`). Of the other options only --width and --height apply.
     #[arg(long, value_name = "DIR")]
     winter: Option<PathBuf>,
+    /// Write the dusk scene instead of the courtyard, into DIR: sunset and twilight with a street
+    /// lamp that switches on (`dusk.rs`). Of the other options only --width and --height apply.
+    #[arg(long, value_name = "DIR")]
+    dusk: Option<PathBuf>,
 }
 
 const START: &str = "2024-06-21T15:30:00+02:00";
@@ -203,6 +208,9 @@ fn write(path: &Path, text: &str) -> Result<()> {
 
 fn main() -> Result<()> {
     let args = Args::parse();
+    if let Some(dir) = &args.dusk {
+        return dusk::run(&args, dir);
+    }
     if let Some(dir) = &args.winter {
         return winter::run(&args, dir);
     }

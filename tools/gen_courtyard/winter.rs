@@ -81,12 +81,12 @@ const REFERENCE_SEEDS: [u64; 2] = [7001, 9001];
 const ENV_CENTRE: [f32; 3] = [0.0, 1.5, 2.0];
 
 /// Kasten & Young (1989) relative air mass at apparent elevation `h_deg`.
-fn air_mass(h_deg: f64) -> f64 {
+pub(super) fn air_mass(h_deg: f64) -> f64 {
     1.0 / (h_deg.to_radians().sin() + 0.50572 * (h_deg + 6.07995).powf(-1.6364))
 }
 
 /// The true `Pd` at apparent elevation `h_deg` (module docs).
-fn sun_irradiance(h_deg: f64) -> Vec3 {
+pub(super) fn sun_irradiance(h_deg: f64) -> Vec3 {
     let m = air_mass(h_deg) as f32;
     Vec3::from(std::array::from_fn::<f32, 3, _>(|c| PD_TOP[c] * (-TAU[c] * m).exp()))
 }
@@ -163,7 +163,7 @@ fn write_variant(args: &Args, out: &Path, variant: &Variant) -> Result<()> {
 
     // Environment map at frame 0, the sun splatted into its texel.
     let f0 = &frames[0];
-    let light0 = Lighting { sun: f0.sun, sky: &f0.sky, terrain_albedo: terrain };
+    let light0 = Lighting { sun: f0.sun, sky: &f0.sky, terrain_albedo: terrain, lamp: None };
     let (ew, eh) = (ENV_WIDTH, ENV_WIDTH / 2);
     let (esky, esun) = render_env(&scene, &truth_albedo, Vec3::from(ENV_CENTRE), ew, eh, &light0, ENV_SPP, 11);
     let mut env = LinearImage::new(ew, eh);
@@ -180,7 +180,7 @@ fn write_variant(args: &Args, out: &Path, variant: &Variant) -> Result<()> {
     let mut truth = String::from("frame,time,pd_r,pd_g,pd_b,pa_r,pa_g,pa_b,sun_azimuth_deg,sun_apparent_zenith_deg,terrain_r,terrain_g,terrain_b\n");
     let mut previews = Vec::new();
     for (i, f) in frames.iter().enumerate() {
-        let light = Lighting { sun: f.sun, sky: &f.sky, terrain_albedo: terrain };
+        let light = Lighting { sun: f.sun, sky: &f.sky, terrain_albedo: terrain, lamp: None };
         let (sky, sun) = render_region(&scene, &truth_albedo, &cam, &light, FRAME_SPP, 100 + i as u64, (0, 0, w, h));
         let mut rng = SmallRng::seed_from_u64(1000 + i as u64);
         let img = LinearImage {
@@ -234,7 +234,7 @@ fn write_references(out: &Path, cam: &heliar::camera::Camera, proxy: &Mesh, extr
     let mut names = Vec::new();
     for &i in &REFERENCE_FRAMES {
         let f = &frames[i];
-        let light = Lighting { sun: f.sun, sky: &f.sky, terrain_albedo: terrain };
+        let light = Lighting { sun: f.sun, sky: &f.sky, terrain_albedo: terrain, lamp: None };
         let pair = REFERENCE_SEEDS.map(|seed| {
             let (sky, sun) = render_region(&scene, &surfaces, cam, &light, REFERENCE_SPP, seed + i as u64, region);
             LinearImage { width: region.2, height: region.3, data: sky.iter().zip(&sun).map(|(s, d)| (*s * f.pa + *d * f.pd).to_array()).collect() }
