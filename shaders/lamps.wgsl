@@ -43,7 +43,7 @@ const LAMP_FIELD: u32 = 2u;
 
 @group(0) @binding(1) var<storage, read> header: LampHeader;
 @group(0) @binding(2) var<storage, read> spots: array<LampSpot>;
-// Half-float RGB texels: pack2x16float(r, g), pack2x16float(b, 0).
+// Half-float RGB texels: r | g << 16, b (binary16 bits).
 @group(0) @binding(3) var<storage, read> texels: array<vec2<u32>>;
 // Support-mean taps per axis: x the offset in units of h, y the weight (they sum to 1).
 @group(0) @binding(4) var<storage, read> taps: array<vec4<f32>>;
@@ -51,9 +51,22 @@ const LAMP_FIELD: u32 = 2u;
 @group(0) @binding(6) var shadow_atlas: texture_depth_2d;
 @group(0) @binding(7) var shadow_sampler: sampler_comparison;
 
+// A binary16 value (low 16 bits of `h`) as f32, exactly; decoded by hand because
+// unpack2x16float needs a shader capability (SHADER_FLOAT16_IN_FLOAT32) not every adapter has.
+// The stored values are at most 1 in magnitude, so infinities and NaN never occur.
+fn half_to_f32(h: u32) -> f32 {
+    let e = (h >> 10u) & 0x1fu;
+    let m = h & 0x3ffu;
+    var v = f32(m) * 5.9604645e-8;
+    if (e != 0u) {
+        v = bitcast<f32>(((e + 112u) << 23u) | (m << 13u));
+    }
+    return select(v, -v, ((h >> 15u) & 1u) == 1u);
+}
+
 fn texel(i: u32) -> vec3<f32> {
     let t = texels[i];
-    return vec3<f32>(unpack2x16float(t.x), unpack2x16float(t.y).x);
+    return vec3<f32>(half_to_f32(t.x & 0xffffu), half_to_f32(t.x >> 16u), half_to_f32(t.y & 0xffffu));
 }
 
 // Bilinear between the texel centres of the image at `first` (`dims` texels) at continuous

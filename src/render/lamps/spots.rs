@@ -83,7 +83,7 @@ pub struct SpotSet {
     pub lamps: Vec<LampSpots>,
     /// Every spot, `scale` holding the lamp's unit (`k = 1`) and no shadow slot.
     pub spots: Vec<GpuSpot>,
-    /// Half-float RGB texels (`pack2x16float(r, g)`, `pack2x16float(b, 0)`).
+    /// Half-float RGB texels (binary16 bits: `r | g << 16`, `b`).
     pub texels: Vec<[u32; 2]>,
     /// The lamps, for the reach test.
     models: Vec<Lamp>,
