@@ -54,7 +54,12 @@ impl Scene {
             .detach(|| -> anyhow::Result<_> {
                 let scene = heliar::scene::Scene::load_with(&path, &LoadOptions { allow_outside_scene })
                     .with_context(|| format!("loading scene {}", path.display()))?;
+                let mut scene = scene;
                 let ray = Arc::new(RayScene::new(scene.proxy.clone()));
+                // `terrain_albedo = "map"` (the default): measured (or read from its cache) once
+                // here, as the command line does, so every stage sees the same terrain.
+                heliar::envmap::bake::terrain::resolve_scene(&mut scene, &ray)
+                    .with_context(|| format!("measuring the terrain albedo on the environment map of {}", path.display()))?;
                 Ok((scene, ray))
             })
             .map_err(py_err)?;

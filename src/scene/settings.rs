@@ -77,9 +77,11 @@ pub struct SkyTermsConfig {
     /// (`estimate::turbidity`).
     pub turbidity: Turbidity,
     /// Albedo (RGB) of the flat terrain beyond the proxy that lights surfaces from below the
-    /// horizon: 0.8 fresh snow, 0.2 grass or soil (default), 0.08 asphalt, 0 for nothing below;
-    /// or `"map"`: measured on the environment map's texels below the horizon that the proxy
-    /// does not cover (`envmap::bake::terrain`).
+    /// horizon: 0.8 fresh snow, 0.2 grass or soil, 0.08 asphalt, 0 for nothing below; or
+    /// `"map"` (the default): measured on the environment map's texels below the horizon that the
+    /// proxy does not cover (`envmap::bake::terrain::resolve_scene`, which the command line and
+    /// the Python bindings call when they open a scene). A scene without such texels, or one
+    /// opened through [`crate::scene::Scene::load`] alone, uses [`DEFAULT_TERRAIN_ALBEDO`].
     pub terrain_albedo: TerrainAlbedo,
     /// Directions per surface of the sky and terrain quadrature.
     pub directions: usize,
@@ -111,7 +113,7 @@ pub enum Turbidity {
 pub const FIT_TURBIDITIES: [f64; 4] = [2.0, 3.0, 4.0, 6.0];
 /// The turbidity the renderer's sky and a frame without a turbidity fit use under `"fit"`.
 pub const FIT_TURBIDITY_DEFAULT: f64 = 3.0;
-/// The terrain albedo when none is set or measured: grass or soil.
+/// The terrain albedo when the map gives none (or was not measured): grass or soil.
 pub const DEFAULT_TERRAIN_ALBEDO: [f32; 3] = [0.2; 3];
 
 /// Where the terrain albedo a model uses came from.
@@ -209,7 +211,7 @@ pub const SKY_TURBIDITY_RANGE: (f64, f64) = (1.0, 10.0);
 
 impl Default for SkyTermsConfig {
     fn default() -> Self {
-        Self { shape: SkyShape::HosekWilkie, turbidity: Turbidity::Value(3.0), terrain_albedo: TerrainAlbedo::Rgb(DEFAULT_TERRAIN_ALBEDO), directions: 512, resolved_terrain: None }
+        Self { shape: SkyShape::HosekWilkie, turbidity: Turbidity::Value(3.0), terrain_albedo: TerrainAlbedo::Map, directions: 512, resolved_terrain: None }
     }
 }
 

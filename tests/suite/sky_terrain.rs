@@ -97,6 +97,49 @@ fn a_map_without_terrain_in_view_falls_back_with_a_reason() {
     assert!(t.note.unwrap_or_default().contains("[envmap]"));
 }
 
+/// `"map"` is the default, and its measurement is cached in `baked/terrain.json` under the
+/// bake's input key and the ray geometry: a second load reads the same bits from the cache (and
+/// says so), a corrupt cache file is measured again and rewritten, and a caller's changed geometry
+/// (here a 2 km ground that hides all terrain) never gets the cached value.
+#[test]
+fn the_map_terrain_is_the_default_and_is_cached_by_its_inputs() {
+    assert_eq!(SkyTermsConfig::default().terrain_albedo, TerrainAlbedo::Map);
+    let dir = scratch_courtyard("terrain-cache");
+    let load = || {
+        let mut s = Scene::load(&dir).unwrap();
+        s.estimator.sky = SkyTermsConfig::default();
+        let ray = Arc::new(RayScene::new(s.proxy.clone()));
+        (s, ray)
+    };
+    let cache = dir.join("baked").join(heliar::envmap::bake::terrain::CACHE_FILE);
+    let (mut s, ray) = load();
+    let first = resolve_scene(&mut s, &ray).unwrap().unwrap();
+    // The courtyard's walls leave 46 texels of its dark terrain in view: (0.14, 0.13, 0.12).
+    assert_eq!(first.source, TerrainSource::Map, "{first:?}");
+    assert!(cache.is_file(), "no cache written");
+    let (mut s, ray) = load();
+    let again = resolve_scene(&mut s, &ray).unwrap().unwrap();
+    assert_eq!((again.albedo_rgb, again.texels), (first.albedo_rgb, first.texels));
+    assert!(again.note.as_deref().unwrap_or_default().contains("read from"), "{again:?}");
+    assert_eq!(s.estimator.sky.terrain_rgb(), first.albedo_rgb, "the scene's model uses it");
+    std::fs::write(&cache, b"{ not json").unwrap();
+    let (mut s, ray) = load();
+    let remeasured = resolve_scene(&mut s, &ray).unwrap().unwrap();
+    assert_eq!(remeasured.albedo_rgb, first.albedo_rgb);
+    assert!(!remeasured.note.as_deref().unwrap_or_default().contains("read from"), "{remeasured:?}");
+    assert!(std::fs::read_to_string(&cache).unwrap().contains("\"key\""), "cache not rewritten");
+    // The same files, other geometry: the cache does not apply.
+    use heliar::geometry::Material;
+    let (mut s, _) = load();
+    let mut mesh = s.proxy.clone();
+    let mat = mesh.add_material(Material::diffuse("far ground", [0.3; 3]));
+    let node = mesh.add_node("far ground", false);
+    mesh.push_quad(glam::Vec3::new(-1000.0, -0.01, -1000.0), glam::Vec3::Z * 2000.0, glam::Vec3::X * 2000.0, node, mat);
+    let covered = resolve_scene(&mut s, &Arc::new(RayScene::new(mesh))).unwrap().unwrap();
+    assert_eq!(covered.source, TerrainSource::Fallback, "{covered:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// `turbidity = "fit"` on the winter scenes (truth: turbidity 3): every frame reports each
 /// candidate's residual and keeps the smallest, its `sky_model` names it, and its values are the
 /// bits of the fixed turbidity it chose (same draw, same fit). Measured: it picks 2 on six of the

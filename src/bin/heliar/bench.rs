@@ -157,8 +157,9 @@ fn knob_configs(knob: Knob, base: &EstimatorConfig) -> Vec<(String, EstimatorCon
             .map(|&p| (p.to_string(), EstimatorConfig { pool_size: p, samples: base.samples.min(p), ..base.clone() }))
             .collect(),
         Knob::Sky => {
-            use heliar::scene::settings::{SkyShape, SkyTermsConfig, TerrainAlbedo, Turbidity};
-            let d = SkyTermsConfig::default();
+            use heliar::scene::settings::{DEFAULT_TERRAIN_ALBEDO, SkyShape, SkyTermsConfig, TerrainAlbedo, Turbidity};
+            // A fixed terrain, so the sweep compares sky shapes (`--knob terrain` measures the map's).
+            let d = SkyTermsConfig { terrain_albedo: TerrainAlbedo::Rgb(DEFAULT_TERRAIN_ALBEDO), ..SkyTermsConfig::default() };
             let skies = [
                 ("uniform", SkyTermsConfig::jensen()),
                 ("uniform+terrain", SkyTermsConfig { shape: SkyShape::Uniform, ..d.clone() }),

@@ -119,7 +119,7 @@ pub fn load_scene(dir: &Path) -> Result<(Scene, Arc<RayScene>)> {
     if let Some(t) = terrain {
         let [r, g, b] = t.albedo_rgb;
         match t.source {
-            heliar::scene::settings::TerrainSource::Fallback => eprintln!("warning: {}", t.note.as_deref().unwrap_or("no terrain albedo from the map")),
+            heliar::scene::settings::TerrainSource::Fallback => eprintln!("note: {}", t.note.as_deref().unwrap_or("no terrain albedo from the map")),
             _ => eprintln!("terrain albedo ({r:.3}, {g:.3}, {b:.3}) from the environment map ({})", t.note.as_deref().unwrap_or("")),
         }
     }

@@ -44,10 +44,16 @@ pub fn fallback(note: String) -> ResolvedTerrain {
     ResolvedTerrain { albedo_rgb: DEFAULT_TERRAIN_ALBEDO, source: TerrainSource::Fallback, texels: 0, note: Some(note) }
 }
 
-/// Under `terrain_albedo = "map"`, measures the albedo on the scene's environment map and stores
-/// it in `scene.estimator.sky.resolved_terrain`, so that the estimator, the bake and the renderer
-/// use it; returns it (`None`: the scene gives a number, nothing to do). An unreadable map is an
-/// error; a map that gives no estimate is the fallback with a note.
+/// Under `terrain_albedo = "map"` (the default), measures the albedo on the scene's environment
+/// map and stores it in `scene.estimator.sky.resolved_terrain`, so that the estimator, the bake
+/// and the renderer use it; returns it (`None`: the scene gives a number, nothing to do). An
+/// unreadable map is an error; a map that gives no estimate is the fallback with a note.
+///
+/// The measurement (about 2 s in a release build on a 1024×512 map) is cached in
+/// `baked/terrain.json` under the bake's input key ([`super::cache_key`]: the map and proxy
+/// files and every setting), so a scene pays it once. A missing, stale or unreadable cache file
+/// is measured again; one that cannot be written (a read-only scene) is not an error, and the
+/// note says so.
 pub fn resolve_scene(scene: &mut Scene, ray: &Arc<RayScene>) -> Result<Option<ResolvedTerrain>, BakeError> {
     if scene.estimator.sky.terrain_albedo != TerrainAlbedo::Map {
         return Ok(None);
@@ -59,14 +65,76 @@ pub fn resolve_scene(scene: &mut Scene, ray: &Arc<RayScene>) -> Result<Option<Re
     let r = match scene.manifest.envmap.as_ref().and_then(|e| e.file.as_ref()) {
         None => fallback(format!("{}: terrain_albedo = \"map\" needs an [envmap] file to measure the terrain on", mpath.display())),
         Some(f) => {
-            let path = scene.root.join(f);
-            let mut img = LinearImage::read_exr(&path)?;
-            img.sanitize();
-            from_map(scene, ray, &img, &path)?
+            let key = cache_key(scene, ray)?;
+            let cache = super::bake_dir(scene).join(CACHE_FILE);
+            match read_cache(&cache, &key) {
+                Some(mut r) => {
+                    r.note = Some(format!("{}; read from {}", r.note.as_deref().unwrap_or("measured"), cache.display()));
+                    r
+                }
+                None => {
+                    let path = scene.root.join(f);
+                    let mut img = LinearImage::read_exr(&path)?;
+                    img.sanitize();
+                    let mut r = from_map(scene, ray, &img, &path)?;
+                    if let Err(e) = write_cache(&cache, &key, &r) {
+                        let note = r.note.take().unwrap_or_default();
+                        r.note = Some(format!("{note}; not cached ({e})"));
+                    }
+                    r
+                }
+            }
         }
     };
     scene.estimator.sky.resolved_terrain = Some(r.clone());
     Ok(Some(r))
+}
+
+/// The key of [`resolve_scene`]'s cache: the bake's key (the map and proxy files, every setting)
+/// and the geometry the rays see, which a caller may have changed after loading.
+fn cache_key(scene: &Scene, ray: &RayScene) -> Result<String, BakeError> {
+    let mut h = blake3::Hasher::new();
+    h.update(super::cache_key(scene)?.as_bytes());
+    let mesh = ray.mesh();
+    for p in &mesh.positions {
+        for v in p.to_array() {
+            h.update(&v.to_le_bytes());
+        }
+    }
+    for t in &mesh.triangles {
+        for i in t {
+            h.update(&i.to_le_bytes());
+        }
+    }
+    h.update(format!("{:?}{:?}{:?}{:?}", mesh.tri_material, mesh.tri_node, mesh.materials, mesh.nodes).as_bytes());
+    Ok(h.finalize().to_hex().to_string())
+}
+
+/// The cache of [`resolve_scene`] in the bake folder.
+pub const CACHE_FILE: &str = "terrain.json";
+
+/// What `terrain.json` holds: the bake's input key and the albedo measured under it.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct Cached {
+    key: String,
+    terrain: ResolvedTerrain,
+}
+
+/// The cached albedo when `path` holds one for `key` (anything else is a miss).
+fn read_cache(path: &Path, key: &str) -> Option<ResolvedTerrain> {
+    let text = std::fs::read_to_string(path).ok()?;
+    let c: Cached = serde_json::from_str(&text).ok()?;
+    let valid = c.terrain.albedo_rgb.iter().all(|a| a.is_finite() && (0.0..=1.0).contains(a));
+    (c.key == key && valid).then_some(c.terrain)
+}
+
+/// Writes the cache through a temporary file and a rename.
+fn write_cache(path: &Path, key: &str, terrain: &ResolvedTerrain) -> Result<(), String> {
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
+    let text = serde_json::to_string_pretty(&Cached { key: key.to_owned(), terrain: terrain.clone() }).map_err(|e| e.to_string())?;
+    crate::io::write_atomic(path, text.as_bytes()).map_err(|e| e.to_string())
 }
 
 /// The estimator settings the bake uses: the scene's, with `terrain_albedo = "map"` measured on
