@@ -23,6 +23,7 @@
 //! Thresholds are named constants or [`EstimatorConfig`] fields, documented where defined.
 
 pub mod lamps;
+pub mod lamp_bounce;
 pub mod pool;
 pub mod rebuild;
 mod report;
