@@ -132,6 +132,9 @@ impl Estimator {
                 meas[c + 3] = Some((pa[c], if se[c].is_finite() { se[c] } else { pa[c].abs() }));
             }
         }
+        let mut lamps = std::mem::take(&mut out.lamps);
+        self.smooth_lamps(&mut lamps, t_s);
+        out.lamps = lamps;
         if let Some(s) = self.smoother.update(t_s, self.config.smoothing_rate_per_sqrt_s, meas) {
             self.last_smoothed = Some(s);
             if observed_pd && out.sun.above_horizon && out.status != Status::Night {

@@ -29,6 +29,7 @@
 use super::pool::Pool;
 use super::report::{LampReport, LampStatus};
 use super::solve::{ChannelFit, COND_CAP};
+use super::smoother::LampSmoother;
 use super::solve_multi::{MultiFit, robust_fit_multi};
 use super::{Estimator, luma};
 pub use super::lamp_bounce::LAMP_CLEARANCE_M;
@@ -54,6 +55,8 @@ pub struct LampColumns {
     pub(super) band: Vec<u8>,
     /// Time of the first frame (schedules in seconds count from it).
     start: Option<DateTime<FixedOffset>>,
+    /// Per lamp, its `k` over time.
+    smoothers: Vec<LampSmoother>,
 }
 
 /// A lamp's place in this frame's fit.
@@ -94,7 +97,8 @@ impl LampColumns {
         let light: Vec<f64> = (0..pool.len()).map(|e| lamps.iter().zip(&g).map(|(l, g)| l.light.scale * luma(&g[e])).sum()).collect();
         let brightest = light.iter().copied().fold(0.0, f64::max);
         let band = light.iter().map(|&v| if v > 0.0 { 1 + ((brightest / v).log2().floor().max(0.0) as u8).min(MAX_BAND) } else { 0 }).collect();
-        Self { lamps, g, band, start: None }
+        let smoothers = vec![LampSmoother::default(); lamps.len()];
+        Self { lamps, g, band, start: None, smoothers }
     }
 
     /// The lamps.
@@ -109,7 +113,7 @@ impl LampColumns {
 }
 
 fn report(lamp: &Lamp, status: LampStatus, samples: usize, reason: Option<String>) -> LampReport {
-    LampReport { name: lamp.light.name.clone(), status, k: [lamp.light.scale; 3], k_se: None, samples, condition_number: None, reason }
+    LampReport { name: lamp.light.name.clone(), status, k: [lamp.light.scale; 3], k_se: None, k_smoothed: None, samples, condition_number: None, reason }
 }
 
 impl Estimator {
@@ -293,6 +297,20 @@ impl Estimator {
                     self.rows[c].y[i] -= k[c] * g[c];
                 }
             }
+        }
+    }
+
+    /// Smooths every lamp's `k` at `t_s` (seconds since the first frame) into `reports`
+    /// ([`LampSmoother`]): a lamp off resets its filter; a fitted one is a measurement.
+    pub(super) fn smooth_lamps(&mut self, reports: &mut [LampReport], t_s: f64) {
+        let rate = self.config.smoothing_rate_per_sqrt_s;
+        let Some(lc) = self.lamps.as_mut() else { return };
+        for ((r, f), lamp) in reports.iter_mut().zip(&mut lc.smoothers).zip(&lc.lamps) {
+            let meas = match (r.status, r.k_se) {
+                (LampStatus::Fitted, Some(se)) => Some((r.k, se.map(|s| if s.is_finite() { s } else { f64::MAX.sqrt() }))),
+                _ => None,
+            };
+            r.k_smoothed = f.update(t_s, rate, r.status != LampStatus::Off, lamp.light.scale, meas);
         }
     }
 
