@@ -72,7 +72,11 @@ fn check_frames(from: usize, last: usize) {
 /// on this view the walls' lamp bounce is ≈ 2·10⁻⁵ (radiance) against a sky of 10⁻⁴–10⁻³. The
 /// cause was the sky: after frame 0 left `Pd` unobservable, the estimator took the twilight sky
 /// as overcast (uniform), which put the paving's sky light 15% above the frames and the walls'
-/// 26% below at 19:10; the fit lowered `k` to keep the paving right.
+/// 26% below at 19:10; the fit lowered `k` to keep the paving right. (An excess seen at the
+/// ground point (−5, 0, −4) was not the ground: the camera ray toward it hits the free-standing
+/// wall's east face at (−2.8, 0.39, −0.99), which the lamp lights directly (E = 4.0·10⁻³, against
+/// 4.7·10⁻⁵ of bounce and no direct light at the ground point, in the wall's lamp umbra); the
+/// wall is not a sampled surface.)
 #[test]
 fn the_dusk_lamp_is_learned_at_sunset_and_in_twilight() {
     check_frames(1, 3);

@@ -149,8 +149,16 @@ fn a_lamp_switched_on_mid_sequence() {
         if on {
             assert_eq!(e.lamps[0].status, LampStatus::Fitted, "{e:?}");
             assert!(k_err(&e, 0, K) < 0.05, "{e:?}");
+            // The smoother restarts at the switch-on: its first value is the first fit, and the
+            // blend of the fits after it stays within the fits' 5%.
+            let ks = e.lamps[0].k_smoothed.expect("smoothed k while on");
+            if i == 2 {
+                assert_eq!(ks, e.lamps[0].k);
+            }
+            assert!(rel_err(ks, K) < 0.05, "{ks:?}");
         } else {
             assert_eq!(e.lamps[0].status, LampStatus::Off, "{e:?}");
+            assert_eq!(e.lamps[0].k_smoothed, None, "an off lamp has no smoothed k");
             assert_eq!(e.lamps[0].k, [1.0; 3], "an off lamp reports its prior");
             assert!(e.lamps[0].reason.as_deref().unwrap().contains("schedule"));
         }
