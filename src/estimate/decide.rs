@@ -132,8 +132,14 @@ impl Estimator {
                 meas[c + 3] = Some((pa[c], if se[c].is_finite() { se[c] } else { pa[c].abs() }));
             }
         }
+        let mut lamps = std::mem::take(&mut out.lamps);
+        self.smooth_lamps(&mut lamps, t_s);
+        out.lamps = lamps;
         if let Some(s) = self.smoother.update(t_s, self.config.smoothing_rate_per_sqrt_s, meas) {
             self.last_smoothed = Some(s);
+            if observed_pd && out.sun.above_horizon && out.status != Status::Night {
+                self.overcast_sky = luma(&[s[0], s[1], s[2]]) < self.config.no_sun_ratio * luma(&[s[3], s[4], s[5]]);
+            }
             out.smoothed = Some(Intensities { pd: [s[0], s[1], s[2]], pa: [s[3], s[4], s[5]] });
             self.last_update = Some(*time);
             out.change = self.detector.check(dir, s, self.config.relight_threshold, self.config.relight_sun_deg);

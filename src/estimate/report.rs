@@ -188,6 +188,9 @@ pub struct LampReport {
     pub k: [f64; 3],
     /// Standard errors of `k` (`null` when not fitted).
     pub k_se: Option<[f64; 3]>,
+    /// `k` smoothed over the frames since the lamp last switched on (`estimate::smoother`;
+    /// `null` while off and until its first fit).
+    pub k_smoothed: Option<[f64; 3]>,
     /// Usable samples its light reaches.
     pub samples: usize,
     /// Condition number of its column against the others (largest over the channels).

@@ -26,6 +26,13 @@
 //! noise and 0.13 frames with 10%, settled within 5% of the step on the frame of full cover, and
 //! holds it to at most 1 frame of lag and 2 frames of settling.
 //!
+//! **Lamps.** Each lamp's scale `k` (RGB, [`LampSmoother`]) is smoothed the same way, with a
+//! drift of `q·k̄·√Δt` (`k̄` the larger of its largest channel and its prior scale, so a `k`
+//! fitted near zero can recover). A lamp's scale is a property of the luminaire and its
+//! exposure, so it is a good candidate for averaging; what breaks that is the lamp switching, so
+//! a frame where it is off resets the filter and the first fit after it starts afresh. Frames
+//! that do not fit it (unreached, held for separability, a dark frame) only predict.
+//!
 //! # Change detection
 //! [`ChangeDetector`] compares the smoothed lighting with the lighting that the last relight used.
 //! It reports a change when, in any channel, `Pd` or `Pa` moved by more than `relight_threshold`
@@ -105,6 +112,55 @@ impl Smoother {
             }
         }
         self.x
+    }
+}
+
+/// Kalman smoother of one lamp's scale `k` (RGB; module docs).
+#[derive(Clone, Debug, Default)]
+pub struct LampSmoother {
+    k: Option<[f64; 3]>,
+    var: [f64; 3],
+    last_time_s: f64,
+    /// The last positive frame interval, s.
+    last_interval_s: Option<f64>,
+}
+
+impl LampSmoother {
+    /// Feeds one frame at `time_s`: `on` false (the lamp is off) resets the filter and returns
+    /// `None`; `meas` is the frame's fitted `(k, k_se)`, `None` when it was not fitted; `prior`
+    /// is the lamp's prior scale. Returns the smoothed `k`, `None` until a fit after the last
+    /// switch-on.
+    pub fn update(&mut self, time_s: f64, rate_per_sqrt_s: f64, on: bool, prior: f64, meas: Option<([f64; 3], [f64; 3])>) -> Option<[f64; 3]> {
+        if !on {
+            *self = Self::default();
+            return None;
+        }
+        let raw = time_s - self.last_time_s;
+        self.last_time_s = time_s;
+        let Some(k) = self.k.as_mut() else {
+            let (z, se) = meas?;
+            self.k = Some(z);
+            self.var = std::array::from_fn(|c| (se[c] * se[c]).max(REL_VAR_FLOOR * z[c] * z[c]));
+            return self.k;
+        };
+        let dt = if raw > 0.0 {
+            self.last_interval_s = Some(raw);
+            raw
+        } else {
+            self.last_interval_s.unwrap_or(FALLBACK_INTERVAL_S)
+        };
+        let level = k.iter().fold(prior.abs(), |m, v| m.max(v.abs()));
+        let q = rate_per_sqrt_s * level;
+        for c in 0..3 {
+            self.var[c] += q * q * dt;
+            if let Some((z, se)) = meas {
+                let r = (se[c] * se[c]).max(REL_VAR_FLOOR * z[c] * z[c]);
+                let gain = if self.var[c] + r > 0.0 { self.var[c] / (self.var[c] + r) } else { 1.0 };
+                k[c] = (k[c] + gain * (z[c] - k[c])).max(0.0);
+                self.var[c] *= 1.0 - gain;
+            }
+        }
+        self.k
     }
 }
 
@@ -240,5 +296,40 @@ mod tests {
         assert_eq!(d.check(Vec3::Y, [2.5, 3.0, 3.0, 1.0, 1.0, 1.0], 0.02, 0.5), ChangeReason::DirectChanged);
         let tilted = Vec3::new(0.0, 1.0, (1.0f32).to_radians().tan()).normalize();
         assert_eq!(d.check(tilted, [2.5, 3.0, 3.0, 1.0, 1.0, 1.0], 0.02, 0.5), ChangeReason::SunMoved);
+    }
+
+    #[test]
+    fn lamp_scale_is_averaged_while_on_and_restarts_after_a_switch() {
+        use rand::{Rng, SeedableRng, rngs::SmallRng};
+        // 30 fps, a constant k = 0.8 measured with a standard error of 0.05, q = 0.1: the drift
+        // allowance per frame is q·max(k, prior)·√Δt = 0.018, so the steady-state Kalman filter
+        // has gain ≈ 0.30 and a posterior standard deviation ≈ 0.027, 0.55 of one frame's.
+        let mut f = LampSmoother::default();
+        let mut rng = SmallRng::seed_from_u64(4);
+        let (truth, se) = (0.8, 0.05);
+        let (mut raw_sq, mut smooth_sq, mut n) = (0.0, 0.0, 0);
+        for i in 0..300 {
+            let z = std::array::from_fn(|_| truth + se * 1.732 * (rng.random::<f64>() * 2.0 - 1.0));
+            let k = f.update(i as f64 / 30.0, 0.1, true, 1.0, Some((z, [se; 3]))).unwrap();
+            if i >= 50 {
+                raw_sq += (z[1] - truth).powi(2);
+                smooth_sq += (k[1] - truth).powi(2);
+                n += 1;
+            }
+        }
+        let (raw, smooth) = ((raw_sq / n as f64).sqrt(), (smooth_sq / n as f64).sqrt());
+        assert!(smooth < 0.7 * raw, "smoothed rms {smooth} vs raw {raw}");
+        // A frame without a fit holds the value.
+        let held = f.update(10.0 + 1.0 / 30.0, 0.1, true, 1.0, None).unwrap();
+        assert!((held[1] - truth).abs() < 2.0 * smooth + 1e-3);
+        // Off: reset; nothing until the next fit, which is taken as it is (a new luminaire state).
+        assert_eq!(f.update(11.0, 0.1, false, 1.0, Some(([0.8; 3], [se; 3]))), None);
+        assert_eq!(f.update(11.1, 0.1, true, 1.0, None), None);
+        assert_eq!(f.update(11.2, 0.1, true, 1.0, Some(([0.3, 0.4, 0.5], [se; 3]))), Some([0.3, 0.4, 0.5]));
+        // A fit at zero can recover: the drift scales with the prior as well.
+        let mut g = LampSmoother::default();
+        g.update(0.0, 0.1, true, 1.0, Some(([0.0; 3], [1e-6; 3])));
+        let k = g.update(600.0, 0.1, true, 1.0, Some(([1.0; 3], [0.05; 3]))).unwrap();
+        assert!(k[0] > 0.9, "{k:?}");
     }
 }

@@ -180,7 +180,7 @@ mod tests {
 
     #[test]
     fn each_lamp_gets_its_k_and_an_off_lamp_none() {
-        let report = |status, k: f64| LampReport { name: "l".into(), status, k: [k, 0.5 * k, f64::NAN], k_se: None, samples: 0, condition_number: None, reason: None };
+        let report = |status, k: f64| LampReport { name: "l".into(), status, k: [k, 0.5 * k, f64::NAN], k_se: None, k_smoothed: None, samples: 0, condition_number: None, reason: None };
         let s = lamp_scales(&[report(LampStatus::Fitted, 2.0), report(LampStatus::Off, 3.0), report(LampStatus::Unreached, 1.0), report(LampStatus::NotFitted, -1.0)]);
         // fitted and prior scales pass; off, negative and NaN give no light
         assert_eq!(s.as_slice(), &[[2.0, 1.0, 0.0], [0.0; 3], [1.0, 0.5, 0.0], [0.0; 3]]);

@@ -1,7 +1,7 @@
 //! The estimator on the dusk courtyard (`gen-courtyard --dusk`, issue 16 §3): sunset and civil
 //! twilight with a street lamp that switches on at frame 1, rendered by the generator's own path
 //! tracer with a disc emitter whose far field is the scene's IES file (`lamps/street.ies`), and
-//! with sensor read noise that is ~10% of a lamp-lit pixel at night. The truth (`truth.csv`) has
+//! with sensor read noise that is 10–30% of a lamp-lit pixel at night. The truth (`truth.csv`) has
 //! the lamp's scale `k` (1 when on) beside `Pd` and `Pa`.
 
 use heliar::estimate::{Estimator, LampStatus, Status};
@@ -12,11 +12,14 @@ use heliar::scene::Scene;
 use std::path::Path;
 use std::sync::Arc;
 
-/// Largest error of the lamp's fitted scale (luma) against the truth's 1: the estimator's own
-/// `k_se` on these frames is 0.06–0.08 (read noise), so 0.15 is ~2σ.
-const K_TOL: f64 = 0.15;
-/// Largest relative error of `Pa` per frame (the courtyard's daylight target is a few percent;
-/// the night frames' sky is 5–100 times dimmer than the lamp on the paving).
+/// Largest error of the lamp's fitted scale (luma) against the truth's 1 on frames 1–3. Measured
+/// (2026-12-03, debug build): 1.003, 0.940, 0.958, with the estimator's own `k_se` 0.06–0.11
+/// (read noise), so 0.08 is about one standard error. The issue's target is 5%: frame 2 misses
+/// it by 1%.
+const K_TOL: f64 = 0.08;
+/// Largest relative error of `Pa` per frame on frames 1–3. Measured: 1.1%, 2.1%, 11.7% (frame 3's
+/// sky is a tenth of the lamp light on the paving under it and 1.5× the read noise on the
+/// walls). The issue's 5% holds on frames 1–2.
 const PA_TOL: f64 = 0.15;
 
 /// `lamp_k` of every frame, from the truth file's last column.
@@ -28,20 +31,10 @@ fn true_lamp_k(root: &Path) -> Vec<f64> {
     lines.map(|l| l.split(',').nth(col).unwrap().parse().unwrap()).collect()
 }
 
-/// Frame 0 has its lamp `off`; frames 1–5 must fit `k` within [`K_TOL`] of the truth's 1 and `Pa`
-/// within [`PA_TOL`].
-///
-/// **Fails today, so it is ignored** (run it with `--ignored`): `heliar estimate scenes/dusk`
-/// (release, 2026-12-03) gives `k` (luma) 0.00, 0.38, 0.71, 0.55, 0.23 on frames 1–5 and `Pa`
-/// 2–38% high, although the model's lamp irradiance matches the frames' lamp light to 0.3% at
-/// four paving points (checked against `ρ/π·I cos θ/r²`). The likely cause is the lamp's
-/// interreflected light: the estimator's lamp column is direct light only, so `Pa` absorbs the
-/// lamp's bounce off the paving and walls and `k` drops to compensate. Weighing the multi-column
-/// fit's rows by the predicted instead of the observed level (a known bias under read noise) moved
-/// `k` to 0.00, 0.37, 0.67, 0.69, 0.82 and `Pa` to 3–43% high: not the cause, and not kept.
-#[test]
-#[ignore = "fails: the lamp's scale comes out 0.0-0.8 of the truth on the dusk scene (lamp bounce missing from the model; see the doc comment)"]
-fn the_dusk_lamp_is_learned_from_noisy_night_frames() {
+/// Runs the estimator over the dusk frames `0..=last` and checks frames `from..=last`: frame 0
+/// has its lamp `off`; the others must fit `k` within [`K_TOL`] of the truth's 1 and `Pa` within
+/// [`PA_TOL`].
+fn check_frames(from: usize, last: usize) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/dusk");
     let scene = Scene::load(&root).unwrap();
     let seq = scene.sequences[0].clone();
@@ -49,12 +42,13 @@ fn the_dusk_lamp_is_learned_from_noisy_night_frames() {
     let lamp_k = true_lamp_k(&root);
     let mut est = Estimator::new(&scene, Arc::new(RayScene::new(scene.proxy.clone()))).unwrap();
     let lin = seq.photometry.linearizer();
-    for (i, p) in seq.files.iter().enumerate() {
+    for (i, p) in seq.files.iter().enumerate().take(last + 1) {
         let e = est.estimate(i, &seq.times[i], &Frame::load(p).unwrap(), &lin).unwrap();
         let lamp = &e.lamps[0];
-        let (_, ea) = lighting_error(&e.pd.unwrap(), &e.pa.unwrap(), &truth[i].pd, &truth[i].pa);
+        // Frame 0 has no Pd (no sunlit sample at 1.6° elevation); only Pa is compared.
+        let (_, ea) = lighting_error(&e.pd.unwrap_or_default(), &e.pa.expect("Pa"), &truth[i].pd, &truth[i].pa);
         let k = 0.2126 * lamp.k[0] + 0.7152 * lamp.k[1] + 0.0722 * lamp.k[2];
-        eprintln!("frame {i}: {:?}, lamp {:?} k {:?} (luma {k:.3}, truth {}), Pa error {:.1}%", e.status, lamp.status, lamp.k, lamp_k[i], 100.0 * ea);
+        eprintln!("frame {i}: {:?}, sky {:?}, lamp {:?} k {:?} (luma {k:.3}, truth {}), Pa error {:.1}%", e.status, e.sky_model, lamp.status, lamp.k, lamp_k[i], 100.0 * ea);
         if lamp_k[i] == 0.0 {
             assert_eq!(lamp.status, LampStatus::Off, "frame {i}");
             continue;
@@ -63,7 +57,44 @@ fn the_dusk_lamp_is_learned_from_noisy_night_frames() {
         if i >= 2 {
             assert_eq!(e.status, Status::Night, "frame {i}: the sun has set");
         }
+        if i < from {
+            continue;
+        }
         assert!((k - 1.0).abs() < K_TOL, "frame {i}: k {k:.3} against 1");
         assert!(ea < PA_TOL, "frame {i}: Pa error {ea}");
     }
+}
+
+/// Frames 0–3: the lamp off, then on at sunset (sun, sky and lamp) and in civil twilight.
+///
+/// History: before the lamp bounce `B` and the shaped twilight sky, `k` (luma) was 0.00, 0.38,
+/// 0.71 on frames 1–3 (0.55, 0.23 on 4–5). The lamp bounce alone moved it to 0.00, 0.41, 0.74:
+/// on this view the walls' lamp bounce is ≈ 2·10⁻⁵ (radiance) against a sky of 10⁻⁴–10⁻³. The
+/// cause was the sky: after frame 0 left `Pd` unobservable, the estimator took the twilight sky
+/// as overcast (uniform), which put the paving's sky light 15% above the frames and the walls'
+/// 26% below at 19:10; the fit lowered `k` to keep the paving right. (An excess seen at the
+/// ground point (−5, 0, −4) was not the ground: the camera ray toward it hits the free-standing
+/// wall's east face at (−2.8, 0.39, −0.99), which the lamp lights directly (E = 4.0·10⁻³, against
+/// 4.7·10⁻⁵ of bounce and no direct light at the ground point, in the wall's lamp umbra); the
+/// wall is not a sampled surface.)
+#[test]
+fn the_dusk_lamp_is_learned_at_sunset_and_in_twilight() {
+    check_frames(1, 3);
+}
+
+/// Frames 4–5 (sky 3% and 1% of the day's at sunset): **fails today, so it is ignored**; `k` comes
+/// out 0.68 and 0.32 (luma), `Pa` 44% and 13% off.
+///
+/// The cause is the frames' sensor model: read noise of σ = 5·10⁻⁴ (`NOISE_ABS` of the
+/// generator) clamped at zero (`.max(0.0)`). At 19:50 the walls' true radiance is ≈ 9·10⁻⁵
+/// (green), a fifth of σ, so their clamped mean is σφ(μ/σ) + μΦ(μ/σ) ≈ 2.5·10⁻⁴; the frames
+/// show 2.7·10⁻⁴ on the north building's 180 samples, three times the truth. The robust fit
+/// weighs rows by their observed level (relative noise), so it trusts these rows as much as the
+/// lamp-lit paving (≈ 1.6·10⁻³), raises `Pa` to explain them and lowers `k` on the paving. A
+/// fix needs an absolute read-noise term in the weights and a censored (clamped) likelihood for
+/// rows near zero; neither the lamp column nor the sky is at fault here.
+#[test]
+#[ignore = "fails: read noise clamped at zero triples the dark walls' level at 19:40-19:50 (see the doc comment)"]
+fn the_dusk_lamp_is_learned_in_the_dark_frames() {
+    check_frames(4, 5);
 }

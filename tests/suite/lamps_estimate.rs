@@ -1,10 +1,11 @@
 //! The estimator learns the lamps (issue 16 §3): synthetic worlds lit by sun, sky and lamps of
-//! known scale `k`, frames rendered with the model `ρ/π·(c·Pa + (s·cos + b)·Pd + Σ k·E·V)` (lamp
-//! irradiance from `lamps::model`, visibility by shadow rays, `c` and `b` with 256 paths against
-//! the pool's 64), and the `[[lights]]` errors of `scene.toml`.
+//! known scale `k`, frames rendered with the model `ρ/π·(c·Pa + (s·cos + b)·Pd + Σ k·(E·V + B))`
+//! (lamp irradiance from `lamps::model`, visibility by shadow rays, `c`, `b` and the lamp bounce
+//! `B` with 256 paths against the pool's 64), and the `[[lights]]` errors of `scene.toml`.
 
 use crate::common::*;
 use glam::{DVec3, Vec3};
+use heliar::estimate::lamp_bounce::bounce_irradiance;
 use heliar::estimate::{EstimatorConfig, FrameEstimate, LampStatus, Status};
 use heliar::geometry::ambient::{TransportQuality, transport};
 use heliar::io::frames::{Linearizer, Response};
@@ -72,10 +73,11 @@ fn render_lit(w: &World, l: Vec3, pd: [f32; 3], pa: [f32; 3], lamps: &[(&Lamp, [
             let to = lamp.light.position.as_vec3() - hit.point;
             let dist = to.length();
             let seen = !w.ray.occluded(hit.point + hit.normal * 1e-3, to / dist, dist - 0.02);
-            if seen {
-                let irr = lamp.irradiance(hit.point.as_dvec3(), hit.normal.as_dvec3());
-                e += Vec3::new(irr[0] as f32, irr[1] as f32, irr[2] as f32) * Vec3::from(*k);
-            }
+            let mut irr = if seen { lamp.irradiance(hit.point.as_dvec3(), hit.normal.as_dvec3()) } else { [0.0; 3] };
+            // The lamp's light reflected by the world (the pool traces it with 64 paths).
+            let b = bounce_irradiance(lamp, &w.ray, hit.point, hit.normal, q, 9_000_000 + (y * W + x) as u64);
+            irr = std::array::from_fn(|c| irr[c] + b[c]);
+            e += Vec3::new(irr[0] as f32, irr[1] as f32, irr[2] as f32) * Vec3::from(*k);
         }
         let n = 1.0 + noise * (rng.random::<f32>() * 2.0 - 1.0) * 1.732;
         (rho / PI * e * n).to_array()
@@ -147,8 +149,16 @@ fn a_lamp_switched_on_mid_sequence() {
         if on {
             assert_eq!(e.lamps[0].status, LampStatus::Fitted, "{e:?}");
             assert!(k_err(&e, 0, K) < 0.05, "{e:?}");
+            // The smoother restarts at the switch-on: its first value is the first fit, and the
+            // blend of the fits after it stays within the fits' 5%.
+            let ks = e.lamps[0].k_smoothed.expect("smoothed k while on");
+            if i == 2 {
+                assert_eq!(ks, e.lamps[0].k);
+            }
+            assert!(rel_err(ks, K) < 0.05, "{ks:?}");
         } else {
             assert_eq!(e.lamps[0].status, LampStatus::Off, "{e:?}");
+            assert_eq!(e.lamps[0].k_smoothed, None, "an off lamp has no smoothed k");
             assert_eq!(e.lamps[0].k, [1.0; 3], "an off lamp reports its prior");
             assert!(e.lamps[0].reason.as_deref().unwrap().contains("schedule"));
         }
