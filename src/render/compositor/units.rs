@@ -156,6 +156,7 @@ impl Compositor {
             }
         }
         let masks = self.config.debug_masks.then_some(&self.res.output_masks.view);
-        composite.record(encoder, &self.composite_bg, target, masks);
+        let lamps = self.lamps.as_ref().map_or(&self.no_lamps_bg, |l| l.data_bind_group());
+        composite.record(encoder, &self.composite_bg, lamps, target, masks);
     }
 }
