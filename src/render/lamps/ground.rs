@@ -120,6 +120,8 @@ pub struct LampGround<'a> {
     pub term: Option<&'a str>,
     /// The composite darkens by the differential model.
     pub differential: bool,
+    /// Switched on ([`super::LampOptions::ground`] and the lamp shadows).
+    pub enabled: bool,
 }
 
 impl<F> Pass<F> for LampGround<'_> {
@@ -128,6 +130,7 @@ impl<F> Pass<F> for LampGround<'_> {
     fn plan(&self, _: &F) -> Plan {
         match self.term {
             Some(why) => Plan::skip(why.to_owned()),
+            None if !self.enabled => Plan::skip("lamp shadows on real receivers are switched off"),
             None if !self.differential => Plan::skip("the darkening is not the differential model, which alone knows the real pixels' irradiance"),
             None => Plan::Run,
         }

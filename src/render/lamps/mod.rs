@@ -61,12 +61,16 @@ pub struct LampOptions {
     pub shadow_maps: usize,
     /// Size of each map, texels.
     pub tile: u32,
+    /// Darken the real receivers by the objects' lamp shadows ([`ground`], with the
+    /// differential darkening).
+    pub ground: bool,
 }
 
 impl Default for LampOptions {
-    /// One point per cell (16 lookups per spot), up to 81 maps (a 9×9 light field) of 256².
+    /// One point per cell (16 lookups per spot), up to 81 maps (a 9×9 light field) of 256²,
+    /// shadows on real receivers on.
     fn default() -> Self {
-        Self { support_points: 1, shadows: true, shadow_maps: 81, tile: DEFAULT_TILE }
+        Self { support_points: 1, shadows: true, shadow_maps: 81, tile: DEFAULT_TILE, ground: true }
     }
 }
 
@@ -305,7 +309,7 @@ impl LampPass {
     /// The ground unit of the frame (`lamp_ground`, [`ground::LampGround`]); `differential`:
     /// the composite darkens by the differential model.
     pub fn ground_unit(&self, differential: bool) -> ground::LampGround<'_> {
-        ground::LampGround { term: self.frame.skip.as_deref(), differential }
+        ground::LampGround { term: self.frame.skip.as_deref(), differential, enabled: self.options.ground && self.options.shadows }
     }
 
     /// Whether the composite darkens the real receivers by the objects' lamp shadows (read by
