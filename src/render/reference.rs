@@ -127,7 +127,7 @@ pub const OBJECT: u8 = 1;
 /// Pixel class: a proxy surface the objects shadow.
 pub const SHADOW: u8 = 2;
 
-/// The class of every crop pixel for one sun direction.
+/// The class of every crop pixel for one sun direction (and the lit lamps).
 #[derive(Clone, Debug)]
 pub struct Classes {
     /// The crop.
@@ -142,6 +142,21 @@ impl Classes {
     /// Classifies the crop (see the module docs); `objects` holds the virtual objects alone,
     /// `proxy` the real proxy, `sun` the unit direction toward the sun.
     pub fn new(scene: &Scene, objects: &RayScene, proxy: &RayScene, crop: Crop, sun: Vec3) -> Self {
+        Self::with_lamps(scene, objects, proxy, crop, Some(sun), &[])
+    }
+
+    /// As [`Classes::new`], with the shadow toward the sun when `sun` is given and toward the
+    /// lit lamps at `lamps` (world positions; issue 16's "object and its lamp shadow"): a proxy
+    /// pixel is *shadow* when the objects block the sun or any of the lamps from it.
+    pub fn with_lamps(scene: &Scene, objects: &RayScene, proxy: &RayScene, crop: Crop, sun: Option<Vec3>, lamps: &[Vec3]) -> Self {
+        let blocks_lamp = |p: Vec3, n: Vec3| {
+            lamps.iter().any(|&at| {
+                let o = p + n * crate::geometry::raycast::RAY_EPSILON_M;
+                let d = at - o;
+                let dist = d.length();
+                dist > 0.0 && objects.occluded(o, d / dist, dist)
+            })
+        };
         let class: Vec<u8> = (0..crop.width * crop.height)
             .map(|i| {
                 let (col, row) = (crop.x + i % crop.width, crop.y + i / crop.width);
@@ -149,7 +164,7 @@ impl Classes {
                 let (o, d) = (o.as_vec3(), d.as_vec3());
                 match (objects.intersect(o, d, f32::MAX), proxy.intersect(o, d, f32::MAX)) {
                     (Some(s), p) if p.is_none_or(|p| s.t < p.t) => OBJECT,
-                    (_, Some(p)) if !objects.sees_direction(p.point, p.normal, sun) => SHADOW,
+                    (_, Some(p)) if sun.is_some_and(|sun| !objects.sees_direction(p.point, p.normal, sun)) || blocks_lamp(p.point, p.normal) => SHADOW,
                     _ => ELSEWHERE,
                 }
             })

@@ -144,7 +144,15 @@ fn reference_frames(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::ra
             lighting.lamps = heliar::lighting::LampScales::from_slice(&scales);
         }
         let grid = probes.relight(&lighting).clone();
-        let classes = Classes::new(&scene, &objects, &ray, refs.crop, lighting.sun_dir);
+        // With lamps on, the shadow that matters is theirs (issue 16 §4: "the object and its
+        // lamp shadow"), with the sun's while it is up; without, the sun's as before.
+        // A lamp is on by its schedule, whatever the estimator's `k`.
+        let lit: Vec<glam::Vec3> = scene.lights.iter().zip(&e.lamps).filter(|(_, r)| r.status != heliar::estimate::LampStatus::Off).map(|(l, _)| l.position.as_vec3()).collect();
+        let classes = if lit.is_empty() {
+            Classes::new(&scene, &objects, &ray, refs.crop, lighting.sun_dir)
+        } else {
+            Classes::with_lamps(&scene, &objects, &ray, refs.crop, lighting.above_horizon.then_some(lighting.sun_dir), &lit)
+        };
         frames.push(RefFrame { index: i, video: VideoFrame::from_frame(&frame, &lin), lighting, grid, reference: refs.image(k)?, classes });
     }
     pb.finish_and_clear();
@@ -200,7 +208,18 @@ fn sweep(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayS
             let (out, report) = comp.render(&f.video, &f.lighting)?;
             transfer_ms = transfer_ms.max(report.timings.transfer_ms);
             traced = traced.max(report.transfer_traced);
-            errors.push(composite_error(&f.classes, &out.image, &f.reference));
+            let e = composite_error(&f.classes, &out.image, &f.reference);
+            eprintln!(
+                "{label}, frame {}: {:.2}% (object {:.2}%, shadow {:.2}%, {} px); object mean {:.4} against the reference's {:.4}",
+                f.index,
+                100.0 * e.object_and_shadow,
+                100.0 * e.object,
+                100.0 * e.shadow,
+                e.pixels,
+                e.object_mean,
+                e.object_mean_reference
+            );
+            errors.push(e);
             comp.invalidate();
             let t = std::time::Instant::now();
             comp.render(&f.video, &f.lighting)?;
