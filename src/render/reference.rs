@@ -229,6 +229,10 @@ pub struct CompositeError {
     pub object_mean: f64,
     /// Mean radiance of the reference over the object pixels.
     pub object_mean_reference: f64,
+    /// Mean radiance of `out` over the shadow pixels (channels averaged).
+    pub shadow_mean: f64,
+    /// Mean radiance of the reference over the shadow pixels.
+    pub shadow_mean_reference: f64,
 }
 
 /// The error of `out` (a whole footage frame) against `reference` (the crop of [`Classes`]).
@@ -246,19 +250,22 @@ pub fn composite_error(classes: &Classes, out: &LinearImage, reference: &LinearI
     let both = select(&|i| c[i] != ELSEWHERE);
     let interior = select(&|i| c[i] != ELSEWHERE && !classes.edge[i]);
     let object = select(&|i| c[i] == OBJECT);
+    let shadow = select(&|i| c[i] == SHADOW);
     let mean = |idx: &[usize], k: usize| {
         idx.iter().map(|&i| { let p = if k == 0 { pairs[i].0 } else { pairs[i].1 }; (p[0] + p[1] + p[2]) as f64 / 3.0 }).sum::<f64>() / idx.len().max(1) as f64
     };
     CompositeError {
         object_and_shadow: rmse(&both),
         object: rmse(&object),
-        shadow: rmse(&select(&|i| c[i] == SHADOW)),
+        shadow: rmse(&shadow),
         interior: rmse(&interior),
         elsewhere: rmse(&select(&|i| c[i] == ELSEWHERE)),
         pixels: both.len(),
         interior_pixels: interior.len(),
         object_mean: mean(&object, 0),
         object_mean_reference: mean(&object, 1),
+        shadow_mean: mean(&shadow, 0),
+        shadow_mean_reference: mean(&shadow, 1),
     }
 }
 

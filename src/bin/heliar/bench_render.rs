@@ -210,14 +210,16 @@ fn sweep(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayS
             traced = traced.max(report.transfer_traced);
             let e = composite_error(&f.classes, &out.image, &f.reference);
             eprintln!(
-                "{label}, frame {}: {:.2}% (object {:.2}%, shadow {:.2}%, {} px); object mean {:.4} against the reference's {:.4}",
+                "{label}, frame {}: {:.2}% (object {:.2}%, shadow {:.2}%, {} px); object mean {:.4} against the reference's {:.4}, shadow mean {:.5} against {:.5}",
                 f.index,
                 100.0 * e.object_and_shadow,
                 100.0 * e.object,
                 100.0 * e.shadow,
                 e.pixels,
                 e.object_mean,
-                e.object_mean_reference
+                e.object_mean_reference,
+                e.shadow_mean,
+                e.shadow_mean_reference
             );
             errors.push(e);
             comp.invalidate();
