@@ -52,7 +52,7 @@
 //! | footage, lighting uniform | | upload |
 //! | `depth_prepass`, `real_volumes`, `virtual_volumes` | [`DepthPrepass`](crate::render::depth_prepass::DepthPrepass), [`RealVolumes`], [`VirtualVolumes`] | one render pass |
 //! | `shadow_mask` | [`ShadowMask`](crate::render::shadow_mask::ShadowMask) | render pass |
-//! | `lamp_shadows`, `lamp_term` (with `[[lights]]` only) | [`LampPass`](crate::render::lamps::LampPass) (`lamps.rs`) | atlas render pass; upload |
+//! | `lamp_shadows`, `lamp_term`, `lamp_ground` (with `[[lights]]` only) | [`LampPass`](crate::render::lamps::LampPass) (`lamps.rs`); `lamp_ground` is a term of the composite's shader ([`crate::render::lamps::ground`]) | atlas render passes; upload |
 //! | `virtual_shading`, `sun_term` | [`VirtualShading`](crate::render::virtual_shading::VirtualShading), `SunTerm` (a term of its shader and the composite's); the lamp term drawn after it in its render pass | render pass |
 //! | `composite` | [`Composite`](crate::render::composite::Composite) | render pass(es) |
 //!

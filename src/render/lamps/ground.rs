@@ -31,6 +31,21 @@
 //!   is left out of `L₀` and `L₁` too (it has no map): where it lights a shadowed pixel the
 //!   darkening is too strong by its share. Scenes without `[[lights]]` bind an empty group whose
 //!   spot count is zero, so the composite does what it did before lamps.
+//!
+//! # Measured
+//! - **Against the CPU reference** (`tests/suite/render/lamp_ground.rs`: a spot over a ball and
+//!   a block on the yard's ground at night, sky `Pa` = 0.3): the ratio `L₁ / L₀` per real
+//!   pixel within 1e-5 on average over 3180 interior shadowed and 59622 lit pixels.
+//! - **The bundled dusk scene** (`heliar bench render scenes/dusk --knob msaa --lamp-k 1`,
+//!   the truth's lamp `k`, shadow classes toward the lamp; relative RMSE, MSAA 4, with the
+//!   ground shadows → without): night frame 4, lamp shadow 35.7 % → 71.1 % (mean radiance
+//!   0.00048 and 0.00113 against the reference's 0.00070), object 29.4 % both; dusk frame 1,
+//!   shadow 12.9 % → 14.3 %; object and shadow over both frames 25.0 % → 25.5 % (worst
+//!   29.5 % → 30.3 %). With the estimator's `k`: 37.8 % → 38.1 % (worst 49.2 % → 49.7 %).
+//!   What is left is light the model lacks, not the ratio: the reference's shadow at night is
+//!   brighter than `c_v·Pa` by the lamp's light bounced off the lit ground and walls, and the
+//!   statue is 29 % too dark at night under the truth's `k` (the lamp term has no bounce
+//!   either) — a lamp-bounce term like the sun's `b` would be next.
 
 use crate::gpu::canvas::storage_entry;
 use crate::gpu::texture::Tex;

@@ -20,7 +20,8 @@
 //!   [`fit_spot_view`] extends to perspective views), fitted to the objects' bounds; the objects
 //!   and the real proxy are drawn into it, so the objects shadow themselves and each other and
 //!   real geometry shadows them. A light field with more positions than free maps shares one map
-//!   from its centre.
+//!   from its centre. A second atlas of the same views holds the proxy alone, for the objects'
+//!   lamp shadows on the real receivers in the composite ([`ground`], `lamp_ground`).
 //! - **Left out, with the reason in the pass report**: the whole lamp stage when the objects are
 //!   not drawn; lamps that are off (`k = 0`: the schedule, or no scale in the lighting); lamps
 //!   whose light cannot reach the objects' bounds ([`SpotSet::misses`]); the shadow maps when
