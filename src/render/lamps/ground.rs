@@ -151,3 +151,23 @@ impl<F> Pass<F> for LampGround<'_> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plan(g: LampGround<'_>) -> Plan {
+        <LampGround<'_> as Pass<()>>::plan(&g, &())
+    }
+
+    #[test]
+    fn the_ground_pass_runs_with_the_lamp_term_under_the_differential_model_only() {
+        assert_eq!(plan(LampGround { term: None, differential: true, enabled: true }), Plan::Run);
+        // The lamp term's reason comes first: no lit lamp, no shadow to darken by.
+        assert_eq!(plan(LampGround { term: Some("no lamp lights the objects"), differential: false, enabled: false }), Plan::skip("no lamp lights the objects"));
+        let Plan::Skip(off) = plan(LampGround { term: None, differential: true, enabled: false }) else { panic!("switched off but runs") };
+        assert!(off.contains("switched off"), "{off}");
+        let Plan::Skip(why) = plan(LampGround { term: None, differential: false, enabled: true }) else { panic!("runs without the differential model") };
+        assert!(why.contains("differential"), "{why}");
+    }
+}
