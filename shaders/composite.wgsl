@@ -19,11 +19,16 @@
 //                 and bounce light the objects take from surfaces near them (Debevec 1998's
 //                 differential rendering, with the estimator's model as the local scene);
 //                 with c_v = c, b_v = b it is the normal-aware ratio.
+//                 With lamps (issue 16 §3; src/render/lamps/ground.rs), each lit spot j adds
+//                 k*E_j*V_j^proxy to L_without and k*E_j*V_j^proxy*V_j^objects to L_with, the
+//                 visibilities from the lamp shadow maps with and without the objects: where an
+//                 object blocks only a lamp, video * E_rest / (E_rest + k*E*V).
 // Clipped video pixels (true value unknown) get the model's radiance rho/pi*L instead.
 // Paired with src/render/composite.rs.
 
 #include "common/fullscreen.wgsl"
 #include "common/lighting.wgsl"
+#include "common/lamp_spots.wgsl"
 
 // Linear radiance of the footage; alpha 1 for a usable pixel, 0 for a clipped or invalid one.
 @group(0) @binding(0) var video: texture_2d<f32>;
@@ -49,6 +54,8 @@
 // A storage buffer, not a uniform: lavapipe recompiles (and leaks) a shader whose branches read
 // uniforms on every bind (issue 12; tests/suite/uniform_branches.rs).
 @group(0) @binding(11) var<storage, read> lighting: Lighting;
+// xyz: the proxy point seen by the pixel (world); w: 1 if any.
+@group(0) @binding(12) var surface_point: texture_2d<f32>;
 
 @vertex
 fn vs_main(@builtin(vertex_index) index: u32) -> FullscreenOut {
@@ -103,11 +110,72 @@ fn lit_share_covered(m: vec4<f32>) -> f32 {
     return clamp(m.r / lit, 0.0, 1.0);
 }
 
+// The lamps' light at a real pixel: Σ k·E·V^proxy without the objects, Σ k·E·V^proxy·V^objects
+// with them (the file's head), and whether the objects block any of it.
+struct LampShare {
+    without: vec3<f32>,
+    with_objects: vec3<f32>,
+    shadowed: bool,
+}
+
+// The composite darkens by the objects' lamp shadows this frame (header.taps.y, lamp_ground).
+fn lamps_on() -> bool {
+    return header.taps.y != 0u && header.counts.x > 0u;
+}
+
+// The lamps' share at pixel `px` (proxy normal `n`); with `irradiance` false only `shadowed`
+// is found (two map lookups per spot, no lamp model).
+fn lamp_share(px: vec2<i32>, n: vec3<f32>, irradiance: bool) -> LampShare {
+    var out: LampShare;
+    out.without = vec3<f32>(0.0);
+    out.with_objects = vec3<f32>(0.0);
+    out.shadowed = false;
+    if (!lamps_on()) {
+        return out;
+    }
+    let point = textureLoad(surface_point, px, 0);
+    if (point.w < 0.5) {
+        return out;
+    }
+    let p = point.xyz;
+    for (var k = 0u; k < header.counts.x; k += 1u) {
+        let spot = spots[k];
+        let to_light = spot.world.xyz - p;
+        let dist2 = dot(to_light, to_light);
+        if (dist2 <= 1e-12) {
+            continue;
+        }
+        let l = to_light * inverseSqrt(dist2);
+        let cos_l = dot(n, l);
+        if (cos_l <= 0.0) {
+            continue;
+        }
+        let c = spot_map_coords(spot.index.y, spot.world.xyz, p, n, l);
+        var v_proxy = 1.0;
+        var v_both = 1.0;
+        if (c.w > 0.5) {
+            v_proxy = textureSampleCompareLevel(proxy_atlas, shadow_sampler, c.xy, c.z);
+            v_both = textureSampleCompareLevel(shadow_atlas, shadow_sampler, c.xy, c.z);
+        }
+        if (v_proxy <= 0.0) {
+            continue;
+        }
+        out.shadowed = out.shadowed || v_both < v_proxy;
+        if (irradiance) {
+            let e = spot.scale.rgb * spot_irradiance(spot, p, dist2) * cos_l;
+            out.without += v_proxy * e;
+            out.with_objects += v_both * e;
+        }
+    }
+    return out;
+}
+
 // The differential model (see the file's head); `coverage` is the masks' r, `q` the share of
 // the sunlit real samples it covers.
 fn differential(px: vec2<i32>, v: vec4<f32>, n: vec3<f32>, coverage: f32, q: f32) -> vec3<f32> {
     let present = textureLoad(surface_ambient_with, px, 0);
-    if (present.w < 0.5 && coverage <= 0.0) {
+    let lamps = lamp_share(px, n, true);
+    if (present.w < 0.5 && coverage <= 0.0 && !lamps.shadowed) {
         return v.rgb;
     }
     let a = textureLoad(surface_ambient, px, 0);
@@ -125,8 +193,12 @@ fn differential(px: vec2<i32>, v: vec4<f32>, n: vec3<f32>, coverage: f32, q: f32
     }
     // a.w: the pixel's sunlit fraction (real shadows only); the virtual shadow takes `q` of it.
     let cos_l = max(dot(n, lighting.sun_dir.xyz), 0.0);
-    let l0 = a.rgb * lighting.pa.rgb + (a.w * cos_l + use_b * b) * pd;
-    let l1 = c_v * lighting.pa.rgb + (a.w * (1.0 - q) * cos_l + use_b * b_v) * pd;
+    var l0 = a.rgb * lighting.pa.rgb + (a.w * cos_l + use_b * b) * pd;
+    var l1 = c_v * lighting.pa.rgb + (a.w * (1.0 - q) * cos_l + use_b * b_v) * pd;
+    if (lamps_on()) {
+        l0 += lamps.without;
+        l1 += lamps.with_objects;
+    }
     if (v.a > 0.5) {
         return select(v.rgb, v.rgb * l1 / l0, l0 > vec3<f32>(0.0));
     }
@@ -165,13 +237,22 @@ fn real_radiance(px: vec2<i32>, coverage: f32, q: f32) -> vec3<f32> {
     return mix(v.rgb, shadowed, coverage);
 }
 
+// The objects block a lamp from the real pixel `px` (never without lamps).
+fn lamp_shadowed(px: vec2<i32>) -> bool {
+    if (!lamps_on()) {
+        return false;
+    }
+    let s = textureLoad(surface_normal, px, 0);
+    return s.w > 0.5 && lamp_share(px, s.xyz, false).shadowed;
+}
+
 @fragment
 fn fs_composite(in: FullscreenOut) -> @location(0) vec4<f32> {
     let px = vec2<i32>(floor(in.position.xy));
     let c = canvas_sample(px);
     // Most pixels are untouched: no virtual surface, no virtual shadow, outside the region where
     // the differential model has data. They are the footage, read once.
-    if (c.virtual_rgba.a <= 0.0 && c.masks.r <= 0.0 && (lighting.params.x < 1.5 || textureLoad(surface_ambient_with, px, 0).w < 0.5)) {
+    if (c.virtual_rgba.a <= 0.0 && c.masks.r <= 0.0 && (lighting.params.x < 1.5 || textureLoad(surface_ambient_with, px, 0).w < 0.5) && !lamp_shadowed(px)) {
         return vec4<f32>(textureLoad(video, px, 0).rgb * lighting.params.z, 1.0);
     }
     let real = real_radiance(px, c.masks.r, lit_share_covered(c.masks));

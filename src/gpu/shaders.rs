@@ -15,6 +15,7 @@ pub const SOURCES: &[(&str, &str)] = &[
     ("common/camera.wgsl", include_str!("../../shaders/common/camera.wgsl")),
     ("common/constants.wgsl", include_str!("../../shaders/common/constants.wgsl")),
     ("common/fullscreen.wgsl", include_str!("../../shaders/common/fullscreen.wgsl")),
+    ("common/lamp_spots.wgsl", include_str!("../../shaders/common/lamp_spots.wgsl")),
     ("common/lighting.wgsl", include_str!("../../shaders/common/lighting.wgsl")),
     ("common/object.wgsl", include_str!("../../shaders/common/object.wgsl")),
     ("common/sh.wgsl", include_str!("../../shaders/common/sh.wgsl")),

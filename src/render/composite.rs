@@ -9,8 +9,10 @@ use super::RenderError;
 use crate::gpu::canvas::{storage_entry, texture_entry};
 use crate::gpu::shaders;
 
-/// Texture bindings of the composite pass, in `shaders/composite.wgsl` order.
+/// Texture bindings of the composite pass before its sampler, in `shaders/composite.wgsl` order.
 const TEXTURE_BINDINGS: u32 = 10;
+/// The proxy point per footage pixel (after the sampler and the lighting).
+const POINT_BINDING: u32 = TEXTURE_BINDINGS + 2;
 /// The first of the bindings sampled bilinearly (the canvas layers).
 const FIRST_FILTERED: u32 = 8;
 
@@ -34,19 +36,22 @@ pub fn layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
         count: None,
     });
     entries.push(storage_entry(TEXTURE_BINDINGS + 1));
+    entries.push(texture_entry(POINT_BINDING, false));
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("composite"), entries: &entries })
 }
 
 impl Composite {
-    /// Pipelines writing `format` (and, with `masks_format`, the debug mask pipeline).
+    /// Pipelines writing `format` (and, with `masks_format`, the debug mask pipeline);
+    /// `lamp_layout` is the lamps' data group ([`crate::render::lamps::ground::data_layout`]).
     pub fn new(
         device: &wgpu::Device,
         layout: &wgpu::BindGroupLayout,
+        lamp_layout: &wgpu::BindGroupLayout,
         format: wgpu::TextureFormat,
         masks_format: Option<wgpu::TextureFormat>,
     ) -> Result<Self, RenderError> {
         let module = shaders::module(device, "composite.wgsl")?;
-        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("composite"), bind_group_layouts: &[Some(layout)], immediate_size: 0 });
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("composite"), bind_group_layouts: &[Some(layout), None, Some(lamp_layout)], immediate_size: 0 });
         let make = |entry: &str, format: wgpu::TextureFormat| {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(entry),
@@ -70,8 +75,8 @@ impl Composite {
 
     /// Records the composite into `target` (cleared first) and, with `masks` (a target of the
     /// mask format) and the mask pipeline, the warped debug masks; `bind_group` is the
-    /// composite's group 0.
-    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, bind_group: &wgpu::BindGroup, target: &wgpu::TextureView, masks: Option<&wgpu::TextureView>) {
+    /// composite's group 0, `lamps` the lamps' data group (an empty one without lamps).
+    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, bind_group: &wgpu::BindGroup, lamps: &wgpu::BindGroup, target: &wgpu::TextureView, masks: Option<&wgpu::TextureView>) {
         let fullscreen = |encoder: &mut wgpu::CommandEncoder, label: &str, view: &wgpu::TextureView, clear: wgpu::Color, pipeline: &wgpu::RenderPipeline| {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some(label),
@@ -85,6 +90,7 @@ impl Composite {
             });
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, bind_group, &[]);
+            pass.set_bind_group(crate::render::lamps::ground::GROUP, lamps, &[]);
             pass.draw(0..3, 0..1);
         };
         fullscreen(encoder, "composite", target, wgpu::Color::BLACK, &self.composite);

@@ -208,6 +208,8 @@ pub mod pass {
     pub const LAMP_SHADOWS: &str = "lamp_shadows";
     /// The lamps' light on the virtual objects (`render::lamps`).
     pub const LAMP_TERM: &str = "lamp_term";
+    /// The objects' lamp shadows on the real receivers (`render::lamps::ground`).
+    pub const LAMP_GROUND: &str = "lamp_ground";
     /// One lamp left out of the lamp term (the reason names it).
     pub const LAMP: &str = "lamp";
     /// The output frame.

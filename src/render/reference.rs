@@ -127,7 +127,7 @@ pub const OBJECT: u8 = 1;
 /// Pixel class: a proxy surface the objects shadow.
 pub const SHADOW: u8 = 2;
 
-/// The class of every crop pixel for one sun direction.
+/// The class of every crop pixel for one sun direction (and the lit lamps).
 #[derive(Clone, Debug)]
 pub struct Classes {
     /// The crop.
@@ -142,6 +142,21 @@ impl Classes {
     /// Classifies the crop (see the module docs); `objects` holds the virtual objects alone,
     /// `proxy` the real proxy, `sun` the unit direction toward the sun.
     pub fn new(scene: &Scene, objects: &RayScene, proxy: &RayScene, crop: Crop, sun: Vec3) -> Self {
+        Self::with_lamps(scene, objects, proxy, crop, Some(sun), &[])
+    }
+
+    /// As [`Classes::new`], with the shadow toward the sun when `sun` is given and toward the
+    /// lit lamps at `lamps` (world positions; issue 16's "object and its lamp shadow"): a proxy
+    /// pixel is *shadow* when the objects block the sun or any of the lamps from it.
+    pub fn with_lamps(scene: &Scene, objects: &RayScene, proxy: &RayScene, crop: Crop, sun: Option<Vec3>, lamps: &[Vec3]) -> Self {
+        let blocks_lamp = |p: Vec3, n: Vec3| {
+            lamps.iter().any(|&at| {
+                let o = p + n * crate::geometry::raycast::RAY_EPSILON_M;
+                let d = at - o;
+                let dist = d.length();
+                dist > 0.0 && objects.occluded(o, d / dist, dist)
+            })
+        };
         let class: Vec<u8> = (0..crop.width * crop.height)
             .map(|i| {
                 let (col, row) = (crop.x + i % crop.width, crop.y + i / crop.width);
@@ -149,7 +164,7 @@ impl Classes {
                 let (o, d) = (o.as_vec3(), d.as_vec3());
                 match (objects.intersect(o, d, f32::MAX), proxy.intersect(o, d, f32::MAX)) {
                     (Some(s), p) if p.is_none_or(|p| s.t < p.t) => OBJECT,
-                    (_, Some(p)) if !objects.sees_direction(p.point, p.normal, sun) => SHADOW,
+                    (_, Some(p)) if sun.is_some_and(|sun| !objects.sees_direction(p.point, p.normal, sun)) || blocks_lamp(p.point, p.normal) => SHADOW,
                     _ => ELSEWHERE,
                 }
             })
@@ -214,6 +229,10 @@ pub struct CompositeError {
     pub object_mean: f64,
     /// Mean radiance of the reference over the object pixels.
     pub object_mean_reference: f64,
+    /// Mean radiance of `out` over the shadow pixels (channels averaged).
+    pub shadow_mean: f64,
+    /// Mean radiance of the reference over the shadow pixels.
+    pub shadow_mean_reference: f64,
 }
 
 /// The error of `out` (a whole footage frame) against `reference` (the crop of [`Classes`]).
@@ -231,19 +250,22 @@ pub fn composite_error(classes: &Classes, out: &LinearImage, reference: &LinearI
     let both = select(&|i| c[i] != ELSEWHERE);
     let interior = select(&|i| c[i] != ELSEWHERE && !classes.edge[i]);
     let object = select(&|i| c[i] == OBJECT);
+    let shadow = select(&|i| c[i] == SHADOW);
     let mean = |idx: &[usize], k: usize| {
         idx.iter().map(|&i| { let p = if k == 0 { pairs[i].0 } else { pairs[i].1 }; (p[0] + p[1] + p[2]) as f64 / 3.0 }).sum::<f64>() / idx.len().max(1) as f64
     };
     CompositeError {
         object_and_shadow: rmse(&both),
         object: rmse(&object),
-        shadow: rmse(&select(&|i| c[i] == SHADOW)),
+        shadow: rmse(&shadow),
         interior: rmse(&interior),
         elsewhere: rmse(&select(&|i| c[i] == ELSEWHERE)),
         pixels: both.len(),
         interior_pixels: interior.len(),
         object_mean: mean(&object, 0),
         object_mean_reference: mean(&object, 1),
+        shadow_mean: mean(&shadow, 0),
+        shadow_mean_reference: mean(&shadow, 1),
     }
 }
 

@@ -59,6 +59,15 @@ pub struct RenderSweep {
     /// Sun motion per frame of the moving-sun benchmark, degrees.
     #[arg(long, default_value_t = 0.5)]
     sun_step_deg: f32,
+    /// Light every lamp its schedule has on with this scale `k` instead of the estimator's
+    /// (e.g. 1, the dusk scene's truth `lamp_k` on its reference frames), to tell the
+    /// compositor's error from the estimator's.
+    #[arg(long)]
+    lamp_k: Option<f32>,
+    /// Leave out the objects' lamp shadows on real receivers (`lamp_ground`), to measure what
+    /// they add.
+    #[arg(long)]
+    no_lamp_ground: bool,
 }
 
 /// One reference frame: its footage, lighting, reference image and pixel classes.
@@ -100,15 +109,16 @@ pub fn run(a: RenderSweep) -> Result<()> {
         bail!("{}: no [[virtual_objects]] to composite", scene.root.join(heliar::scene::MANIFEST_FILE).display());
     }
     let seq = scene.sequence(refs.sequence.as_deref()).context("the references' sequence")?.clone();
-    let frames = reference_frames(&scene, &ray, &refs, &seq)?;
+    let frames = reference_frames(&scene, &ray, &refs, &seq, a.lamp_k)?;
     let values = knob_values(a.knob, &CompositorConfig::for_scene(&scene));
-    let rows = sweep(&scene, &ray, &frames, values)?;
+    let rows = sweep(&scene, &ray, &frames, values, !a.no_lamp_ground)?;
     report(&a, &rows, &frames)
 }
 
 /// Estimates the sequence up to the last reference frame (the smoothing needs the frames
-/// before), and keeps what the references need.
-fn reference_frames(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayScene>, refs: &References, seq: &heliar::scene::Sequence) -> Result<Vec<RefFrame>> {
+/// before), and keeps what the references need; `lamp_k` replaces the scale of every lamp
+/// the schedule has on.
+fn reference_frames(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayScene>, refs: &References, seq: &heliar::scene::Sequence, lamp_k: Option<f32>) -> Result<Vec<RefFrame>> {
     let (scene, ray) = (scene, ray.clone());
     let lin = seq.photometry.linearizer();
     let mut est = Estimator::new(&scene, ray.clone()).with_context(|| format!("setting up the estimator for {}", scene.root.display()))?;
@@ -128,9 +138,21 @@ fn reference_frames(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::ra
         let e = est.estimate(i, &seq.times[i], &frame, &lin).with_context(|| format!("estimating {}", path.display()))?;
         pb.inc(1);
         let Some(k) = refs.frames.iter().position(|&f| f == i) else { continue };
-        let lighting = lighting_of(&e);
+        let mut lighting = lighting_of(&e);
+        if let Some(k) = lamp_k {
+            let scales: Vec<[f32; 3]> = e.lamps.iter().map(|l| if l.status == heliar::estimate::LampStatus::Off { [0.0; 3] } else { [k; 3] }).collect();
+            lighting.lamps = heliar::lighting::LampScales::from_slice(&scales);
+        }
         let grid = probes.relight(&lighting).clone();
-        let classes = Classes::new(&scene, &objects, &ray, refs.crop, lighting.sun_dir);
+        // With lamps on, the shadow that matters is theirs (issue 16 §4: "the object and its
+        // lamp shadow"), with the sun's while it is up; without, the sun's as before.
+        // A lamp is on by its schedule, whatever the estimator's `k`.
+        let lit: Vec<glam::Vec3> = scene.lights.iter().zip(&e.lamps).filter(|(_, r)| r.status != heliar::estimate::LampStatus::Off).map(|(l, _)| l.position.as_vec3()).collect();
+        let classes = if lit.is_empty() {
+            Classes::new(&scene, &objects, &ray, refs.crop, lighting.sun_dir)
+        } else {
+            Classes::with_lamps(&scene, &objects, &ray, refs.crop, lighting.above_horizon.then_some(lighting.sun_dir), &lit)
+        };
         frames.push(RefFrame { index: i, video: VideoFrame::from_frame(&frame, &lin), lighting, grid, reference: refs.image(k)?, classes });
     }
     pb.finish_and_clear();
@@ -156,8 +178,9 @@ fn knob_values(knob: Knob, base: &CompositorConfig) -> Vec<(String, CompositorCo
     }
 }
 
-/// Runs the compositor once per setting over the reference frames.
-fn sweep(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayScene>, frames: &[RefFrame], values: Vec<(String, CompositorConfig, u32)>) -> Result<Vec<Row>> {
+/// Runs the compositor once per setting over the reference frames; `lamp_ground`: the objects'
+/// lamp shadows on real receivers.
+fn sweep(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayScene>, frames: &[RefFrame], values: Vec<(String, CompositorConfig, u32)>, lamp_ground: bool) -> Result<Vec<Row>> {
     let mut gpus: Vec<(u32, Arc<Gpu>)> = Vec::new();
     let pb = frame_bar(values.len(), "sweep");
     let mut rows = Vec::new();
@@ -172,6 +195,10 @@ fn sweep(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayS
         };
         let t = std::time::Instant::now();
         let mut comp = Compositor::for_scene(gpu, scene, ray.clone(), config).with_context(|| format!("setting up the compositor for {}", scene.root.display()))?;
+        if !lamp_ground && !scene.lights.is_empty() {
+            let lamps = heliar::lamps::Lamp::load_all(&scene.root.join(heliar::scene::MANIFEST_FILE), &scene.lights)?;
+            comp.set_lamps(&lamps, heliar::render::lamps::LampOptions { ground: false, ..Default::default() })?;
+        }
         let setup_ms = ms(t);
         let (mut errors, mut frame_ms, mut transfer_ms, mut traced) = (Vec::new(), Vec::new(), 0.0f64, 0usize);
         for f in frames {
@@ -181,7 +208,20 @@ fn sweep(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayS
             let (out, report) = comp.render(&f.video, &f.lighting)?;
             transfer_ms = transfer_ms.max(report.timings.transfer_ms);
             traced = traced.max(report.transfer_traced);
-            errors.push(composite_error(&f.classes, &out.image, &f.reference));
+            let e = composite_error(&f.classes, &out.image, &f.reference);
+            eprintln!(
+                "{label}, frame {}: {:.2}% (object {:.2}%, shadow {:.2}%, {} px); object mean {:.4} against the reference's {:.4}, shadow mean {:.5} against {:.5}",
+                f.index,
+                100.0 * e.object_and_shadow,
+                100.0 * e.object,
+                100.0 * e.shadow,
+                e.pixels,
+                e.object_mean,
+                e.object_mean_reference,
+                e.shadow_mean,
+                e.shadow_mean_reference
+            );
+            errors.push(e);
             comp.invalidate();
             let t = std::time::Instant::now();
             comp.render(&f.video, &f.lighting)?;

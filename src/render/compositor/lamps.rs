@@ -7,7 +7,7 @@ use super::context::FrameContext;
 use crate::lamps::Lamp;
 use crate::lighting::Lighting;
 use crate::render::RenderError;
-use crate::render::frame::PassReport;
+use crate::render::frame::{Darkening, PassReport};
 use crate::render::lamps::{LampOptions, LampPass};
 
 impl Compositor {
@@ -15,7 +15,7 @@ impl Compositor {
     /// takes the scale `i` of the frame's [`crate::lighting::LampScales`]); an empty list removes
     /// the lamp stage.
     pub fn set_lamps(&mut self, lamps: &[Lamp], options: LampOptions) -> Result<(), RenderError> {
-        self.lamps = if lamps.is_empty() { None } else { Some(LampPass::new(&self.gpu, lamps, options, &self.camera_buf, &self.mat_layout)?) };
+        self.lamps = if lamps.is_empty() { None } else { Some(LampPass::new(&self.gpu, lamps, options, &self.camera_buf, &self.mat_layout, &self.lamp_layout)?) };
         Ok(())
     }
 
@@ -25,7 +25,9 @@ impl Compositor {
     }
 
     /// Plans the frame's lamps, draws their shadow maps when they must be, uploads the frame's
-    /// spots; true when the lamp term runs. Nothing at all without lamps.
+    /// spots (zero spots when the term does not run, so the composite's lamp loop stays idle),
+    /// and decides the objects' lamp shadows on the real receivers (`lamp_ground`, run with
+    /// the differential darkening); true when the lamp term runs. Nothing at all without lamps.
     pub(super) fn prepare_lamps(&mut self, ctx: &FrameContext, lighting: &Lighting, encoder: &mut wgpu::CommandEncoder, report: &mut PassReport) -> bool {
         let Some(lamps) = self.lamps.as_mut() else { return false };
         let bounds = self.virtual_bounds.iter().copied().reduce(|(a, b), (c, d)| (a.min(c), b.max(d)));
@@ -34,8 +36,13 @@ impl Compositor {
             lamps.record_shadows(&self.gpu, encoder, &self.virt, &self.proxy);
         }
         let run = ctx.admit(&lamps.term_unit(), report);
+        let differential = ctx.has_objects() && self.config.darkening == Darkening::Differential;
+        let ground = ctx.admit(&lamps.ground_unit(differential), report);
+        lamps.set_ground(ground);
         if run {
             lamps.upload(&self.gpu.queue, report);
+        } else {
+            lamps.clear(&self.gpu.queue);
         }
         run
     }

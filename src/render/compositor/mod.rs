@@ -52,7 +52,7 @@
 //! | footage, lighting uniform | | upload |
 //! | `depth_prepass`, `real_volumes`, `virtual_volumes` | [`DepthPrepass`](crate::render::depth_prepass::DepthPrepass), [`RealVolumes`], [`VirtualVolumes`] | one render pass |
 //! | `shadow_mask` | [`ShadowMask`](crate::render::shadow_mask::ShadowMask) | render pass |
-//! | `lamp_shadows`, `lamp_term` (with `[[lights]]` only) | [`LampPass`](crate::render::lamps::LampPass) (`lamps.rs`) | atlas render pass; upload |
+//! | `lamp_shadows`, `lamp_term`, `lamp_ground` (with `[[lights]]` only) | [`LampPass`](crate::render::lamps::LampPass) (`lamps.rs`); `lamp_ground` is a term of the composite's shader ([`crate::render::lamps::ground`]) | atlas render passes; upload |
 //! | `virtual_shading`, `sun_term` | [`VirtualShading`](crate::render::virtual_shading::VirtualShading), `SunTerm` (a term of its shader and the composite's); the lamp term drawn after it in its render pass | render pass |
 //! | `composite` | [`Composite`](crate::render::composite::Composite) | render pass(es) |
 //!
@@ -128,6 +128,10 @@ pub struct Compositor {
     mask: ShadowMask,
     composite_layout: wgpu::BindGroupLayout,
     composite_bg: wgpu::BindGroup,
+    /// The lamps' data group's layout (lamp term and composite, `render::lamps::ground`).
+    lamp_layout: wgpu::BindGroupLayout,
+    /// The composite's lamp group without lamps (zero spots).
+    no_lamps_bg: wgpu::BindGroup,
     composites: HashMap<wgpu::TextureFormat, Composite>,
     /// The stored depth, stencil and mask, and their canvas region.
     stencil: StencilCache,
@@ -260,7 +264,7 @@ impl Compositor {
     /// output scaled by `exposure`. Submits without waiting.
     pub fn render_to(&mut self, view: &wgpu::TextureView, format: wgpu::TextureFormat, exposure: f32, video: &VideoFrame, lighting: &Lighting) -> Result<PassReport, RenderError> {
         if !self.composites.contains_key(&format) {
-            let c = Composite::new(&self.gpu.device, &self.composite_layout, format, None)?;
+            let c = Composite::new(&self.gpu.device, &self.composite_layout, &self.lamp_layout, format, None)?;
             self.composites.insert(format, c);
         }
         let (encoder, report) = self.encode(video, lighting, view, format, exposure)?;

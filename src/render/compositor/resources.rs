@@ -29,6 +29,9 @@ pub struct Resources {
     pub ambient_with: Tex,
     /// `b_v`.
     pub bounce_with: Tex,
+    /// Proxy point per footage pixel, `w = 1` where there is one (the lamps' shadows on real
+    /// receivers, `render::lamps::ground`).
+    pub point: Tex,
     /// Lens warp and footprint ([`crate::gpu::canvas::Canvas::warp_footprint`]).
     pub warp: Tex,
     /// Offscreen output (`Rgba32Float`).
@@ -68,6 +71,7 @@ impl Resources {
             ambient_with: Tex::new(d, "proxy c with objects", out, f32x4, 1, input),
             bounce_with: Tex::new(d, "proxy b with objects", out, f32x4, 1, input),
             warp: Tex::new(d, "lens warp", out, f32x4, 1, input),
+            point: Tex::new(d, "proxy point", out, f32x4, 1, input),
             output: Tex::new(d, "output", out, gpu.output_format, 1, target),
             output_masks: Tex::new(d, "output masks", out, MASK_FORMAT, 1, target),
             occlusion: Tex::new(d, "virtual occlusion", canvas, wgpu::TextureFormat::R32Float, 1, input),
@@ -103,6 +107,7 @@ impl Resources {
         let n = views.len() as u32;
         entries.push(wgpu::BindGroupEntry { binding: n, resource: wgpu::BindingResource::Sampler(&self.sampler) });
         entries.push(wgpu::BindGroupEntry { binding: n + 1, resource: lighting.as_entire_binding() });
+        entries.push(wgpu::BindGroupEntry { binding: n + 2, resource: wgpu::BindingResource::TextureView(&self.point.view) });
         device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("composite"), layout, entries: &entries })
     }
 
@@ -110,6 +115,8 @@ impl Resources {
     pub fn write_receivers(&self, queue: &wgpu::Queue, canvas: &Canvas, receivers: &Receivers) {
         self.warp.write(queue, &canvas.warp_footprint());
         self.normal.write(queue, &receivers.normal);
+        let points: Vec<[f32; 4]> = receivers.point.iter().map(|p| p.map_or([0.0; 4], |p| [p.x, p.y, p.z, 1.0])).collect();
+        self.point.write(queue, &points);
         self.albedo.write(queue, &receivers.albedo);
         self.ambient.write(queue, &receivers.ambient);
         self.bounce.write(queue, &receivers.bounce);

@@ -119,6 +119,7 @@ struct Pipelines {
     shading: VirtualShading,
     mask: ShadowMask,
     composite_layout: wgpu::BindGroupLayout,
+    lamp_layout: wgpu::BindGroupLayout,
     composites: HashMap<wgpu::TextureFormat, Composite>,
 }
 
@@ -126,8 +127,9 @@ impl Pipelines {
     fn new(gpu: &Gpu, cam_layout: &wgpu::BindGroupLayout, mat_layout: &wgpu::BindGroupLayout) -> Result<Self, RenderError> {
         let (d, df, s) = (&gpu.device, gpu.depth_format, gpu.samples);
         let composite_layout = composite::layout(d);
+        let lamp_layout = crate::render::lamps::ground::data_layout(d);
         let mut composites = HashMap::new();
-        composites.insert(gpu.output_format, Composite::new(d, &composite_layout, gpu.output_format, Some(MASK_FORMAT))?);
+        composites.insert(gpu.output_format, Composite::new(d, &composite_layout, &lamp_layout, gpu.output_format, Some(MASK_FORMAT))?);
         Ok(Self {
             prepass: DepthPrepass::new(d, cam_layout, df, s, std::mem::size_of::<VirtualVertex>() as u64)?,
             shadow: ShadowVolumePass::new(d, cam_layout, df, s)?,
@@ -135,6 +137,7 @@ impl Pipelines {
             shading: VirtualShading::new(d, mat_layout, df, s)?,
             mask: ShadowMask::new(d, df, s)?,
             composite_layout,
+            lamp_layout,
             composites,
         })
     }
@@ -175,6 +178,7 @@ impl Compositor {
         let proxy = ProxyBuffers::new(d, parts.proxy);
         let p = Pipelines::new(&gpu, &cam_layout, &mat_layout)?;
         let composite_bg = res.composite_bind_group(d, &p.composite_layout, &uniforms.lighting_buf);
+        let no_lamps_bg = crate::render::lamps::ground::empty_data(d, &p.lamp_layout);
         let probes = GpuProbes::new(d, &gpu.queue, &ProbeGrid::filled(Vec3::ZERO, Vec3::ZERO, 1.0, [[0.0; 3]; 9]));
         res.occlusion.write(&gpu.queue, &object_occlusion(&canvas, transfer_scene.as_ref(), &config));
         let transfer = TransferPass::new(object_transfer(&canvas, transfer_scene, &config, &res, &gpu.queue), config.bounce_rebuild_deg);
@@ -204,6 +208,8 @@ impl Compositor {
             mask: p.mask,
             composite_layout: p.composite_layout,
             composite_bg,
+            lamp_layout: p.lamp_layout,
+            no_lamps_bg,
             composites: p.composites,
             stencil: StencilCache::default(),
             switches: PassSwitches::default(),

@@ -11,7 +11,7 @@
 //! | shadow mask | [`ShadowMask`] | no objects; the stored stencil serves |
 //! | lamp shadow atlas | `lamp_shadows` ([`crate::render::lamps`]) | no lamps; no lamp lights the objects; the maps drawn serve |
 //! | virtual shading | [`VirtualShading`], and the [`SunTerm`] in its shader; then `lamp_term` (additive) | no objects (no sun: the sun term; no lit lamp: the lamp term) |
-//! | composite | [`Composite`] | never |
+//! | composite | [`Composite`]; with lamps, `lamp_ground` in its shader ([`crate::render::lamps::ground`]) | never (`lamp_ground`: when the lamp term is left out; darkening not differential) |
 //!
 //! The 3D passes are scissored to the stored stencil's canvas region.
 
@@ -156,6 +156,7 @@ impl Compositor {
             }
         }
         let masks = self.config.debug_masks.then_some(&self.res.output_masks.view);
-        composite.record(encoder, &self.composite_bg, target, masks);
+        let lamps = self.lamps.as_ref().map_or(&self.no_lamps_bg, |l| l.data_bind_group());
+        composite.record(encoder, &self.composite_bg, lamps, target, masks);
     }
 }

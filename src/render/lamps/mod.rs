@@ -20,7 +20,8 @@
 //!   [`fit_spot_view`] extends to perspective views), fitted to the objects' bounds; the objects
 //!   and the real proxy are drawn into it, so the objects shadow themselves and each other and
 //!   real geometry shadows them. A light field with more positions than free maps shares one map
-//!   from its centre.
+//!   from its centre. A second atlas of the same views holds the proxy alone, for the objects'
+//!   lamp shadows on the real receivers in the composite ([`ground`], `lamp_ground`).
 //! - **Left out, with the reason in the pass report**: the whole lamp stage when the objects are
 //!   not drawn; lamps that are off (`k = 0`: the schedule, or no scale in the lighting); lamps
 //!   whose light cannot reach the objects' bounds ([`SpotSet::misses`]); the shadow maps when
@@ -28,11 +29,12 @@
 //!   without `[[lights]]` has no lamp stage at all: nothing is recorded or reported, and its
 //!   output is bit for bit what it was before lamps existed.
 
+pub mod ground;
 pub mod spots;
 
 pub use spots::{GpuSpot, SpotSet};
 
-use crate::gpu::canvas::{storage_entry, uniform_entry};
+use crate::gpu::canvas::uniform_entry;
 use crate::gpu::mesh::{ProxyBuffers, VirtualBuffers, VirtualVertex};
 use crate::gpu::texture::Tex;
 use crate::gpu::{Gpu, GpuError, LAYER_FORMAT, shaders};
@@ -60,12 +62,16 @@ pub struct LampOptions {
     pub shadow_maps: usize,
     /// Size of each map, texels.
     pub tile: u32,
+    /// Darken the real receivers by the objects' lamp shadows ([`ground`], with the
+    /// differential darkening).
+    pub ground: bool,
 }
 
 impl Default for LampOptions {
-    /// One point per cell (16 lookups per spot), up to 81 maps (a 9×9 light field) of 256².
+    /// One point per cell (16 lookups per spot), up to 81 maps (a 9×9 light field) of 256²,
+    /// shadows on real receivers on.
     fn default() -> Self {
-        Self { support_points: 1, shadows: true, shadow_maps: 81, tile: DEFAULT_TILE }
+        Self { support_points: 1, shadows: true, shadow_maps: 81, tile: DEFAULT_TILE, ground: true }
     }
 }
 
@@ -99,8 +105,14 @@ pub struct LampPass {
     spots: wgpu::Buffer,
     views: wgpu::Buffer,
     atlas: Tex,
+    /// The same maps with the proxy alone ([`ground`]).
+    proxy_atlas: Tex,
     tiles: u32,
-    bind_group: wgpu::BindGroup,
+    camera_bg: wgpu::BindGroup,
+    /// Group [`ground::GROUP`]: the spots and maps, for the lamp term and the composite.
+    data_bg: wgpu::BindGroup,
+    /// The composite darkens the real receivers by the objects' lamp shadows this frame.
+    ground: bool,
     /// The views the atlas holds (`None`: stale).
     drawn: Option<Vec<ShadowView>>,
     frame: LampFrame,
@@ -110,34 +122,17 @@ fn storage(device: &wgpu::Device, label: &str, bytes: &[u8]) -> wgpu::Buffer {
     device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: bytes, usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST })
 }
 
-fn layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    let frag = wgpu::ShaderStages::FRAGMENT;
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("lamps"),
-        entries: &[
-            uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT),
-            storage_entry(1),
-            storage_entry(2),
-            storage_entry(3),
-            storage_entry(4),
-            storage_entry(5),
-            wgpu::BindGroupLayoutEntry {
-                binding: 6,
-                visibility: frag,
-                ty: wgpu::BindingType::Texture { sample_type: wgpu::TextureSampleType::Depth, view_dimension: wgpu::TextureViewDimension::D2, multisampled: false },
-                count: None,
-            },
-            wgpu::BindGroupLayoutEntry { binding: 7, visibility: frag, ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison), count: None },
-        ],
-    })
+/// Group 0 of the lamp term: the compositor's camera.
+fn camera_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("lamps camera"), entries: &[uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT)] })
 }
 
 /// The additive pipelines (closed meshes culled, open ones two-sided), with the virtual
 /// shading's depth and stencil tests so each visible sample is lit once.
-fn pipelines(gpu: &Gpu, layout: &wgpu::BindGroupLayout, material_layout: &wgpu::BindGroupLayout) -> Result<(wgpu::RenderPipeline, wgpu::RenderPipeline), RenderError> {
+fn pipelines(gpu: &Gpu, layout: &wgpu::BindGroupLayout, material_layout: &wgpu::BindGroupLayout, data_layout: &wgpu::BindGroupLayout) -> Result<(wgpu::RenderPipeline, wgpu::RenderPipeline), RenderError> {
     let device = &gpu.device;
     let module = shaders::module(device, "lamps.wgsl")?;
-    let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("lamps"), bind_group_layouts: &[Some(layout), Some(material_layout)], immediate_size: 0 });
+    let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("lamps"), bind_group_layouts: &[Some(layout), Some(material_layout), Some(data_layout)], immediate_size: 0 });
     let attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2];
     let add = wgpu::BlendComponent { src_factor: wgpu::BlendFactor::One, dst_factor: wgpu::BlendFactor::One, operation: wgpu::BlendOperation::Add };
     let keep = wgpu::BlendComponent { src_factor: wgpu::BlendFactor::Zero, dst_factor: wgpu::BlendFactor::One, operation: wgpu::BlendOperation::Add };
@@ -176,8 +171,9 @@ fn pipelines(gpu: &Gpu, layout: &wgpu::BindGroupLayout, material_layout: &wgpu::
 
 impl LampPass {
     /// Sets the lamp term up for `lamps` (scene order): their spots and images uploaded, the
-    /// pipelines, an atlas for the maps. `camera`: the compositor's camera uniform.
-    pub fn new(gpu: &Gpu, lamps: &[Lamp], options: LampOptions, camera: &wgpu::Buffer, material_layout: &wgpu::BindGroupLayout) -> Result<Self, RenderError> {
+    /// pipelines, an atlas for the maps (and one for the proxy alone, [`ground`]).
+    /// `camera`: the compositor's camera uniform; `data_layout`: [`ground::data_layout`].
+    pub fn new(gpu: &Gpu, lamps: &[Lamp], options: LampOptions, camera: &wgpu::Buffer, material_layout: &wgpu::BindGroupLayout, data_layout: &wgpu::BindGroupLayout) -> Result<Self, RenderError> {
         let device = &gpu.device;
         let set = SpotSet::new(lamps);
         let texel_bytes = (set.texels.len() * std::mem::size_of::<[u32; 2]>()) as u64;
@@ -198,29 +194,13 @@ impl LampPass {
         let tile = options.tile.clamp(1, (device.limits().max_texture_dimension_2d / tiles).max(1));
         let side = tiles * tile;
         let atlas = Tex::new(device, "lamp shadow atlas", (side, side), ATLAS_FORMAT, 1, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING);
-        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("lamp shadow atlas"),
-            mag_filter: wgpu::FilterMode::Nearest,
-            min_filter: wgpu::FilterMode::Nearest,
-            compare: Some(wgpu::CompareFunction::LessEqual),
-            ..Default::default()
-        });
-        let layout = layout(device);
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("lamps"),
-            layout: &layout,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: camera.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: header.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: spots_buf.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: texels.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 4, resource: taps_buf.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 5, resource: views.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&atlas.view) },
-                wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(&sampler) },
-            ],
-        });
-        let (closed, open) = pipelines(gpu, &layout, material_layout)?;
+        let proxy_atlas = Tex::new(device, "lamp shadow atlas, proxy alone", (side, side), ATLAS_FORMAT, 1, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING);
+        let sampler = ground::atlas_sampler(device);
+        let camera_layout = camera_layout(device);
+        let camera_bg = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("lamps camera"), layout: &camera_layout, entries: &[wgpu::BindGroupEntry { binding: 0, resource: camera.as_entire_binding() }] });
+        let buffers = [&header, &spots_buf, &texels, &taps_buf, &views];
+        let data_bg = ground::data_bind_group(device, data_layout, &ground::DataBindings { buffers, atlas: &atlas.view, proxy_atlas: &proxy_atlas.view, sampler: &sampler });
+        let (closed, open) = pipelines(gpu, &camera_layout, material_layout, data_layout)?;
         let atlas_pass = ShadowAtlasPass::with_strides(device, &[std::mem::size_of::<VirtualVertex>() as u64, std::mem::size_of::<[f32; 3]>() as u64])?;
         Ok(Self {
             set,
@@ -233,8 +213,11 @@ impl LampPass {
             spots: spots_buf,
             views,
             atlas,
+            proxy_atlas,
             tiles,
-            bind_group,
+            camera_bg,
+            data_bg,
+            ground: false,
             drawn: None,
             frame: LampFrame::default(),
         })
@@ -319,14 +302,39 @@ impl LampPass {
         let proxy_geometry = AtlasGeometry { pipeline: 1, vertices: &proxy.vertices, indices: &proxy.indices, ranges: vec![0..proxy.index_count] };
         let geometry = [AtlasGeometry::objects(objects), proxy_geometry];
         self.atlas_pass.record_geometry(&gpu.device, encoder, &self.atlas.view, &self.views, &geometry, views.len() as u32, self.tiles, self.options.tile);
+        let [_, proxy_geometry] = geometry;
+        self.atlas_pass.record_geometry(&gpu.device, encoder, &self.proxy_atlas.view, &self.views, &[proxy_geometry], views.len() as u32, self.tiles, self.options.tile);
         self.drawn = Some(views.clone());
+    }
+
+    /// The ground unit of the frame (`lamp_ground`, [`ground::LampGround`]); `differential`:
+    /// the composite darkens by the differential model.
+    pub fn ground_unit(&self, differential: bool) -> ground::LampGround<'_> {
+        ground::LampGround { term: self.frame.skip.as_deref(), differential, enabled: self.options.ground && self.options.shadows }
+    }
+
+    /// Whether the composite darkens the real receivers by the objects' lamp shadows (read by
+    /// the next [`LampPass::upload`]).
+    pub fn set_ground(&mut self, on: bool) {
+        self.ground = on;
+    }
+
+    /// The spots and maps as bind group [`ground::GROUP`].
+    pub fn data_bind_group(&self) -> &wgpu::BindGroup {
+        &self.data_bg
+    }
+
+    /// Zero spots for the frame (the lamp term does not run): the composite's lamp loop stays
+    /// idle.
+    pub fn clear(&self, queue: &wgpu::Queue) {
+        queue.write_buffer(&self.header, 0, bytemuck::bytes_of(&GpuHeader { counts: [0; 4], taps: [0; 4] }));
     }
 
     /// Uploads the frame's spots and writes the lamps it left out into `report`.
     pub fn upload(&self, queue: &wgpu::Queue, report: &mut PassReport) {
         let f = &self.frame;
         let maps = if self.drawn.is_some() { f.views.len() as u32 } else { 0 };
-        let header = GpuHeader { counts: [f.spots.len() as u32, self.tiles, self.options.tile, maps], taps: [self.taps, 0, 0, 0] };
+        let header = GpuHeader { counts: [f.spots.len() as u32, self.tiles, self.options.tile, maps], taps: [self.taps, u32::from(self.ground), 0, 0] };
         queue.write_buffer(&self.header, 0, bytemuck::bytes_of(&header));
         queue.write_buffer(&self.spots, 0, bytemuck::cast_slice(&f.spots));
         for why in &f.left_out {
@@ -336,7 +344,8 @@ impl LampPass {
 
     /// Draws the lamp term of the objects into the virtual shading's render pass (after it).
     pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, objects: &VirtualBuffers) {
-        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_bind_group(0, &self.camera_bg, &[]);
+        pass.set_bind_group(ground::GROUP, &self.data_bg, &[]);
         pass.set_vertex_buffer(0, objects.vertices.slice(..));
         pass.set_index_buffer(objects.indices.slice(..), wgpu::IndexFormat::Uint32);
         pass.set_stencil_reference(VIRTUAL_SURFACE);

@@ -29,7 +29,7 @@ const MAX_MEAN_ERROR_OF_RANGE: f64 = 0.01;
 /// sliver of light through at grazing angles; a missed shadow keeps all of it).
 const MAX_SHADOWED_FRACTION: f32 = 0.02;
 /// The lamp's scale `k` (model units → scene radiance).
-const K: [f32; 3] = [0.02, 0.018, 0.012];
+pub(super) const K: [f32; 3] = [0.02, 0.018, 0.012];
 
 fn material(rgb: [f32; 3], roughness: f32, name: &str) -> Material {
     Material { name: name.into(), base_color: [rgb[0], rgb[1], rgb[2], 1.0], base_color_texture: None, metallic: 0.0, roughness }
@@ -48,7 +48,7 @@ fn objects(plate: bool) -> Vec<(String, Mesh)> {
     o
 }
 
-fn setup(plate: bool, eye: [f64; 3]) -> Setup {
+pub(super) fn setup(plate: bool, eye: [f64; 3]) -> Setup {
     Setup { camera: camera(eye, [-0.6, 0.6, 0.0], 320, 240, [0.0; 5]), proxy: yard_proxy(), objects: objects(plate) }
 }
 
@@ -57,7 +57,7 @@ fn light(kind: LightKind, position: Vec3, at: Vec3) -> Light {
     Light { name: "lamp".into(), field: "lights[0]".into(), kind, position: position.as_dvec3(), world_from_lamp: world_from_lamp(aim, 0.0).unwrap(), scale: 1.0, schedule: Schedule::Always }
 }
 
-fn spot(position: Vec3, at: Vec3) -> Lamp {
+pub(super) fn spot(position: Vec3, at: Vec3) -> Lamp {
     Lamp::load(Path::new("scene.toml"), &light(LightKind::Spot { intensity_cd: 600.0, inner_deg: 20.0, outer_deg: 45.0 }, position, at)).unwrap()
 }
 
@@ -65,7 +65,7 @@ fn night(k: [f32; 3]) -> Lighting {
     Lighting { sun_dir: Vec3::Y, above_horizon: false, pd: Vec3::ZERO, pa: Vec3::ZERO, uniform_sky: false, lamps: LampScales::from_slice(&[k]) }
 }
 
-fn config() -> CompositorConfig {
+pub(super) fn config() -> CompositorConfig {
     let mut c = CompositorConfig::from_estimator_settings(&Default::default());
     c.occlusion_rays = 0;
     c.transfer_paths = 0;
@@ -185,7 +185,7 @@ fn occluders_between_lamp_and_object_darken_exactly_the_pixels_behind_them() {
 /// Pixels of an occluded region this close to a lit one are left out of the shadow check: the
 /// map's texels (about 1 cm on the ball at 256² over the objects' box) and its normal offset of
 /// 1.5 texels move the edge by up to two pixels of this camera (1.2 cm at 3 m).
-const SHADOW_EDGE_PX: i64 = 3;
+pub(super) const SHADOW_EDGE_PX: i64 = 3;
 /// Surfaces this close to grazing (`n·l`) are left out too: on a faceted sphere the reference's
 /// shadow rays from the terminator hit the neighbouring facets, which the map's offsets clear.
 const MIN_SHADOW_COS: f32 = 0.05;
