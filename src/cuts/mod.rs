@@ -45,6 +45,8 @@ pub mod frame;
 pub mod lighting;
 pub mod packed;
 pub mod proxy_field;
+pub mod receivers;
+pub mod rotate;
 pub mod shapes;
 pub mod svc;
 pub mod sweep;

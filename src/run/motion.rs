@@ -159,8 +159,9 @@ impl MovingObjects {
             let origin = m.motion.world_from_rest(m.motion.start_seconds()).inverse();
             for t in times {
                 let pose = m.motion.world_from_rest(t);
-                // Only where the cuts serve: the object translated, not turned.
-                if !glam::Mat3::from_mat4(pose * origin).abs_diff_eq(glam::Mat3::IDENTITY, super::motion_cuts::TURN_TOLERANCE) {
+                // Only where the cuts serve: the object moved rigidly (translated, turned).
+                let d = pose * origin;
+                if crate::cuts::rotate::Pose::from_parts(glam::Mat3::from_mat4(d), d.w_axis.truncate()).is_err() {
                     continue;
                 }
                 let pts = m.rest.positions.iter().map(|p| pose.transform_point3(*p));
@@ -189,16 +190,16 @@ impl MovingObjects {
             return Ok(());
         }
         let poses: Vec<Option<Mat4>> = self.objects.iter().map(|o| o.pose).collect();
-        let translations = match cuts.translations(&poses) {
+        let rigid = match cuts.poses(&poses) {
             Ok(t) => t,
-            Err(k) => {
+            Err((k, why)) => {
                 let name = self.objects.get(k).map_or("an object", |o| o.name.as_str());
-                cuts.outcome = CutOutcome::Skipped(format!("{name} turned since its first key and the cuts hold for translation only: re-traced"));
+                cuts.outcome = CutOutcome::Skipped(format!("{name} is not moved rigidly since its first key ({why}) and the cuts hold for rigid motion only: re-traced"));
                 return compositor.move_objects(&self.proxy, &list, &frame.moved);
             }
         };
         let t = std::time::Instant::now();
-        match cuts.evaluate(&translations, relighter, compositor.eye_world()) {
+        match cuts.evaluate(&rigid, relighter, compositor.eye_world()) {
             Ok((ambient, receivers)) => {
                 // The objects' part; the receivers' part is timed where it runs (the compositor's
                 // receiver step) and added to the same `cuts_ms`.
