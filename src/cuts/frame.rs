@@ -1,7 +1,7 @@
 //! The visibility cuts in the frame loop (issue 15 §2; cyberworlds §V-A.4 and §V-B,
 //! `../shared/papers/cyberworlds-captured-lighting-cuts.txt`): the objects' ambient per vertex
 //! and the real receivers' sky visibility with the objects present, for the objects at this
-//! frame's translation.
+//! frame's poses (translated and turned about any axis, [`super::rotate`]).
 //!
 //! # How it works
 //! - **Lighting per unit intensity** ([`UnitLighting`]). The outdoor mode's relit environment
@@ -23,14 +23,19 @@
 //!   irradiance about the normal and about the reflected view direction `r`),
 //!   `E_r = Σ_k l_k v_k max(r·ω_k, 0) / max(n·ω_k, sin 3°)`: the folded cosine divided out at the
 //!   node's direction, as [`super::lighting::Reflectance::brdf`] does for the glTF BRDF.
-//! - **Receivers** ([`ReceiverCuts`]): a real surface point's share of its sky light that the
-//!   objects leave ([`super::lighting::sky_visibility`], weights from the sky per unit `Pa` and
-//!   the receiver's cosine); the compositor sets `c_v = c·V` and `b_v = b·V` from it instead of
-//!   tracing them again.
+//! - **Turned objects** ([`FrameCuts::object_ambient_posed`]): each object's product runs in its
+//!   own frame (`super::rotate`): the lighting clustered in it ([`UnitLighting::in_frame`]), the
+//!   vertex's self-visibility cut and normal as stored, the view's reflection turned into it, the
+//!   other objects' fields (looked up at the vertex taken into *their* frames) and the proxy
+//!   field remapped into it. An object that is not turned uses none of this: translated scenes
+//!   compute exactly what they did.
+//! - **Receivers** ([`ReceiverCuts`], `super::receivers`): a real surface point's share of its
+//!   sky light that the objects leave ([`super::lighting::sky_visibility`], weights from the sky
+//!   per unit `Pa` and the receiver's cosine); the compositor sets `c_v = c·V` and `b_v = b·V`
+//!   from it instead of tracing them again.
 //!
 //! # Limits
-//! Translation only (`crate::cuts` module docs): the caller falls back to the re-trace when an
-//! object turns. `V` at a receiver counts the sky an object hides even where the proxy hides it
+//! `V` at a receiver counts the sky an object hides even where the proxy hides it
 //! already (`c` has that part removed), so contact shadows in a wall's sky shadow come out a
 //! little too dark; the bounce an object blocks is taken in the same share as the sky.
 

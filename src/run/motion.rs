@@ -11,9 +11,9 @@
 //! so its shading stays finite.
 //!
 //! With the scene's visibility cuts ([`super::motion_cuts`], set with
-//! [`MovingObjects::with_cuts`]), a frame where the objects moved by translation evaluates them
-//! (the objects' ambient per vertex, the receivers' sky visibility) and hands them to the
-//! compositor instead of its re-trace; a frame where an object turned re-traces as before. The
+//! [`MovingObjects::with_cuts`]), a frame where the objects moved rigidly (translated, turned)
+//! evaluates them (the objects' ambient per vertex, the receivers' sky visibility) and hands them
+//! to the compositor instead of its re-trace; a frame where an object's scale changed re-traces. The
 //! report names the pass `visibility_cuts`, with its time when it ran and its reason when not.
 
 use super::motion_cuts::{CutOutcome, CutState};
@@ -135,8 +135,8 @@ impl MovingObjects {
         self.cuts.is_ok()
     }
 
-    /// The objects' bounding boxes along their motion where they are translated, not turned
-    /// (where the cuts serve): at every key and at [`REACH_STEPS_PER_KEY`] steps between keys
+    /// The objects' bounding boxes along their motion where they move rigidly (where the cuts
+    /// serve): at every key and at [`REACH_STEPS_PER_KEY`] steps between keys
     /// (the region whose receivers the compositor prepares at set-up, `Compositor::reach_motion`).
     pub fn reach(&self) -> Vec<(Vec3, Vec3)> {
         let mut boxes = Vec::new();
@@ -174,7 +174,7 @@ impl MovingObjects {
     }
 
     /// Hands the objects that moved to `compositor`: by the visibility cuts when they serve
-    /// (objects translated), else by its re-trace. `relighter` is the probe source's (the
+    /// (objects moved rigidly), else by its re-trace. `relighter` is the probe source's (the
     /// lighting the cuts shade with).
     pub fn apply(&mut self, compositor: &mut Compositor, frame: &FrameMotion, relighter: Option<&Relighter>) -> Result<(), RenderError> {
         let list: Vec<(String, &Mesh)> = self.objects.iter().map(|o| (o.name.clone(), &o.mesh)).collect();
