@@ -101,11 +101,9 @@ impl Compositor {
         self.receiver_pixels.reach = Some(boxes);
     }
 
-    /// `c`, `b` over the motion's reach, once (see [`Self::reach_motion`]); true when it
-    /// computed (the values must be uploaded).
-    fn warm_reach(&mut self, ctx: &FrameContext, report: &mut PassReport) -> bool {
-        let Some(boxes) = self.receiver_pixels.reach.take() else { return false };
-        let c = &self.config;
+    /// The pixels of the motion's reach (see [`Self::reach_motion`]), taken once: `None` after.
+    pub(super) fn take_reach_pixels(&mut self, ctx: &FrameContext) -> Option<Vec<u32>> {
+        let boxes = self.receiver_pixels.reach.take()?;
         // A turned object's box can be wider than at set-up (a square pedestal's at 45°): the
         // region reaches as far as the widest box along the motion asks (the same radius
         // `motion::follow` takes). A box as wide as at set-up (translation) keeps the set-up
@@ -119,6 +117,14 @@ impl Compositor {
             pixels.sort_unstable();
             pixels.dedup();
         }
+        Some(pixels)
+    }
+
+    /// `c`, `b` over the motion's reach, once (see [`Self::reach_motion`]); true when it
+    /// computed (the values must be uploaded).
+    fn warm_reach(&mut self, ctx: &FrameContext, report: &mut PassReport) -> bool {
+        let Some(pixels) = self.take_reach_pixels(ctx) else { return false };
+        let c = &self.config;
         let s = self.receivers.ensure(&self.proxy_ray, None, &pixels, ctx.sun(), c.ambient_quality, c.bounce_quality, c.bounce_rebuild_deg);
         report.receivers_computed += s.computed;
         report.timings.receivers_ms += s.ms;
