@@ -1,7 +1,7 @@
 //! The visibility cuts in the frame loop (issue 15 §2; cyberworlds §V-A.4 and §V-B,
 //! `../shared/papers/cyberworlds-captured-lighting-cuts.txt`): the objects' ambient per vertex
 //! and the real receivers' sky visibility with the objects present, for the objects at this
-//! frame's translation.
+//! frame's poses (translated and turned about any axis, [`super::rotate`]).
 //!
 //! # How it works
 //! - **Lighting per unit intensity** ([`UnitLighting`]). The outdoor mode's relit environment
@@ -23,29 +23,34 @@
 //!   irradiance about the normal and about the reflected view direction `r`),
 //!   `E_r = Σ_k l_k v_k max(r·ω_k, 0) / max(n·ω_k, sin 3°)`: the folded cosine divided out at the
 //!   node's direction, as [`super::lighting::Reflectance::brdf`] does for the glTF BRDF.
-//! - **Receivers** ([`ReceiverCuts`]): a real surface point's share of its sky light that the
-//!   objects leave ([`super::lighting::sky_visibility`], weights from the sky per unit `Pa` and
-//!   the receiver's cosine); the compositor sets `c_v = c·V` and `b_v = b·V` from it instead of
-//!   tracing them again.
+//! - **Turned objects** ([`FrameCuts::object_ambient_posed`]): each object's product runs in its
+//!   own frame (`super::rotate`): the lighting clustered in it ([`UnitLighting::in_frame`]), the
+//!   vertex's self-visibility cut and normal as stored, the view's reflection turned into it, the
+//!   other objects' fields (looked up at the vertex taken into *their* frames) and the proxy
+//!   field remapped into it. An object that is not turned uses none of this: translated scenes
+//!   compute exactly what they did.
+//! - **Receivers** ([`ReceiverCuts`], `super::receivers`): a real surface point's share of its
+//!   sky light that the objects leave ([`super::lighting::sky_visibility`], weights from the sky
+//!   per unit `Pa` and the receiver's cosine); the compositor sets `c_v = c·V` and `b_v = b·V`
+//!   from it instead of tracing them again.
 //!
 //! # Limits
-//! Translation only (`crate::cuts` module docs): the caller falls back to the re-trace when an
-//! object turns. `V` at a receiver counts the sky an object hides even where the proxy hides it
+//! `V` at a receiver counts the sky an object hides even where the proxy hides it
 //! already (`c` has that part removed), so contact shadows in a wall's sky shadow come out a
 //! little too dark; the bounce an object blocks is taken in the same share as the sky.
 
-use super::eval::CutScene;
+pub use super::receivers::ReceiverCuts;
 use super::file::PrecomputedCuts;
-use super::lighting::{ClusteredLighting, MIN_BRDF_COS, ReceiverWeights};
+use super::lighting::{ClusteredLighting, MIN_BRDF_COS};
 use super::packed::CutView;
+use super::rotate::{LeafIndex, LeafRemap, Pose, relative};
 use super::tree::{DirectionTree, node_index};
 use super::vcf::FieldRegion;
 use super::walk::product_for_each;
 use super::{Cut, CutsError};
 use crate::io::image::LinearImage;
-use glam::Vec3;
+use glam::{Mat3, Vec3};
 use rayon::prelude::*;
-use std::collections::HashMap;
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
 
@@ -63,13 +68,27 @@ pub struct UnitLighting {
     pub surface_pa: Option<ClusteredLighting>,
     /// Surface texels per unit `Pd` (the sun's bounce; none without a sun or a bake).
     pub surface_pd: Option<ClusteredLighting>,
+    /// The maps clustered (`None`: the uniform sky), kept to cluster them again in a turned
+    /// object's frame ([`Self::in_frame`]).
+    pub maps: Option<Arc<LightingMaps>>,
+}
+
+/// The three parts of a relit map (equirect, the crate's convention).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightingMaps {
+    /// Sky texels per unit `Pa`.
+    pub sky_pa: LinearImage,
+    /// Surface texels per unit `Pa`.
+    pub surface_pa: LinearImage,
+    /// Surface texels per unit `Pd`.
+    pub surface_pd: Option<LinearImage>,
 }
 
 impl UnitLighting {
     /// The uniform upper-hemisphere sky of the crate's radiometry: radiance `1/π` per unit `Pa`.
     pub fn uniform_sky(tree: &DirectionTree) -> Self {
         let sky_pa = ClusteredLighting::from_fn(tree, |d| if d.y > 0.0 { Vec3::splat(FRAC_1_PI) } else { Vec3::ZERO });
-        Self { sky_pa, surface_pa: None, surface_pd: None }
+        Self { sky_pa, surface_pa: None, surface_pd: None, maps: None }
     }
 
     /// The three parts of a relit map, each an equirect map in the crate's convention.
@@ -78,6 +97,24 @@ impl UnitLighting {
             sky_pa: ClusteredLighting::from_equirect(tree, sky_pa)?,
             surface_pa: Some(ClusteredLighting::from_equirect(tree, surface_pa)?),
             surface_pd: surface_pd.map(|m| ClusteredLighting::from_equirect(tree, m)).transpose()?,
+            maps: Some(Arc::new(LightingMaps { sky_pa: sky_pa.clone(), surface_pa: surface_pa.clone(), surface_pd: surface_pd.cloned() })),
+        })
+    }
+
+    /// The same lighting in the frame of an object turned by `rotation` (object → world): the
+    /// maps clustered again with every texel turned into the object's frame
+    /// (`crate::cuts::rotate`); the uniform sky turned analytically.
+    pub fn in_frame(&self, tree: &DirectionTree, rotation: Mat3) -> Result<Self, CutsError> {
+        let Some(m) = &self.maps else {
+            let sky_pa = ClusteredLighting::from_fn(tree, |d| if (rotation * d).y > 0.0 { Vec3::splat(FRAC_1_PI) } else { Vec3::ZERO });
+            return Ok(Self { sky_pa, surface_pa: None, surface_pd: None, maps: None });
+        };
+        let cluster = |map: &LinearImage| ClusteredLighting::from_equirect_in_frame(tree, map, rotation);
+        Ok(Self {
+            sky_pa: cluster(&m.sky_pa)?,
+            surface_pa: Some(cluster(&m.surface_pa)?),
+            surface_pd: m.surface_pd.as_ref().map(cluster).transpose()?,
+            maps: self.maps.clone(),
         })
     }
 }
@@ -116,6 +153,8 @@ pub struct FrameCuts {
     pub cuts: Arc<PrecomputedCuts>,
     /// Their direction tree.
     pub tree: Arc<DirectionTree>,
+    /// A kd-tree over the leaves (remaps for turned objects, `super::rotate`).
+    pub index: Arc<LeafIndex>,
 }
 
 /// The per-vertex ambient of every object, and how many vertices fell outside the proxy box.
@@ -127,52 +166,117 @@ pub struct ObjectAmbient {
     pub outside_proxy_box: usize,
 }
 
+/// What one object's product needs in its own frame: the lighting, and the remaps of the proxy
+/// field (world frame) and of the other objects' fields into the object's frame (`None`: the
+/// same frame, used as stored).
+struct ObjectFrame {
+    lighting: Arc<UnitLighting>,
+    proxy: Option<LeafRemap>,
+    others: Vec<Option<LeafRemap>>,
+}
+
 impl FrameCuts {
     /// Builds the tree of `cuts`.
     pub fn new(cuts: PrecomputedCuts) -> Result<Self, CutsError> {
         let tree = Arc::new(DirectionTree::new(cuts.levels)?);
-        Ok(Self { cuts: Arc::new(cuts), tree })
-    }
-
-    fn scene<'a>(&'a self, sky: &'a ClusteredLighting, translations: &'a [Vec3]) -> CutScene<'a> {
-        CutScene { tree: &self.tree, lighting: sky, objects: &self.cuts.objects, translations, proxy: self.cuts.proxy.as_ref() }
+        let index = Arc::new(LeafIndex::new(&tree)?);
+        Ok(Self { cuts: Arc::new(cuts), tree, index })
     }
 
     /// The ambient of every vertex of every object translated by `translations` (object frame
     /// + translation = world), seen from the eye at `eye`; in parallel over vertices.
     pub fn object_ambient(&self, lighting: &UnitLighting, translations: &[Vec3], eye: Vec3) -> Result<ObjectAmbient, CutsError> {
-        let scene = self.scene(&lighting.sky_pa, translations);
-        if translations.len() != self.cuts.objects.len() {
-            return Err(CutsError::Operands(format!("{} objects but {} translations", self.cuts.objects.len(), translations.len())));
+        let poses: Vec<Pose> = translations.iter().map(|&t| Pose::translated(t)).collect();
+        self.object_ambient_posed(&Arc::new(lighting.clone()), &poses, eye)
+    }
+
+    fn check_poses(&self, poses: &[Pose]) -> Result<(), CutsError> {
+        if poses.len() != self.cuts.objects.len() {
+            return Err(CutsError::Operands(format!("{} objects but {} poses", self.cuts.objects.len(), poses.len())));
         }
+        if let Some(p) = poses.iter().find(|p| !p.translation.is_finite() || p.rotation.is_some_and(|r| !r.is_finite())) {
+            return Err(CutsError::NonFinitePoint(p.translation.to_array()));
+        }
+        Ok(())
+    }
+
+    /// Object `k`'s frame this frame (see [`ObjectFrame`]).
+    fn object_frame(&self, lighting: &Arc<UnitLighting>, poses: &[Pose], k: usize) -> Result<ObjectFrame, CutsError> {
+        let remap = |q: Option<Mat3>| q.map(|q| LeafRemap::new(&self.tree, &self.index, q));
+        let own = poses[k].rotation;
+        let lighting = match own {
+            Some(r) => Arc::new(lighting.in_frame(&self.tree, r)?),
+            None => lighting.clone(),
+        };
+        let others = poses.iter().map(|p| remap(relative(p.rotation, own))).collect();
+        Ok(ObjectFrame { lighting, proxy: remap(relative(None, own)), others })
+    }
+
+    /// The ambient of every vertex of every object at `poses` (cut frame → world, `super::rotate`),
+    /// seen from the eye at `eye`; in parallel over vertices. Each object's product runs in its
+    /// own frame: its self-visibility cut as stored, the lighting clustered in its frame, the
+    /// other fields and the proxy field remapped into it (module docs of `super::rotate`).
+    pub fn object_ambient_posed(&self, lighting: &Arc<UnitLighting>, poses: &[Pose], eye: Vec3) -> Result<ObjectAmbient, CutsError> {
+        self.check_poses(poses)?;
         let mut out = ObjectAmbient::default();
         for (k, obj) in self.cuts.objects.iter().enumerate() {
+            let frame = self.object_frame(lighting, poses, k)?;
             let rows: Vec<(VertexAmbient, bool)> =
-                (0..obj.positions.len().min(obj.svc.cuts.len())).into_par_iter().map(|v| self.vertex_ambient(&scene, lighting, k, v, eye)).collect::<Result<_, _>>()?;
+                (0..obj.positions.len().min(obj.svc.cuts.len())).into_par_iter().map(|v| self.vertex_ambient(&frame, poses, k, v, eye)).collect::<Result<_, _>>()?;
             out.outside_proxy_box += rows.iter().filter(|r| r.1).count();
             out.vertices.push(rows.into_iter().map(|r| r.0).collect());
         }
         Ok(out)
     }
 
-    /// One vertex of [`Self::object_ambient`], and whether its proxy lookup was clamped.
-    fn vertex_ambient(&self, scene: &CutScene<'_>, lighting: &UnitLighting, object: usize, v: usize, eye: Vec3) -> Result<(VertexAmbient, bool), CutsError> {
-        let obj = &scene.objects[object];
-        let x = obj.positions[v] + scene.translations[object];
+    /// The other objects' fields at `x` (world) with normal `n` (world), culled as
+    /// `CutScene::occluder_cuts` does (§V-B) and remapped into the frame of `frame`.
+    fn occluders(&self, frame: &ObjectFrame, poses: &[Pose], x: Vec3, n: Vec3, skip: usize) -> Result<Vec<Cut>, CutsError> {
+        let mut cuts = Vec::new();
+        for (b, obj) in self.cuts.objects.iter().enumerate() {
+            if b == skip {
+                continue;
+            }
+            let centre = poses[b].point(obj.vcf.centre);
+            if n != Vec3::ZERO && n.dot(centre - x) < -obj.vcf.radius_m {
+                continue;
+            }
+            let (cut, _region) = obj.vcf.lookup(poses[b].local_point(x))?;
+            cuts.push(match &frame.others[b] {
+                Some(remap) => remap.cut(cut.view())?,
+                None => cut,
+            });
+        }
+        Ok(cuts)
+    }
+
+    /// One vertex of [`Self::object_ambient_posed`], and whether its proxy lookup was clamped.
+    fn vertex_ambient(&self, frame: &ObjectFrame, poses: &[Pose], object: usize, v: usize, eye: Vec3) -> Result<(VertexAmbient, bool), CutsError> {
+        let obj = &self.cuts.objects[object];
+        let pose = poses[object];
+        let x = pose.point(obj.positions[v]);
         if !x.is_finite() {
             return Err(CutsError::NonFinitePoint(x.to_array()));
         }
-        let n = obj.svc.normals[v];
+        let n_local = obj.svc.normals[v];
+        let n = pose.dir(n_local);
         let view = (eye - x).normalize_or(Vec3::Y);
         let r = (2.0 * n.dot(view) * n - view).normalize_or(n);
-        let others = scene.occluder_cuts(x, n, Some(object))?;
-        let (proxy, outside) = match scene.proxy {
+        let others = self.occluders(frame, poses, x, n, object)?;
+        let (proxy, outside) = match &self.cuts.proxy {
             Some(field) => {
                 let (cut, region) = field.lookup(x)?;
+                let cut = match &frame.proxy {
+                    Some(remap) => remap.cut(cut.view())?,
+                    None => cut,
+                };
                 (Some(cut), region == FieldRegion::OutsideBox)
             }
             None => (None, false),
         };
+        // From here on, the object's frame: its normal as stored, `r` turned into it.
+        let (n, r) = (n_local, pose.local_dir(r));
+        let lighting = &*frame.lighting;
         let mut views: Vec<CutView> = Vec::with_capacity(others.len() + 2);
         views.push(obj.svc.cuts.view(v));
         views.extend(others.iter().map(Cut::view));
@@ -189,42 +293,12 @@ impl FrameCuts {
 
     /// The receivers' visibility for the objects at `translations` under `lighting`'s sky.
     pub fn receivers(&self, lighting: Arc<UnitLighting>, translations: Vec<Vec3>) -> ReceiverCuts {
-        ReceiverCuts { cuts: self.clone(), lighting, translations }
+        self.receivers_posed(lighting, translations.into_iter().map(Pose::translated).collect())
     }
-}
 
-/// The real receivers' sky visibility with the objects at one frame's translations.
-#[derive(Clone, Debug)]
-pub struct ReceiverCuts {
-    cuts: FrameCuts,
-    lighting: Arc<UnitLighting>,
-    translations: Vec<Vec3>,
-}
-
-/// A receiver normal's key in the weights cache (a proxy has few distinct normals).
-fn normal_key(n: Vec3) -> [i32; 3] {
-    (n * 1000.0).round().as_ivec3().to_array()
-}
-
-impl ReceiverCuts {
-    /// The share of sky light the objects leave at each `(point, normal)` (world frame), in
-    /// `[0, 1]`; 1 where the lookup fails (a non-finite point: nothing to darken). In parallel.
-    pub fn visibility(&self, surfaces: &[(Vec3, Vec3)]) -> Vec<f32> {
-        let mut normals: HashMap<[i32; 3], Vec3> = HashMap::new();
-        for (_, n) in surfaces {
-            normals.entry(normal_key(*n)).or_insert(*n);
-        }
-        let (tree, sky) = (&*self.cuts.tree, &self.lighting.sky_pa);
-        let list: Vec<([i32; 3], Vec3)> = normals.into_iter().collect();
-        let weights: HashMap<[i32; 3], ReceiverWeights> = list.into_par_iter().filter_map(|(k, n)| ReceiverWeights::new(tree, sky, n).ok().map(|w| (k, w))).collect();
-        let scene = CutScene { tree, lighting: sky, objects: &self.cuts.cuts.objects, translations: &self.translations, proxy: None };
-        surfaces
-            .par_iter()
-            .map(|(x, n)| match weights.get(&normal_key(*n)) {
-                Some(w) => scene.receiver_visibility(w, *x, *n).map_or(1.0, |r| r.visibility.clamp(0.0, 1.0)),
-                None => 1.0,
-            })
-            .collect()
+    /// The receivers' visibility for the objects at `poses` under `lighting`'s sky.
+    pub fn receivers_posed(&self, lighting: Arc<UnitLighting>, poses: Vec<Pose>) -> ReceiverCuts {
+        ReceiverCuts::new(self.clone(), lighting, poses)
     }
 }
 

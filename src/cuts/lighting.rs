@@ -56,6 +56,19 @@ impl ClusteredLighting {
     /// Clusters an equirect map (the crate's convention). Non-finite or negative texels are an
     /// error naming the texel.
     pub fn from_equirect(tree: &DirectionTree, map: &LinearImage) -> Result<Self, CutsError> {
+        Self::cluster(tree, map, |d| d, |d| d)
+    }
+
+    /// Clusters an equirect map in the frame of an object turned by `rotation` (object → world):
+    /// the texel of world direction `ω` goes to the leaf nearest `rotationᵀ·ω`
+    /// (`crate::cuts::rotate`), and a leaf no texel reached takes the texel under
+    /// `rotation·d_leaf`.
+    pub fn from_equirect_in_frame(tree: &DirectionTree, map: &LinearImage, rotation: glam::Mat3) -> Result<Self, CutsError> {
+        let back = rotation.transpose();
+        Self::cluster(tree, map, |d| back * d, |d| rotation * d)
+    }
+
+    fn cluster(tree: &DirectionTree, map: &LinearImage, to_frame: impl Fn(Vec3) -> Vec3, from_frame: impl Fn(Vec3) -> Vec3) -> Result<Self, CutsError> {
         let (w, h) = (map.width, map.height);
         if w == 0 || h == 0 || map.data.len() != (w * h) as usize {
             return Err(CutsError::EnvMap(format!("{w}×{h} map with {} texels", map.data.len())));
@@ -71,7 +84,7 @@ impl ClusteredLighting {
             let omega = texel_solid_angle(j, w, h);
             for i in 0..w {
                 let d = crate::geometry::equirect::dir_from_texel_centre(i, j, w, h);
-                let leaf = kd.query(&d.to_array()).nearest_one::<SquaredEuclidean<f32>>().execute().item as usize;
+                let leaf = kd.query(&to_frame(d).to_array()).nearest_one::<SquaredEuclidean<f32>>().execute().item as usize;
                 sum[leaf] += Vec3::from(map.get(i, j)) * omega;
                 weight[leaf] += omega as f64;
             }
@@ -80,7 +93,7 @@ impl ClusteredLighting {
         let leaves = (0..count)
             .map(|k| match weight[k] > 0.0 {
                 true => sum[k] / weight[k] as f32 * dw,
-                false => Vec3::from(map.data[texel_index(tree.leaf_dirs()[k], w, h)]) * dw,
+                false => Vec3::from(map.data[texel_index(from_frame(tree.leaf_dirs()[k]), w, h)]) * dw,
             })
             .collect();
         Ok(Self { levels: tree.levels(), nodes: sum_up(tree.levels(), leaves) })
@@ -194,6 +207,25 @@ impl ReceiverWeights {
     /// The receiver's unoccluded weight (its irradiance's luminance).
     pub fn total(&self) -> f32 {
         self.nodes[0]
+    }
+
+    /// The per-leaf weights.
+    pub fn leaves(&self) -> &[f32] {
+        &self.nodes[(1usize << self.levels) - 1..]
+    }
+
+    /// Weights from per-leaf values (another frame's, `crate::cuts::rotate::LeafRemap::push_forward`).
+    pub fn from_leaf_weights(levels: u32, leaves: &[f32]) -> Result<Self, CutsError> {
+        let count = 1usize << levels;
+        if leaves.len() != count {
+            return Err(CutsError::LeafCount { what: "receiver weights", expected: count, got: leaves.len() });
+        }
+        let mut nodes = vec![0.0f32; 2 * count - 1];
+        nodes[count - 1..].copy_from_slice(leaves);
+        for i in (0..count - 1).rev() {
+            nodes[i] = nodes[2 * i + 1] + nodes[2 * i + 2];
+        }
+        Ok(Self { levels, nodes })
     }
 }
 

@@ -11,9 +11,9 @@
 //! so its shading stays finite.
 //!
 //! With the scene's visibility cuts ([`super::motion_cuts`], set with
-//! [`MovingObjects::with_cuts`]), a frame where the objects moved by translation evaluates them
-//! (the objects' ambient per vertex, the receivers' sky visibility) and hands them to the
-//! compositor instead of its re-trace; a frame where an object turned re-traces as before. The
+//! [`MovingObjects::with_cuts`]), a frame where the objects moved rigidly (translated, turned)
+//! evaluates them (the objects' ambient per vertex, the receivers' sky visibility) and hands them
+//! to the compositor instead of its re-trace; a frame where an object's scale changed re-traces. The
 //! report names the pass `visibility_cuts`, with its time when it ran and its reason when not.
 
 use super::motion_cuts::{CutOutcome, CutState};
@@ -135,8 +135,8 @@ impl MovingObjects {
         self.cuts.is_ok()
     }
 
-    /// The objects' bounding boxes along their motion where they are translated, not turned
-    /// (where the cuts serve): at every key and at [`REACH_STEPS_PER_KEY`] steps between keys
+    /// The objects' bounding boxes along their motion where they move rigidly (where the cuts
+    /// serve): at every key and at [`REACH_STEPS_PER_KEY`] steps between keys
     /// (the region whose receivers the compositor prepares at set-up, `Compositor::reach_motion`).
     pub fn reach(&self) -> Vec<(Vec3, Vec3)> {
         let mut boxes = Vec::new();
@@ -159,8 +159,9 @@ impl MovingObjects {
             let origin = m.motion.world_from_rest(m.motion.start_seconds()).inverse();
             for t in times {
                 let pose = m.motion.world_from_rest(t);
-                // Only where the cuts serve: the object translated, not turned.
-                if !glam::Mat3::from_mat4(pose * origin).abs_diff_eq(glam::Mat3::IDENTITY, super::motion_cuts::TURN_TOLERANCE) {
+                // Only where the cuts serve: the object moved rigidly (translated, turned).
+                let d = pose * origin;
+                if crate::cuts::rotate::Pose::from_parts(glam::Mat3::from_mat4(d), d.w_axis.truncate()).is_err() {
                     continue;
                 }
                 let pts = m.rest.positions.iter().map(|p| pose.transform_point3(*p));
@@ -173,7 +174,7 @@ impl MovingObjects {
     }
 
     /// Hands the objects that moved to `compositor`: by the visibility cuts when they serve
-    /// (objects translated), else by its re-trace. `relighter` is the probe source's (the
+    /// (objects moved rigidly), else by its re-trace. `relighter` is the probe source's (the
     /// lighting the cuts shade with).
     pub fn apply(&mut self, compositor: &mut Compositor, frame: &FrameMotion, relighter: Option<&Relighter>) -> Result<(), RenderError> {
         let list: Vec<(String, &Mesh)> = self.objects.iter().map(|o| (o.name.clone(), &o.mesh)).collect();
@@ -189,16 +190,16 @@ impl MovingObjects {
             return Ok(());
         }
         let poses: Vec<Option<Mat4>> = self.objects.iter().map(|o| o.pose).collect();
-        let translations = match cuts.translations(&poses) {
+        let rigid = match cuts.poses(&poses) {
             Ok(t) => t,
-            Err(k) => {
+            Err((k, why)) => {
                 let name = self.objects.get(k).map_or("an object", |o| o.name.as_str());
-                cuts.outcome = CutOutcome::Skipped(format!("{name} turned since its first key and the cuts hold for translation only: re-traced"));
+                cuts.outcome = CutOutcome::Skipped(format!("{name} is not moved rigidly since its first key ({why}) and the cuts hold for rigid motion only: re-traced"));
                 return compositor.move_objects(&self.proxy, &list, &frame.moved);
             }
         };
         let t = std::time::Instant::now();
-        match cuts.evaluate(&translations, relighter, compositor.eye_world()) {
+        match cuts.evaluate(&rigid, relighter, compositor.eye_world()) {
             Ok((ambient, receivers)) => {
                 // The objects' part; the receivers' part is timed where it runs (the compositor's
                 // receiver step) and added to the same `cuts_ms`.

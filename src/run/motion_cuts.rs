@@ -8,10 +8,11 @@
 //!   precompute` used; otherwise the cuts are computed with [`PrecomputeOptions::frame_loop`]
 //!   and cached there as `heliar precompute` does. When neither works, the frame loop re-traces
 //!   on every move and each frame reports the cuts pass skipped with the reason.
-//! - **Translation** ([`CutState::translations`]): an object's cuts hold for it translated, not
-//!   turned (`crate::cuts` module docs). Its pose this frame times the inverse of its pose at the
-//!   first key must be a pure translation (the linear part within [`TURN_TOLERANCE`] of the
-//!   identity); otherwise the frame falls back to the re-trace and says which object turned.
+//! - **Poses** ([`CutState::poses`]): an object's cuts hold in its pose at the first key; its
+//!   pose this frame times the inverse of that is a translation, or a rotation and a translation
+//!   (a turning sign, a turning statue: the products then run in the turned objects' frames,
+//!   `crate::cuts::rotate`). A pose that is not rigid (scaled or mirrored since the first key)
+//!   falls back to the re-trace, and the frame says which object.
 //! - **Lighting** ([`CutState::lighting`]): the relighter's map split per unit `Pa` and `Pd`
 //!   (`crate::envmap::relight::Relighter::unit_maps`), clustered again only when its sun planes
 //!   change; the uniform sky without a bake.
@@ -19,6 +20,7 @@
 use super::precompute::{self, PrecomputeOptions};
 use crate::cuts::file::{self, PrecomputedCuts};
 use crate::cuts::frame::{FrameCuts, ObjectAmbient, ReceiverCuts, UnitLighting};
+use crate::cuts::rotate::Pose;
 use crate::cuts::{CutsError, no_progress};
 use crate::envmap::relight::Relighter;
 use crate::geometry::raycast::RayScene;
@@ -26,10 +28,7 @@ use crate::scene::Scene;
 use glam::{Mat3, Mat4, Vec3};
 use std::sync::Arc;
 
-/// Largest difference between an entry of an object's rotation since its first key and the
-/// identity's for the object to count as translated only (1e-4 rad, 0.006°: rounding of the
-/// pose's product, not a turn).
-pub const TURN_TOLERANCE: f32 = 1e-4;
+pub use crate::cuts::rotate::TURN_TOLERANCE;
 
 /// Largest difference between a stored and a scene vertex position for `baked/cuts.bin` to be
 /// taken as this scene's cuts, m.
@@ -82,21 +81,19 @@ impl CutState {
         Ok(Self { frame, origin, lighting: None, outcome: CutOutcome::Skipped("no object has moved yet: the traced per-pixel transfer serves".into()) })
     }
 
-    /// Each object's translation since its cuts were computed, from its pose this frame
-    /// (`None`: the object has no motion); `Err(k)` when object `k` turned.
-    pub fn translations(&self, poses: &[Option<Mat4>]) -> Result<Vec<Vec3>, usize> {
+    /// Each object's pose since its cuts were computed (`crate::cuts::rotate::Pose`), from its
+    /// pose this frame (`None`: the object has no motion, the identity); `Err((k, why))` when
+    /// object `k` is not moved rigidly (scaled or mirrored since its first key).
+    pub fn poses(&self, poses: &[Option<Mat4>]) -> Result<Vec<Pose>, (usize, String)> {
         self.origin
             .iter()
             .enumerate()
             .map(|(k, origin)| match (origin, poses.get(k).copied().flatten()) {
                 (Some(o), Some(p)) => {
                     let d = p * o.inverse();
-                    match Mat3::from_mat4(d).abs_diff_eq(Mat3::IDENTITY, TURN_TOLERANCE) {
-                        true => Ok(d.w_axis.truncate()),
-                        false => Err(k),
-                    }
+                    Pose::from_parts(Mat3::from_mat4(d), d.w_axis.truncate()).map_err(|e| (k, e))
                 }
-                _ => Ok(Vec3::ZERO),
+                _ => Ok(Pose::translated(Vec3::ZERO)),
             })
             .collect()
     }
@@ -133,10 +130,10 @@ impl CutState {
     /// from `eye`. Vertices outside the proxy field's box (the `[irradiance]` box, whose floor
     /// lies a little above the ground) take the box's edge: finite, and an object that leaves
     /// the box is warned of by `super::motion`.
-    pub fn evaluate(&mut self, translations: &[Vec3], relighter: Option<&Relighter>, eye: Vec3) -> Result<(ObjectAmbient, ReceiverCuts), CutsError> {
+    pub fn evaluate(&mut self, poses: &[Pose], relighter: Option<&Relighter>, eye: Vec3) -> Result<(ObjectAmbient, ReceiverCuts), CutsError> {
         let light = self.lighting(relighter);
-        let ambient = self.frame.object_ambient(&light, translations, eye)?;
-        let receivers = self.frame.receivers(light, translations.to_vec());
+        let ambient = self.frame.object_ambient_posed(&light, poses, eye)?;
+        let receivers = self.frame.receivers_posed(light, poses.to_vec());
         Ok((ambient, receivers))
     }
 }

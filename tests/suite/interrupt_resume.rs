@@ -167,3 +167,60 @@ fn a_run_resumed_during_and_after_a_sliced_retrace_gives_the_uninterrupted_frame
     }
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// A statue that moves and turns from frame 2 on (frames 10 s apart): its cuts serve every move.
+const MOTION_KEYS: &str = "[[virtual_objects.motion.keyframes]]\ntime = 0.0\ntranslation = [-1.9, 0, 0]\nrotation_y_deg = 25\n\
+                           [[virtual_objects.motion.keyframes]]\ntime = 10.0\ntranslation = [-1.9, 0, 0]\nrotation_y_deg = 25\n\
+                           [[virtual_objects.motion.keyframes]]\ntime = 20.0\ntranslation = [-1.2, 0, 0.6]\nrotation_y_deg = 70\n\
+                           [[virtual_objects.motion.keyframes]]\ntime = 50.0\ntranslation = [-0.6, 0, 1.0]\nrotation_y_deg = 115\n\
+                           [[virtual_objects.motion.keyframes]]\ntime = 110.0\ntranslation = [-1.5, 0, 1.2]\nrotation_y_deg = 160\n";
+
+/// With moving objects, the first frame computes the receivers' `c`, `b` along the whole motion
+/// (`Compositor::reach_motion`) for its sun; a resumed run replays that (owed for the first
+/// frame's sun, paid by the first frame rendered), so its frames equal the uninterrupted run's
+/// byte for byte, resumed before the moves and in the cloud (frames 4–8, the sun nearly gone at
+/// 6). Open: resumed at frame 9 (after the cloud, where the uninterrupted run computes 32
+/// receivers a frame again from frame 7 on), frames 9–11 differ; not yet explained.
+#[test]
+fn a_resumed_run_with_moving_objects_gives_the_uninterrupted_frames() {
+    let d = scratch().join("motion");
+    let scene = crate::common::scratch_courtyard("interrupt-motion");
+    let p = scene.join("scene.toml");
+    let m = std::fs::read_to_string(&p).unwrap();
+    assert!(m.contains("scale = 1.0\n"));
+    std::fs::write(&p, m.replacen("scale = 1.0\n", &format!("scale = 1.0\n{MOTION_KEYS}\n"), 1)).unwrap();
+    let input = scene_dir_frames();
+    let go = |out: &Path, extra: &[&str]| {
+        let o = Command::new(env!("CARGO_BIN_EXE_heliar"))
+            .args(["augment", scene.to_str().unwrap(), "--input", input.to_str().unwrap(), "--output", out.to_str().unwrap(), "--start", "2024-06-21T15:30:00+02:00", "--fps", "0.1"])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    let whole = d.join("whole");
+    go(&whole, &[]);
+    let want = frames(&whole);
+    assert_eq!(want.len(), 12);
+    // The uninterrupted run's first frame computed `c`, `b` along the motion, the moved frames
+    // up to the cloud none (from frame 7 on, with the sun back, 32 pixels a frame are computed
+    // again: measured, not explained here).
+    let report = std::fs::read_to_string(whole.join("report.jsonl")).unwrap();
+    let computed: Vec<u64> = report.lines().map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap()["passes"]["receivers_computed"].as_u64().unwrap_or(0)).collect();
+    assert!(computed[0] > 0 && computed[2..7].iter().all(|c| *c == 0), "receivers computed per frame: {computed:?}");
+    for at in [2usize, 6] {
+        let out = d.join(format!("stop-{at}"));
+        go(&out, &["--max-frames", &at.to_string()]);
+        go(&out, &["--resume"]);
+        let got = frames(&out);
+        assert_eq!(got.keys().collect::<Vec<_>>(), want.keys().collect::<Vec<_>>(), "resumed at {at}: frame files");
+        let differ: Vec<&String> = want.keys().filter(|k| got[*k] != want[*k]).collect();
+        assert!(differ.is_empty(), "resumed at frame {at}: these frames differ from the uninterrupted run: {differ:?}");
+    }
+    std::fs::remove_dir_all(&d).ok();
+    std::fs::remove_dir_all(&scene).ok();
+}
+
+fn scene_dir_frames() -> PathBuf {
+    scene().join("frames/hdr")
+}

@@ -24,6 +24,7 @@ mod irradiance_volume;
 mod lamps_estimate;
 mod live;
 mod object_cuts;
+mod object_cuts_turned;
 mod object_motion;
 mod scene_errors;
 mod shader_validation;

@@ -15,7 +15,7 @@ const SLIDE_KEYS: &str = "[[virtual_objects.motion.keyframes]]\ntime = 0.0\ntran
                           [[virtual_objects.motion.keyframes]]\ntime = 10.0\ntranslation = [-1.9, 0, 0]\nrotation_y_deg = 25\n\
                           [[virtual_objects.motion.keyframes]]\ntime = 20.0\ntranslation = [-1.2, 0, 0.6]\nrotation_y_deg = 25\n";
 
-fn edit(dir: &Path, from: &str, to: &str) {
+pub(crate) fn edit(dir: &Path, from: &str, to: &str) {
     let p = dir.join("scene.toml");
     let s = std::fs::read_to_string(&p).unwrap();
     assert!(s.contains(from), "scene.toml has no '{from}'");
@@ -24,7 +24,7 @@ fn edit(dir: &Path, from: &str, to: &str) {
 
 /// `heliar augment` of the courtyard's first three HDR frames of `scene` into `out`; the frames
 /// and the report's lines.
-fn augment3(scene: &Path, out: &Path) -> (Vec<LinearImage>, Vec<serde_json::Value>) {
+pub(crate) fn augment3(scene: &Path, out: &Path) -> (Vec<LinearImage>, Vec<serde_json::Value>) {
     let input = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/courtyard/frames/hdr");
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_heliar"))
         .args(["augment", s(scene), "--input", s(&input), "--output", s(out), "--format", "exr"])
@@ -39,13 +39,13 @@ fn augment3(scene: &Path, out: &Path) -> (Vec<LinearImage>, Vec<serde_json::Valu
     (frames, report.lines().map(|l| serde_json::from_str(l).unwrap()).collect())
 }
 
-fn lum(p: [f32; 3]) -> f64 {
+pub(crate) fn lum(p: [f32; 3]) -> f64 {
     (0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]) as f64
 }
 
 /// Per footage pixel: its centre ray meets the statue of `scene` (at its placement) before the
 /// proxy.
-fn object_hits(scene: &Scene) -> Vec<bool> {
+pub(crate) fn object_hits(scene: &Scene) -> Vec<bool> {
     let k = &scene.camera.intrinsics;
     let (w, h) = (k.width, k.height);
     let statue = RayScene::new(scene.virtual_objects[0].mesh.clone());
@@ -64,7 +64,7 @@ fn object_hits(scene: &Scene) -> Vec<bool> {
 
 /// Pixels where `hit` holds for all (`all`) or any (`!all`) of the 5×5 block around them: the
 /// statue's interior (silhouette pixels mix in the footage), or the statue grown by 2 pixels.
-fn block(hit: &[bool], w: u32, all: bool) -> Vec<bool> {
+pub(crate) fn block(hit: &[bool], w: u32, all: bool) -> Vec<bool> {
     let h = hit.len() as i64 / w as i64;
     let at = |x: i64, y: i64| x >= 0 && y >= 0 && x < w as i64 && y < h && hit[(y * w as i64 + x) as usize];
     (0..hit.len() as i64)
@@ -77,13 +77,13 @@ fn block(hit: &[bool], w: u32, all: bool) -> Vec<bool> {
 }
 
 /// The statue's interior pixels.
-fn object_pixels(scene: &Scene) -> Vec<usize> {
+pub(crate) fn object_pixels(scene: &Scene) -> Vec<usize> {
     let w = scene.camera.intrinsics.width;
     block(&object_hits(scene), w, true).iter().enumerate().filter(|(_, h)| **h).map(|(i, _)| i).collect()
 }
 
 /// Relative RMSE of `a` against `reference` over `pixels` (luminance).
-fn rel_rmse(a: &LinearImage, reference: &LinearImage, pixels: &[usize]) -> f64 {
+pub(crate) fn rel_rmse(a: &LinearImage, reference: &LinearImage, pixels: &[usize]) -> f64 {
     let (mut num, mut den) = (0.0, 0.0);
     for &i in pixels {
         let (x, r) = (lum(a.data[i]), lum(reference.data[i]));

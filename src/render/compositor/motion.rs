@@ -3,15 +3,17 @@
 //!
 //! # How it works
 //! Two ways, chosen by the frame loop (`crate::run::motion`):
-//! - **With the visibility cuts** ([`Compositor::move_objects_with_cuts`]; objects translated
-//!   since the cuts were computed, cyberworlds §V). Each moved object's shadow-volume occluder is
+//! - **With the visibility cuts** ([`Compositor::move_objects_with_cuts`]; objects moved
+//!   rigidly, translated and turned, since the cuts were computed, cyberworlds §V and
+//!   `cuts::rotate`). Each moved object's shadow-volume occluder is
 //!   rebuilt (the sun keeps its exact stencil shadow volumes) and the vertex buffer and bounds
 //!   follow; the ambient of every object comes from the per-vertex ambient of the cuts
 //!   (`cuts::frame`, uploaded for `shaders/virtual_shading.wgsl`), and the receivers'
 //!   `c_v`, `b_v` from their sky visibility with the objects present (`c·V`, `b·V`, set where
 //!   the next frame needs them, `receiver_update`) instead of a re-trace. Nothing is traced
 //!   against the objects: no BVH with them, no ambient occlusion, no transfer.
-//! - **The re-trace** ([`Compositor::move_objects`]; a turned object, or a scene without cuts):
+//! - **The re-trace** ([`Compositor::move_objects`]; an object scaled along its motion, or a scene
+//!   without cuts):
 //!   the objects' buffers, bounds, the combined proxy-and-objects BVH and the objects' own
 //!   per-pixel ambient occlusion follow them; the receivers forget `c_v` and `b_v` (traced again
 //!   where the next frame needs them). The shading falls back to the probe grid times the

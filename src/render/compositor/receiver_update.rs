@@ -16,6 +16,7 @@
 //! objects' visibility cut fields (`crate::cuts::frame`), instead of a trace with the objects.
 
 use super::Compositor;
+use super::setup::NEAR_RADIUS_HALF_DIAGONALS;
 use super::context::{FrameContext, angle_deg};
 use crate::render::frame::{Darkening, PassReport};
 use crate::render::receivers::Receivers;
@@ -27,6 +28,10 @@ const RECEIVER_GROW_PX: u32 = 2;
 
 /// The sun and model a pixel list was chosen for.
 type PixelKey = (Option<Vec3>, bool);
+
+/// Relative growth of the differential region's radius below which the motion's reach keeps
+/// the set-up radius (rounding of a translated box's diagonal, not a wider box).
+const REACH_RADIUS_SLACK: f32 = 1e-3;
 
 /// Which proxy pixels are kept up to date.
 pub struct ReceiverPixels {
@@ -89,24 +94,37 @@ impl Compositor {
     /// Makes the first frame compute `c` and `b` (not `c_v`, `b_v`) wherever the differential
     /// model's region and the objects' shadow (for the first frame's sun) can reach along the
     /// objects' motion, the objects' boxes `boxes` at
-    /// sampled times: frames where the objects move by translation then take `c_v`, `b_v` from
-    /// the visibility cuts without tracing any pixel (the set-up pays once). The values of the
+    /// sampled times: frames where the objects move rigidly then take `c_v`, `b_v` from
+    /// the visibility cuts without tracing any pixel (the set-up pays once), turned or not. The values of the
     /// pixels the frame needs anyway do not change (each pixel's paths have their own seed).
     pub fn reach_motion(&mut self, boxes: Vec<(Vec3, Vec3)>) {
         self.receiver_pixels.reach = Some(boxes);
     }
 
-    /// `c`, `b` over the motion's reach, once (see [`Self::reach_motion`]); true when it
-    /// computed (the values must be uploaded).
-    fn warm_reach(&mut self, ctx: &FrameContext, report: &mut PassReport) -> bool {
-        let Some(boxes) = self.receiver_pixels.reach.take() else { return false };
-        let c = &self.config;
-        let mut pixels = self.receivers.near(&boxes, self.receiver_pixels.near_radius_m);
+    /// The pixels of the motion's reach (see [`Self::reach_motion`]), taken once: `None` after.
+    pub(super) fn take_reach_pixels(&mut self, ctx: &FrameContext) -> Option<Vec<u32>> {
+        let boxes = self.receiver_pixels.reach.take()?;
+        // A turned object's box can be wider than at set-up (a square pedestal's at 45°): the
+        // region reaches as far as the widest box along the motion asks (the same radius
+        // `motion::follow` takes). A box as wide as at set-up (translation) keeps the set-up
+        // radius exactly.
+        let widest = boxes.iter().map(|(lo, hi)| (*hi - *lo).length() / 2.0 * NEAR_RADIUS_HALF_DIAGONALS).fold(0.0f32, f32::max);
+        let now = self.receiver_pixels.near_radius_m;
+        let radius = if widest > now * (1.0 + REACH_RADIUS_SLACK) { widest } else { now };
+        let mut pixels = self.receivers.near(&boxes, radius);
         if let Some(l) = ctx.sun() {
             pixels.extend(self.receivers.in_shadow_reach(&boxes, l, RECEIVER_GROW_PX));
             pixels.sort_unstable();
             pixels.dedup();
         }
+        Some(pixels)
+    }
+
+    /// `c`, `b` over the motion's reach, once (see [`Self::reach_motion`]); true when it
+    /// computed (the values must be uploaded).
+    fn warm_reach(&mut self, ctx: &FrameContext, report: &mut PassReport) -> bool {
+        let Some(pixels) = self.take_reach_pixels(ctx) else { return false };
+        let c = &self.config;
         let s = self.receivers.ensure(&self.proxy_ray, None, &pixels, ctx.sun(), c.ambient_quality, c.bounce_quality, c.bounce_rebuild_deg);
         report.receivers_computed += s.computed;
         report.timings.receivers_ms += s.ms;

@@ -11,7 +11,9 @@
 //! what it owes. The first frame rendered afterwards pays it ([`Compositor::restore`]): the
 //! receivers' pixels computed for the suns their frames would have used, the transfer traced
 //! for its sun, and, when that frame reuses the stored stencil, the volumes, stencil and mask
-//! drawn for the sun they were stored with. The result is the uninterrupted run's, bit for bit
+//! drawn for the sun they were stored with. With moving objects, the `c`, `b` of the receivers
+//! along the motion (`Compositor::reach_motion`) are owed for the sun of the first frame that
+//! took them. The result is the uninterrupted run's, bit for bit
 //! (every computation is a pure function of its sun and seed); the report lists what was
 //! restored.
 
@@ -66,6 +68,11 @@ impl Compositor {
             return;
         }
         let rebuild = self.config.bounce_rebuild_deg;
+        // The motion's reach, as `receiver_update::warm_reach` takes it on the first frame that
+        // rebuilds: `c`, `b` (without the objects) owed for this frame's sun.
+        if differential && let Some(reach) = self.take_reach_pixels(ctx) {
+            self.receivers.replay(&reach, ctx.sun(), rebuild, false, self.config.bounce_quality.paths);
+        }
         let pixels = self.receiver_pixels.pixels(&self.receivers, &self.virtual_bounds, ctx.sun(), differential, rebuild).to_vec();
         // With the visibility cuts serving, `c_v`, `b_v` are not traced (`receiver_update`).
         self.receivers.replay(&pixels, ctx.sun(), rebuild, differential && self.cuts.is_none(), self.config.bounce_quality.paths);
