@@ -46,9 +46,43 @@ use glam::Vec3;
 pub struct Smoother {
     x: Option<[f64; 6]>,
     var: [f64; 6],
+    clock: FrameInterval,
+}
+
+/// The interval between a smoother's frames: a clock that stands still or runs back is taken to
+/// have advanced by the last positive interval (or [`FALLBACK_INTERVAL_S`]), never by zero.
+#[derive(Clone, Debug, Default)]
+struct FrameInterval {
     last_time_s: f64,
     /// The last positive frame interval, s.
     last_interval_s: Option<f64>,
+}
+
+impl FrameInterval {
+    /// Moves to `time_s` and returns the interval to predict over: 0 when the filter has not
+    /// `started` (its first observation initialises it).
+    fn advance(&mut self, time_s: f64, started: bool) -> f64 {
+        let raw = time_s - self.last_time_s;
+        self.last_time_s = time_s;
+        if !started {
+            0.0
+        } else if raw > 0.0 {
+            self.last_interval_s = Some(raw);
+            raw
+        } else {
+            self.last_interval_s.unwrap_or(FALLBACK_INTERVAL_S)
+        }
+    }
+}
+
+/// The Kalman update of one value `x` of variance `var` by a measurement `z` of standard error
+/// `se` (variance floored at [`REL_VAR_FLOOR`]·z²); the value stays non-negative.
+fn correct(x: &mut f64, var: &mut f64, z: f64, se: f64) {
+    let r = (se * se).max(REL_VAR_FLOOR * z * z);
+    let gain = if *var + r > 0.0 { *var / (*var + r) } else { 1.0 };
+    *x += gain * (z - *x);
+    *x = x.max(0.0);
+    *var *= 1.0 - gain;
 }
 
 /// The frame interval assumed when the clock has not moved and no earlier interval is known, s
@@ -64,16 +98,8 @@ impl Smoother {
     /// observed parameters (order `Pd r,g,b, Pa r,g,b`). Returns the smoothed values, or `None`
     /// until something has been observed.
     pub fn update(&mut self, time_s: f64, rate_per_sqrt_s: f64, meas: [Option<(f64, f64)>; 6]) -> Option<[f64; 6]> {
-        let raw = time_s - self.last_time_s;
-        let dt = if self.x.is_none() {
-            0.0 // the first observation initialises; no interval is used
-        } else if raw > 0.0 {
-            self.last_interval_s = Some(raw);
-            raw
-        } else {
-            self.last_interval_s.unwrap_or(FALLBACK_INTERVAL_S)
-        };
-        self.last_time_s = time_s;
+        // The first observation initialises; no interval is used.
+        let dt = self.clock.advance(time_s, self.x.is_some());
         let Some(x) = self.x.as_mut() else {
             // Initialise from the first observation of each parameter.
             if meas.iter().all(Option::is_none) {
@@ -99,16 +125,12 @@ impl Smoother {
             self.var[k] += q * q * dt;
             // Update.
             if let Some((z, se)) = meas[k] {
-                let r = (se * se).max(REL_VAR_FLOOR * z * z);
                 if !self.var[k].is_finite() {
                     x[k] = z;
-                    self.var[k] = r;
+                    self.var[k] = (se * se).max(REL_VAR_FLOOR * z * z);
                     continue;
                 }
-                let gain = if self.var[k] + r > 0.0 { self.var[k] / (self.var[k] + r) } else { 1.0 };
-                x[k] += gain * (z - x[k]);
-                x[k] = x[k].max(0.0);
-                self.var[k] *= 1.0 - gain;
+                correct(&mut x[k], &mut self.var[k], z, se);
             }
         }
         self.x
@@ -120,9 +142,7 @@ impl Smoother {
 pub struct LampSmoother {
     k: Option<[f64; 3]>,
     var: [f64; 3],
-    last_time_s: f64,
-    /// The last positive frame interval, s.
-    last_interval_s: Option<f64>,
+    clock: FrameInterval,
 }
 
 impl LampSmoother {
@@ -135,29 +155,19 @@ impl LampSmoother {
             *self = Self::default();
             return None;
         }
-        let raw = time_s - self.last_time_s;
-        self.last_time_s = time_s;
+        let dt = self.clock.advance(time_s, self.k.is_some());
         let Some(k) = self.k.as_mut() else {
             let (z, se) = meas?;
             self.k = Some(z);
             self.var = std::array::from_fn(|c| (se[c] * se[c]).max(REL_VAR_FLOOR * z[c] * z[c]));
             return self.k;
         };
-        let dt = if raw > 0.0 {
-            self.last_interval_s = Some(raw);
-            raw
-        } else {
-            self.last_interval_s.unwrap_or(FALLBACK_INTERVAL_S)
-        };
         let level = k.iter().fold(prior.abs(), |m, v| m.max(v.abs()));
         let q = rate_per_sqrt_s * level;
         for c in 0..3 {
             self.var[c] += q * q * dt;
             if let Some((z, se)) = meas {
-                let r = (se[c] * se[c]).max(REL_VAR_FLOOR * z[c] * z[c]);
-                let gain = if self.var[c] + r > 0.0 { self.var[c] / (self.var[c] + r) } else { 1.0 };
-                k[c] = (k[c] + gain * (z[c] - k[c])).max(0.0);
-                self.var[c] *= 1.0 - gain;
+                correct(&mut k[c], &mut self.var[c], z[c], se[c]);
             }
         }
         self.k
