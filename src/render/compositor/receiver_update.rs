@@ -57,11 +57,6 @@ impl ReceiverPixels {
         Self { reach: self.reach.take(), ..Self::new(near_radius_m) }
     }
 
-    /// The pixels chosen last (none before the first frame).
-    pub(super) fn chosen(&self) -> &[u32] {
-        self.chosen.as_ref().map(|(_, p)| p.as_slice()).unwrap_or(&[])
-    }
-
     /// The pixels for `sun` (`None`: no sun term) and the model, rebuilt past `rebuild_deg`.
     pub(super) fn pixels(&mut self, receivers: &Receivers, bounds: &[(Vec3, Vec3)], sun: Option<Vec3>, differential: bool, rebuild_deg: f64) -> &[u32] {
         let key = (sun, differential);
@@ -159,9 +154,10 @@ impl Compositor {
         report.receivers_computed += s.computed;
         report.timings.receivers_ms += s.ms;
         let by_cuts = differential && !ctx.reuses() && self.cut_receivers(&pixels, report);
-        // A slice of a recomputation in progress changes nothing served yet.
+        // A slice of a recomputation in progress changes nothing served yet; `c_v`, `b_v` from
+        // the cuts (the objects moved) are served at once, beside the served `c`, `b`.
         let staged = s.computed > 0 && !s.bounce_reset && self.receivers.retrace_progress().is_some();
-        if (s.computed > 0 || s.bounce_reset || by_cuts || warmed) && !staged {
+        if (s.computed > 0 && !staged) || s.bounce_reset || by_cuts || warmed {
             let t = std::time::Instant::now();
             self.upload_receivers();
             report.timings.upload_ms += t.elapsed().as_secs_f64() * 1e3;
@@ -171,14 +167,22 @@ impl Compositor {
     /// Sets `c_v`, `b_v` at `pixels` from the visibility cuts when they serve (module docs of
     /// `motion`); true when it did. Its time goes to the report's `cuts_ms`.
     pub(super) fn cut_receivers(&mut self, pixels: &[u32], report: &mut PassReport) -> bool {
-        let Some(cuts) = &self.cuts else { return false };
         let t = std::time::Instant::now();
-        let kept: Vec<u32> = pixels.iter().copied().filter(|&p| self.receivers.surface(p).is_some()).collect();
-        let surfaces: Vec<(Vec3, Vec3)> = kept.iter().filter_map(|&p| self.receivers.surface(p)).collect();
-        let vis = cuts(&surfaces);
+        let Some((kept, vis)) = self.cut_visibility(pixels) else { return false };
         self.receivers.set_with_from_visibility(&kept, &vis);
         report.timings.cuts_ms += t.elapsed().as_secs_f64() * 1e3;
         true
+    }
+
+    /// The sky visibility with the objects present, from the visibility cuts at their current
+    /// poses, of those of `pixels` that see the proxy (with those pixels); `None` when the cuts
+    /// do not serve.
+    pub(super) fn cut_visibility(&self, pixels: &[u32]) -> Option<(Vec<u32>, Vec<f32>)> {
+        let cuts = self.cuts.as_ref()?;
+        let kept: Vec<u32> = pixels.iter().copied().filter(|&p| self.receivers.surface(p).is_some()).collect();
+        let surfaces: Vec<(Vec3, Vec3)> = kept.iter().filter_map(|&p| self.receivers.surface(p)).collect();
+        let vis = cuts(&surfaces);
+        Some((kept, vis))
     }
 
     /// Uploads the receivers' `c`, `b`, `c_v`, `b_v`.

@@ -13,7 +13,8 @@
 //! for its sun, and, when that frame reuses the stored stencil, the volumes, stencil and mask
 //! drawn for the sun they were stored with. With moving objects, the `c`, `b` of the receivers
 //! along the motion (`Compositor::reach_motion`) are owed for the sun of the first frame that
-//! took them. The result is the uninterrupted run's, bit for bit
+//! took them, and the `c_v`, `b_v` the visibility cuts set on a frame are owed with that
+//! frame's poses, after its pixels. The result is the uninterrupted run's, bit for bit
 //! (every computation is a pure function of its sun and seed); the report lists what was
 //! restored.
 
@@ -76,6 +77,11 @@ impl Compositor {
         let pixels = self.receiver_pixels.pixels(&self.receivers, &self.virtual_bounds, ctx.sun(), differential, rebuild).to_vec();
         // With the visibility cuts serving, `c_v`, `b_v` are not traced (`receiver_update`).
         self.receivers.replay(&pixels, ctx.sun(), rebuild, differential && self.cuts.is_none(), self.config.bounce_quality.paths);
+        // `c_v`, `b_v` from the cuts at this frame's poses, owed in order after the pixels'
+        // `c`, `b` (`update_receivers` sets them right after computing those).
+        if differential && let Some((kept, vis)) = self.cut_visibility(&pixels) {
+            self.receivers.owe_visibility(kept, vis);
+        }
     }
 
     /// Pays what replayed frames owe before the frame `now` is recorded into `encoder`.
@@ -83,12 +89,9 @@ impl Compositor {
         let differential = self.config.darkening == Darkening::Differential;
         let with = if differential && self.cuts.is_none() { self.with_ray.as_deref() } else { None };
         let t = std::time::Instant::now();
+        let owed_values = self.receivers.owes();
         let computed = self.receivers.restore(&self.proxy_ray, with, self.config.ambient_quality, self.config.bounce_quality);
-        if computed > 0 && differential {
-            let pixels = self.receiver_pixels.chosen().to_vec();
-            self.cut_receivers(&pixels, report);
-        }
-        if computed > 0 {
+        if owed_values {
             self.upload_receivers();
             report.receivers_computed += computed;
             report.timings.receivers_ms += t.elapsed().as_secs_f64() * 1e3;

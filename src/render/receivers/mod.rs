@@ -97,6 +97,11 @@ enum Owed {
     /// The sky switched: every value dropped ([`Receivers::set_uniform_sky`]).
     Drop,
     Compute { todo: Vec<u32>, bounce_sun: Option<Vec3>, with: bool, uniform_sky: bool },
+    /// `c_v`, `b_v` set from the sky visibility with the objects present (the visibility cuts
+    /// at a replayed frame's poses): [`Receivers::set_with_from_visibility`].
+    Visibility { pixels: Vec<u32>, visibility: Vec<f32> },
+    /// The objects moved: `c_v`, `b_v` forgotten ([`Receivers::forget_objects`]).
+    Forget,
 }
 
 /// The fraction of pixel `p` (footage grid) whose first proxy surface sees the sun `l`.
@@ -267,7 +272,15 @@ impl Receivers {
 
     /// Forgets `c_v` and `b_v` (the virtual objects moved); the next [`Self::ensure`] with the
     /// objects computes them again where they are needed.
+    /// Computations owed by replayed frames before the move are forgotten after them, in order.
     pub fn forget_objects(&mut self) {
+        self.clear_with();
+        if !self.owed.is_empty() {
+            self.owed.push(Owed::Forget);
+        }
+    }
+
+    fn clear_with(&mut self) {
         self.have_with.fill(false);
         self.ambient_with.fill([1.0, 1.0, 1.0, 0.0]);
         self.bounce_with.fill([0.0; 4]);
@@ -297,6 +310,12 @@ impl Receivers {
         }
     }
 
+    /// Owes [`Self::set_with_from_visibility`] with `visibility` at `pixels` (a replayed frame's
+    /// visibility cuts), after the computations owed before it.
+    pub fn owe_visibility(&mut self, pixels: Vec<u32>, visibility: Vec<f32>) {
+        self.owed.push(Owed::Visibility { pixels, visibility });
+    }
+
     /// True when replayed frames owe computations.
     pub fn owes(&self) -> bool {
         !self.owed.is_empty() || self.job_owes()
@@ -315,6 +334,8 @@ impl Receivers {
                     self.bounce.iter_mut().for_each(|b| *b = [0.0; 4]);
                     self.bounce_with.iter_mut().for_each(|b| *b = [0.0; 4]);
                 }
+                Owed::Forget => self.clear_with(),
+                Owed::Visibility { pixels, visibility } => self.set_with_from_visibility(&pixels, &visibility),
                 Owed::Compute { todo, bounce_sun, with: with_on, uniform_sky } => {
                     self.sky_model = self.scene_sky.for_frame(uniform_sky);
                     let q = if bounce_sun.is_some() { bounce_quality } else { ambient_quality };
