@@ -25,6 +25,7 @@ mod lamps_estimate;
 mod live;
 mod object_cuts;
 mod object_cuts_turned;
+mod object_cuts_two;
 mod object_motion;
 mod scene_errors;
 mod shader_validation;

@@ -43,21 +43,19 @@ pub(crate) fn lum(p: [f32; 3]) -> f64 {
     (0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]) as f64
 }
 
-/// Per footage pixel: its centre ray meets the statue of `scene` (at its placement) before the
-/// proxy.
+/// Per footage pixel: its centre ray meets one of the virtual objects of `scene` (at their
+/// placements) before the proxy.
 pub(crate) fn object_hits(scene: &Scene) -> Vec<bool> {
     let k = &scene.camera.intrinsics;
     let (w, h) = (k.width, k.height);
-    let statue = RayScene::new(scene.virtual_objects[0].mesh.clone());
+    let objects: Vec<RayScene> = scene.virtual_objects.iter().map(|v| RayScene::new(v.mesh.clone())).collect();
     let proxy = RayScene::new(scene.proxy.clone());
     (0..w * h)
         .map(|i| {
             let Some((o, d)) = scene.camera.pixel_ray(i % w, i / w) else { return false };
             let (o, d) = (o.as_vec3(), d.as_vec3());
-            match statue.intersect(o, d, f32::MAX) {
-                Some(a) => proxy.intersect(o, d, f32::MAX).is_none_or(|b| a.t < b.t),
-                None => false,
-            }
+            let nearest = objects.iter().filter_map(|s| s.intersect(o, d, f32::MAX)).map(|a| a.t).fold(f32::INFINITY, f32::min);
+            nearest.is_finite() && proxy.intersect(o, d, f32::MAX).is_none_or(|b| nearest < b.t)
         })
         .collect()
 }
