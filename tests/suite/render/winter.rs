@@ -10,6 +10,9 @@
 //! sky and 7.11% with the scene's sky at MSAA 1 (4.30% at MSAA 4); the reference's own noise floor
 //! is 1.9% (two seeds, `reference/reference.toml`). What remains: the estimated `Pd` (2–5% high on
 //! these frames) and the shadow's penumbra edges at a low sun.
+//!
+//! With `turbidity = "fit"` the renderer takes the turbidity the estimator chose for the frame
+//! (`Lighting::sky`), so the composite is that of a scene declaring it.
 
 use super::support::*;
 use heliar::io::frames::Frame;
