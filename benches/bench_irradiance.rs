@@ -36,7 +36,7 @@ fn synthetic(w: u32, h: u32) -> Baked {
 }
 
 fn bench_relight(c: &mut Criterion) {
-    let lighting = Lighting { sun_dir: Vec3::new(0.3, 0.8, 0.2).normalize(), above_horizon: true, pd: Vec3::new(3.0, 2.9, 2.6), pa: Vec3::new(0.6, 0.7, 0.9), uniform_sky: false, lamps: heliar::lighting::LampScales::NONE };
+    let lighting = Lighting { sun_dir: Vec3::new(0.3, 0.8, 0.2).normalize(), above_horizon: true, pd: Vec3::new(3.0, 2.9, 2.6), pa: Vec3::new(0.6, 0.7, 0.9), sky: heliar::lighting::FrameSky::Declared, lamps: heliar::lighting::LampScales::NONE };
     let ray = Arc::new(RayScene::new(heliar::geometry::Mesh::default()));
     let mut g = c.benchmark_group("relight");
     for (w, h) in [(256, 128), (512, 256), (1024, 512)] {
@@ -56,7 +56,7 @@ fn bench_probes(c: &mut Criterion) {
     // 16×4×16 probes: x, z over 12 m at 0.8 m, y over 2.4 m.
     let t = ProbeTransfer::build(Vec3::new(-6.0, 0.1, -6.0), Vec3::new(6.0, 2.5, 6.0), 0.8, &b, &ray, scene.bake.probe_directions);
     assert_eq!(t.probes(), 16 * 4 * 16);
-    let l = Lighting { sun_dir: Vec3::from(b.info.capture_sun_dir), above_horizon: true, pd: Vec3::new(3.0, 2.9, 2.6), pa: Vec3::new(0.6, 0.7, 0.9), uniform_sky: false, lamps: heliar::lighting::LampScales::NONE };
+    let l = Lighting { sun_dir: Vec3::from(b.info.capture_sun_dir), above_horizon: true, pd: Vec3::new(3.0, 2.9, 2.6), pa: Vec3::new(0.6, 0.7, 0.9), sky: heliar::lighting::FrameSky::Declared, lamps: heliar::lighting::LampScales::NONE };
     let mut r = Relighter::new(&b, ray.clone(), scene.bake.relight.clone());
     r.update_sun(l.sun_dir);
     let relit = r.relight(&l);

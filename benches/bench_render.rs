@@ -67,7 +67,7 @@ fn sun(k: u32) -> Lighting {
     let a = (0.1f32 * k as f32).to_radians();
     let base = Vec3::new(-0.486, 0.756, 0.437).normalize();
     let d = Vec3::new(base.x * a.cos() - base.z * a.sin(), base.y, base.x * a.sin() + base.z * a.cos());
-    Lighting { sun_dir: d, above_horizon: true, pd: Vec3::new(3.2, 3.0, 2.7), pa: Vec3::new(0.55, 0.62, 0.8), uniform_sky: false, lamps: heliar::lighting::LampScales::NONE }
+    Lighting { sun_dir: d, above_horizon: true, pd: Vec3::new(3.2, 3.0, 2.7), pa: Vec3::new(0.55, 0.62, 0.8), sky: heliar::lighting::FrameSky::Declared, lamps: heliar::lighting::LampScales::NONE }
 }
 
 type Stage = fn(&PassReport) -> f64;

@@ -21,13 +21,26 @@ pub struct Lighting {
     pub pd: Vec3,
     /// `Pa` (RGB).
     pub pa: Vec3,
-    /// The frame's model took the sky as uniform (an overcast frame of a scene whose
-    /// `[estimator.sky]` has a shape; issue 13): the renderer's paths then see the uniform sky,
-    /// the terrain kept, instead of the shaped one ([`crate::sky::radiance::SkyModel::for_frame`]).
-    /// Without a shaped sky in the scene it changes nothing.
-    pub uniform_sky: bool,
+    /// The sky the frame's estimate used, which every renderer stage that traces paths (the
+    /// relight, the probes, the objects' transfer, the receivers' `c`, `b`) takes for the frame
+    /// ([`crate::sky::radiance::SkyModel::for_frame`]; issue 13, "they never disagree about the
+    /// sky").
+    pub sky: FrameSky,
     /// The scale of each lamp ([`LampScales::NONE`] without lamps).
     pub lamps: LampScales,
+}
+
+/// Which sky a frame's estimate used, relative to the scene's `[estimator.sky]`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum FrameSky {
+    /// The scene's declared sky (a fixed turbidity, or Jensen's uniform sky).
+    #[default]
+    Declared,
+    /// The uniform sky, the terrain kept: an overcast frame of a scene whose sky has a shape.
+    Uniform,
+    /// The declared shape with the turbidity the estimator chose for the frame by residual
+    /// (`turbidity = "fit"`, `estimate::turbidity`). Without a shaped sky it changes nothing.
+    Turbidity(f64),
 }
 
 /// Most lamps whose scales a frame's [`Lighting`] carries; lamps past it give no light.

@@ -37,7 +37,7 @@ impl Lighting {
         if (d.length() - 1.0).abs() > 1e-3 {
             return Err(PyValueError::new_err(format!("Lighting: sun_dir {sun_dir:?} is not a unit vector (length {:.4})", d.length())));
         }
-        Ok(Self { l: heliar::lighting::Lighting { sun_dir: d, above_horizon, pd: Vec3::from(pd), pa: Vec3::from(pa), uniform_sky: false, lamps: heliar::lighting::LampScales::NONE } })
+        Ok(Self { l: heliar::lighting::Lighting { sun_dir: d, above_horizon, pd: Vec3::from(pd), pa: Vec3::from(pa), sky: heliar::lighting::FrameSky::Declared, lamps: heliar::lighting::LampScales::NONE } })
     }
     #[getter]
     fn sun_dir(&self) -> [f32; 3] {

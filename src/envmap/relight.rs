@@ -103,8 +103,8 @@ pub struct Relighter {
     c_uniform: Vec<Vec3>,
     /// The scene's sky.
     scene_sky: SkyModel,
-    /// The sky of the current frame: the scene's, or under an overcast frame's uniform sky its
-    /// uniform variant ([`Relighter::set_uniform_sky`]).
+    /// The sky of the current frame: the scene's, or the variant the frame's estimate used
+    /// ([`Relighter::set_frame_sky`]).
     sky_model: SkyModel,
 }
 
@@ -155,11 +155,12 @@ impl Relighter {
         self
     }
 
-    /// Relights the next frames under the uniform sky (`true`: an overcast frame, whose
-    /// estimate used it) or the scene's (`false`). Returns true when that changed the sky, which
-    /// drops the sun planes, so the next [`Self::update_sun`] rebuilds them under the new sky.
-    pub fn set_uniform_sky(&mut self, uniform_sky: bool) -> bool {
-        let model = self.scene_sky.for_frame(uniform_sky);
+    /// Relights the next frames under the sky the frame's estimate used (the scene's, the
+    /// uniform sky of an overcast frame, or the scene's shape with a fitted turbidity). Returns
+    /// true when that changed the sky, which drops the sun planes, so the next
+    /// [`Self::update_sun`] rebuilds them under the new sky.
+    pub fn set_frame_sky(&mut self, sky: crate::lighting::FrameSky) -> bool {
+        let model = self.scene_sky.for_frame(sky);
         if model == self.sky_model {
             return false;
         }

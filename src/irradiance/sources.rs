@@ -138,9 +138,9 @@ impl VolumeProbes {
 
 impl ProbeSource for VolumeProbes {
     fn relight(&mut self, lighting: &Lighting) -> &ProbeGrid {
-        if self.relighter.set_uniform_sky(lighting.uniform_sky) {
-            // An overcast frame's uniform sky, or the scene's back: both responses follow (the
-            // direct one with the next sun update).
+        if self.relighter.set_frame_sky(lighting.sky) {
+            // An overcast frame's uniform sky, a fitted turbidity, or the scene's back: both
+            // responses follow (the direct one with the next sun update).
             self.basis.ambient = self.transfer.ambient_response(&self.relighter);
             self.basis.direct.clear();
         }

@@ -155,6 +155,13 @@ pub struct PassReport {
     /// when none did.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub moved: Vec<String>,
+    /// The sky the renderer's stages took for this frame (as the estimator names it, e.g.
+    /// `"hosek_wilkie T=6"`), when the frame's lighting asked for another than the scene's
+    /// declared one: a turbidity fitted per frame, or the uniform sky of an overcast frame
+    /// ([`crate::lighting::FrameSky`]); absent otherwise. The objects' transfer and the
+    /// receivers' `c`, `b` follow it, re-traced as after a sun move.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sky: Option<String>,
     /// Warnings of this frame (an object outside the irradiance-volume box); absent when none.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,

@@ -13,7 +13,7 @@ use crate::geometry::raycast::RayScene;
 use crate::io::frames::{Frame, Linearizer};
 use crate::irradiance::ProbeGrid;
 use crate::irradiance::sources::{ProbeSource, UniformSky, VolumeProbes};
-use crate::lighting::{LampScales, Lighting};
+use crate::lighting::{FrameSky, LampScales, Lighting};
 use crate::scene::Scene;
 use chrono::{DateTime, FixedOffset};
 use glam::Vec3;
@@ -69,9 +69,18 @@ pub fn lighting_of(e: &FrameEstimate) -> Lighting {
         (Some(s), _, _) => (v(s.pd), v(s.pa)),
         (None, pd, pa) => (pd.map(v).unwrap_or(Vec3::ZERO), pa.map(v).unwrap_or(Vec3::ZERO)),
     };
-    // `sky_model` is reported except under Jensen's model (uniform already).
-    let uniform_sky = e.sky_model.as_deref() == Some("uniform");
-    Lighting { sun_dir: Vec3::from(e.sun.dir_world), above_horizon: e.sun.above_horizon, pd, pa, uniform_sky, lamps: lamp_scales(&e.lamps) }
+    Lighting { sun_dir: Vec3::from(e.sun.dir_world), above_horizon: e.sun.above_horizon, pd, pa, sky: frame_sky(e), lamps: lamp_scales(&e.lamps) }
+}
+
+/// The sky the estimate used, for the renderer's stages: uniform on an overcast frame (the
+/// report's `sky_model` is `"uniform"`; it is absent under Jensen's model, uniform already), the
+/// turbidity chosen by residual under `turbidity = "fit"`, else the scene's declared sky.
+pub fn frame_sky(e: &FrameEstimate) -> FrameSky {
+    match (e.sky_model.as_deref(), &e.turbidity_fit) {
+        (Some("uniform"), _) => FrameSky::Uniform,
+        (_, Some(fit)) => FrameSky::Turbidity(fit.chosen),
+        _ => FrameSky::Declared,
+    }
 }
 
 /// The scale of each lamp for the render (issue 16 §3): the report's `k` (fitted, or the prior

@@ -14,6 +14,7 @@
 //! same bits as before this module existed.
 
 use super::SkyError;
+use crate::lighting::FrameSky;
 use super::hosek::HosekSky;
 use super::quadrature::hemisphere_integral_rgb;
 use glam::Vec3;
@@ -69,12 +70,31 @@ impl SkyModel {
         self.hosek_turbidity.is_none() && self.terrain_albedo == [0.0; 3]
     }
 
-    /// The model of one frame: under `uniform_sky` (an overcast frame, which the estimator fits
-    /// with the uniform sky; issue 13) the uniform sky with the same terrain, else this one.
-    pub fn for_frame(&self, uniform_sky: bool) -> SkyModel {
-        match uniform_sky {
-            true => Self { hosek_turbidity: None, terrain_albedo: self.terrain_albedo },
-            false => self.clone(),
+    /// The model of one frame ([`FrameSky`], what the frame's estimate used): the scene's; under
+    /// an overcast frame (which the estimator fits with the uniform sky; issue 13) the uniform
+    /// sky with the same terrain; under a turbidity chosen by residual the scene's shape with
+    /// that turbidity (a scene without a shape stays as it is).
+    pub fn for_frame(&self, sky: FrameSky) -> SkyModel {
+        match sky {
+            FrameSky::Declared => self.clone(),
+            FrameSky::Uniform => Self { hosek_turbidity: None, terrain_albedo: self.terrain_albedo },
+            FrameSky::Turbidity(t) => Self { hosek_turbidity: self.hosek_turbidity.map(|_| t), terrain_albedo: self.terrain_albedo },
+        }
+    }
+
+    /// True when the change from `self` to `to` is a change of the shape's turbidity alone
+    /// (both shaped, the same terrain): the stages then re-trace as after a sun move, a slice
+    /// per frame while the values traced under `self` serve, instead of dropping them as on a
+    /// switch between the uniform sky and a shaped one.
+    pub fn reshapes_to(&self, to: &SkyModel) -> bool {
+        self.hosek_turbidity.is_some() && to.hosek_turbidity.is_some() && self.terrain_albedo == to.terrain_albedo
+    }
+
+    /// How the reports name the model (as the estimator's `sky_model`).
+    pub fn name(&self) -> String {
+        match self.hosek_turbidity {
+            Some(t) => format!("hosek_wilkie T={t}"),
+            None => "uniform".to_owned(),
         }
     }
 
@@ -188,12 +208,29 @@ mod tests {
     #[test]
     fn an_overcast_frame_keeps_the_terrain_and_drops_the_shape() {
         let m = SkyModel { hosek_turbidity: Some(3.0), terrain_albedo: [0.8, 0.8, 0.82] };
-        assert_eq!(m.for_frame(false), m);
-        assert_eq!(m.for_frame(true), SkyModel { hosek_turbidity: None, terrain_albedo: [0.8, 0.8, 0.82] });
-        assert_eq!(SkyModel::uniform().for_frame(true), SkyModel::uniform());
+        assert_eq!(m.for_frame(FrameSky::Declared), m);
+        assert_eq!(m.for_frame(FrameSky::Uniform), SkyModel { hosek_turbidity: None, terrain_albedo: [0.8, 0.8, 0.82] });
+        assert_eq!(SkyModel::uniform().for_frame(FrameSky::Uniform), SkyModel::uniform());
         // The overcast sky above the horizon is exactly the uniform one.
-        let s = m.for_frame(true).for_sun(Some(Vec3::new(0.5, 0.3, 0.1)));
+        let s = m.for_frame(FrameSky::Uniform).for_sun(Some(Vec3::new(0.5, 0.3, 0.1)));
         assert_eq!(s.escape(Vec3::new(0.2, 0.5, 0.1).normalize()), Some((Vec3::ONE, Vec3::ZERO)));
+        assert!(!m.reshapes_to(&m.for_frame(FrameSky::Uniform)) && !m.for_frame(FrameSky::Uniform).reshapes_to(&m));
+    }
+
+    #[test]
+    fn a_fitted_turbidity_reshapes_a_shaped_sky_only() {
+        let m = SkyModel { hosek_turbidity: Some(3.0), terrain_albedo: [0.5; 3] };
+        let fitted = m.for_frame(FrameSky::Turbidity(6.0));
+        assert_eq!(fitted, SkyModel { hosek_turbidity: Some(6.0), terrain_albedo: [0.5; 3] });
+        assert!(m.reshapes_to(&fitted) && fitted.reshapes_to(&m));
+        assert_eq!((m.name(), fitted.name()), ("hosek_wilkie T=3".to_owned(), "hosek_wilkie T=6".to_owned()));
+        // Jensen's model has no shape to reshape.
+        assert_eq!(SkyModel::uniform().for_frame(FrameSky::Turbidity(6.0)), SkyModel::uniform());
+        // A hazier sky puts more of its light near the horizon away from the sun.
+        let sun = Some(Vec3::new(0.8, 0.15, -0.2).normalize());
+        let away = Vec3::new(-0.8, 0.1, 0.2).normalize();
+        let (a3, a6) = (m.for_sun(sun).escape(away).unwrap().0, fitted.for_sun(sun).escape(away).unwrap().0);
+        assert!((a3 - a6).abs().max_element() > 0.05 * a3.max_element(), "{a3} {a6}");
     }
 
     #[test]

@@ -32,7 +32,7 @@ fn v3(a: [f64; 3]) -> Vec3 {
 }
 
 fn capture_lighting(b: &Baked) -> Lighting {
-    Lighting { sun_dir: Vec3::from(b.info.capture_sun_dir), above_horizon: true, pd: v3(b.info.capture_pd), pa: v3(b.info.capture_pa), uniform_sky: false, lamps: heliar::lighting::LampScales::NONE }
+    Lighting { sun_dir: Vec3::from(b.info.capture_sun_dir), above_horizon: true, pd: v3(b.info.capture_pd), pa: v3(b.info.capture_pa), sky: heliar::lighting::FrameSky::Declared, lamps: heliar::lighting::LampScales::NONE }
 }
 
 #[test]
@@ -54,7 +54,7 @@ fn uniform_sky_without_geometry_closed_form() {
     };
     let ray = Arc::new(RayScene::new(Mesh::default()));
     let mut relighter = Relighter::new(&baked, ray.clone(), RelightConfig::default());
-    let lighting = Lighting { sun_dir: Vec3::new(0.3, 0.8, 0.2).normalize(), above_horizon: true, pd: Vec3::splat(3.0), pa: Vec3::new(0.5, 0.6, 0.8), uniform_sky: false, lamps: heliar::lighting::LampScales::NONE };
+    let lighting = Lighting { sun_dir: Vec3::new(0.3, 0.8, 0.2).normalize(), above_horizon: true, pd: Vec3::splat(3.0), pa: Vec3::new(0.5, 0.6, 0.8), sky: heliar::lighting::FrameSky::Declared, lamps: heliar::lighting::LampScales::NONE };
     relighter.update_sun(lighting.sun_dir);
     let transfer = ProbeTransfer::build(Vec3::ZERO, Vec3::splat(2.0), 1.0, &baked, &ray, 1024);
     assert_eq!(transfer.dims(), UVec3::splat(3));
@@ -158,18 +158,29 @@ fn an_overcast_frame_relights_under_the_uniform_sky() {
     assert!(!above.is_empty());
     let uniform = l.pa / std::f32::consts::PI;
     let off = |m: &heliar::envmap::relight::RelitMap| above.iter().map(|&i| ((m.get(i) - uniform).abs() / uniform).max_element()).fold(0.0f32, f32::max);
-    assert!(!r.set_uniform_sky(false), "the scene's sky already");
+    assert!(!r.set_frame_sky(heliar::lighting::FrameSky::Declared), "the scene's sky already");
     r.update_sun(l.sun_dir);
     let clear = r.relight(&l);
     assert!(off(&clear) > 0.2, "the shaped sky is not uniform: {}", off(&clear));
-    assert!(r.set_uniform_sky(true) && !r.set_uniform_sky(true));
+    assert!(r.set_frame_sky(heliar::lighting::FrameSky::Uniform) && !r.set_frame_sky(heliar::lighting::FrameSky::Uniform));
     assert!(r.update_sun(l.sun_dir).rebuilt, "the sun planes are rebuilt under the new sky");
-    let overcast = r.relight(&Lighting { uniform_sky: true, ..l });
+    let overcast = r.relight(&Lighting { sky: heliar::lighting::FrameSky::Uniform, ..l });
     assert!(off(&overcast) < 1e-5, "uniform sky texels: {}", off(&overcast));
-    assert!(r.set_uniform_sky(false));
+    assert!(r.set_frame_sky(heliar::lighting::FrameSky::Declared));
     r.update_sun(l.sun_dir);
     let back = r.relight(&l);
     assert!(above.iter().all(|&i| back.get(i) == clear.get(i)), "the shaped sky again, bit for bit");
+    // A turbidity fitted per frame relights under the scene's shape with that turbidity: the
+    // bits of a relight whose scene declares it.
+    let fitted = heliar::lighting::FrameSky::Turbidity(6.0);
+    assert!(r.set_frame_sky(fitted) && r.sky_model().hosek_turbidity == Some(6.0));
+    assert!(r.update_sun(l.sun_dir).rebuilt);
+    let hazy = r.relight(&Lighting { sky: fitted, ..l });
+    let mut fixed = Relighter::new(b, ray.clone(), scene.bake.relight.clone()).with_sky(SkyModel { hosek_turbidity: Some(6.0), terrain_albedo: [0.3; 3] });
+    fixed.update_sun(l.sun_dir);
+    let want = fixed.relight(&l);
+    assert!((0..b.node.len()).all(|i| hazy.get(i) == want.get(i)), "the fitted turbidity's relight equals the declared one's");
+    assert!(above.iter().any(|&i| hazy.get(i) != clear.get(i)), "turbidity 6 relights the sky texels differently from 3");
 }
 
 #[test]

@@ -156,7 +156,7 @@ fn resolve_lighting(scene: &Scene, ray: Arc<RayScene>, baked: &Baked, a: &Lighti
         };
         let f = |v: [f64; 3]| Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32);
         return Ok((
-            Lighting { sun_dir: Vec3::from(e.sun.dir_world), above_horizon: e.sun.above_horizon, pd: f(pd), pa: f(pa), uniform_sky: false, lamps: heliar::lighting::LampScales::NONE },
+            Lighting { sun_dir: Vec3::from(e.sun.dir_world), above_horizon: e.sun.above_horizon, pd: f(pd), pa: f(pa), sky: heliar::lighting::FrameSky::Declared, lamps: heliar::lighting::LampScales::NONE },
             format!("estimated on {} ({:?})", path.display(), e.status),
         ));
     }
@@ -169,14 +169,14 @@ fn resolve_lighting(scene: &Scene, ray: Arc<RayScene>, baked: &Baked, a: &Lighti
     };
     let (dir, up) = sun_at(&time)?;
     match (&a.pd, &a.pa) {
-        (Some(pd), Some(pa)) => Ok((Lighting { sun_dir: dir, above_horizon: up, pd: parse_intensity(pd, "--pd")?, pa: parse_intensity(pa, "--pa")?, uniform_sky: false, lamps: heliar::lighting::LampScales::NONE }, "given".into())),
+        (Some(pd), Some(pa)) => Ok((Lighting { sun_dir: dir, above_horizon: up, pd: parse_intensity(pd, "--pd")?, pa: parse_intensity(pa, "--pa")?, sky: heliar::lighting::FrameSky::Declared, lamps: heliar::lighting::LampScales::NONE }, "given".into())),
         _ => {
             let i = &baked.info;
             if i.albedo_source == heliar::scene::AlbedoSource::Gltf {
                 bail!("no lighting given and the bake has none at capture (albedo from glTF): pass --frame N or --pd/--pa");
             }
             let f = |v: [f64; 3]| Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32);
-            Ok((Lighting { sun_dir: dir, above_horizon: up, pd: f(i.capture_pd), pa: f(i.capture_pa), uniform_sky: false, lamps: heliar::lighting::LampScales::NONE }, "estimated on the environment map at capture".into()))
+            Ok((Lighting { sun_dir: dir, above_horizon: up, pd: f(i.capture_pd), pa: f(i.capture_pa), sky: heliar::lighting::FrameSky::Declared, lamps: heliar::lighting::LampScales::NONE }, "estimated on the environment map at capture".into()))
         }
     }
 }

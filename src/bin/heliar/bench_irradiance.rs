@@ -73,7 +73,7 @@ struct Setup {
 }
 
 fn lighting_of(b: &Baked) -> Lighting {
-    Lighting { sun_dir: Vec3::from(b.info.capture_sun_dir), above_horizon: true, pd: v3(b.info.capture_pd), pa: v3(b.info.capture_pa), uniform_sky: false, lamps: heliar::lighting::LampScales::NONE }
+    Lighting { sun_dir: Vec3::from(b.info.capture_sun_dir), above_horizon: true, pd: v3(b.info.capture_pd), pa: v3(b.info.capture_pa), sky: heliar::lighting::FrameSky::Declared, lamps: heliar::lighting::LampScales::NONE }
 }
 
 /// Brute-force irradiance of every test point under a relit map.

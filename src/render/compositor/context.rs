@@ -11,7 +11,7 @@
 //! skip, in list order, unless the gate reported it already.
 
 use super::{Compositor, PassSwitches};
-use crate::lighting::Lighting;
+use crate::lighting::{FrameSky, Lighting};
 use crate::render::frame::{PassReport, luma, pass};
 use crate::render::plan::{self, Pass};
 use glam::Vec3;
@@ -50,9 +50,8 @@ pub struct FrameContext {
     pub switches: PassSwitches,
     /// The reason a switched-off pass is reported with.
     pub off: String,
-    /// The frame's paths see the uniform sky instead of the scene's shaped one (an overcast
-    /// frame, [`Lighting::uniform_sky`]).
-    pub uniform_sky: bool,
+    /// The sky the frame's paths see, relative to the scene's ([`Lighting::sky`]).
+    pub sky: FrameSky,
 }
 
 /// A frame-level condition that leaves several passes out for one reason.
@@ -159,14 +158,14 @@ impl Compositor {
         };
         let (sun_dir, no_sun) = sun_of(lighting, self.config.no_sun_ratio);
         let sun = (no_objects.is_none() && no_sun.is_none()).then_some(sun_dir);
-        // A switch of the sky (an overcast frame, or the first clear one after) recomputes the
-        // receivers, so the stored stencil does not serve.
+        // A change of the sky (an overcast frame, the first clear one after, or a fitted
+        // turbidity) recomputes the receivers, so the stored stencil does not serve.
         let reuse = match no_objects {
-            None if self.receivers.sky_switch_pending(lighting.uniform_sky) => None,
+            None if self.receivers.sky_switch_pending(lighting.sky) => None,
             None => self.stencil.serves(sun, self.config.debug_masks, self.config.reuse_sun_deg),
             Some(_) => None,
         };
-        FrameContext { no_objects, no_sun, sun_dir, reuse, switches: self.switches, off, uniform_sky: lighting.uniform_sky }
+        FrameContext { no_objects, no_sun, sun_dir, reuse, switches: self.switches, off, sky: lighting.sky }
     }
 }
 
@@ -182,7 +181,7 @@ mod tests {
             reuse: None,
             switches: PassSwitches::default(),
             off: "off".into(),
-            uniform_sky: false,
+            sky: FrameSky::Declared,
         }
     }
 
@@ -201,7 +200,7 @@ mod tests {
 
     #[test]
     fn the_sun_is_missing_below_the_horizon_without_power_or_without_direction() {
-        let l = |dir: Vec3, above: bool, pd: f32| Lighting { sun_dir: dir, above_horizon: above, pd: Vec3::splat(pd), pa: Vec3::splat(1.0), uniform_sky: false, lamps: crate::lighting::LampScales::NONE };
+        let l = |dir: Vec3, above: bool, pd: f32| Lighting { sun_dir: dir, above_horizon: above, pd: Vec3::splat(pd), pa: Vec3::splat(1.0), sky: FrameSky::Declared, lamps: crate::lighting::LampScales::NONE };
         assert!(sun_of(&l(Vec3::Y, false, 3.0), 0.05).1.unwrap().contains("below the horizon"));
         // Pd/Pa = 0.01 < 0.05; NaN power is no power.
         assert!(sun_of(&l(Vec3::Y, true, 0.01), 0.05).1.unwrap().contains("Pd/Pa = 0.010"));

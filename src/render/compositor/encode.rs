@@ -42,6 +42,9 @@ impl Compositor {
             self.volumes.record(&self.gpu, &mut encoder, &ctx, &self.virtual_bounds, self.config.cap_offset_m, &mut report);
         }
         self.update_receivers(&ctx, &mut report);
+        if ctx.sky != crate::lighting::FrameSky::Declared {
+            report.sky = Some(self.receivers.sky_model().name());
+        }
         if ctx.admit(&self.transfer, &mut report) {
             self.transfer.record(&ctx, &self.gpu.queue, &self.res, &mut report);
         }

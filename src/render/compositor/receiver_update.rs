@@ -130,7 +130,7 @@ impl Compositor {
     pub(super) fn update_receivers(&mut self, ctx: &FrameContext, report: &mut PassReport) {
         // First, so that a switch of the sky (which made `frame_context` rebuild the stencil) is
         // taken whether or not this frame needs receiver data.
-        self.receivers.set_uniform_sky(ctx.uniform_sky, false);
+        self.receivers.set_frame_sky(ctx.sky, false);
         let differential = self.config.darkening == Darkening::Differential;
         let normal_with_sun = ctx.sun().is_some() && self.config.darkening == Darkening::Normal;
         if !ctx.has_objects() || !(differential || normal_with_sun) {

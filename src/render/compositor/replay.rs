@@ -58,7 +58,7 @@ impl Compositor {
 
     /// The receivers' decisions of a frame, without computing.
     fn replay_receivers(&mut self, ctx: &FrameContext) {
-        self.receivers.set_uniform_sky(ctx.uniform_sky, true);
+        self.receivers.set_frame_sky(ctx.sky, true);
         let differential = self.config.darkening == Darkening::Differential;
         let normal_with_sun = ctx.sun().is_some() && self.config.darkening == Darkening::Normal;
         if !ctx.has_objects() || !(differential || normal_with_sun) {

@@ -54,7 +54,7 @@ impl TransferPass {
     /// Traces the transfer for this frame's sun and uploads it (the plan said it must).
     pub fn record(&mut self, ctx: &FrameContext, queue: &wgpu::Queue, res: &Resources, report: &mut PassReport) {
         let Some((scene, transfer)) = &mut self.traced else { return };
-        transfer.set_uniform_sky(ctx.uniform_sky);
+        transfer.set_frame_sky(ctx.sky);
         let u = transfer.ensure(scene, ctx.sun(), self.rebuild_deg);
         debug_assert!(u.traced > 0, "the plan said the transfer must be traced");
         report.timings.transfer_ms = u.ms;
@@ -73,7 +73,7 @@ impl TransferPass {
     /// The decision of [`Self::record`] for this frame's sun, without tracing (a replayed frame).
     pub fn replay(&mut self, ctx: &FrameContext) {
         if let Some((_, transfer)) = &mut self.traced {
-            transfer.set_uniform_sky(ctx.uniform_sky);
+            transfer.set_frame_sky(ctx.sky);
             transfer.replay(ctx.sun(), self.rebuild_deg);
         }
     }
@@ -114,7 +114,7 @@ impl Pass<FrameContext> for TransferPass {
         if !ctx.switches.transfer {
             return Plan::skip(ctx.off.clone());
         }
-        if transfer.needs_trace(ctx.sun(), self.rebuild_deg) || transfer.sky_switch_pending(ctx.uniform_sky) {
+        if transfer.needs_trace(ctx.sun(), self.rebuild_deg) || transfer.sky_switch_pending(ctx.sky) {
             return Plan::Run;
         }
         if transfer.surfaces().is_empty() {

@@ -61,6 +61,7 @@
 use crate::gpu::canvas::Canvas;
 use crate::geometry::Mesh;
 use crate::geometry::ambient::{Escape, TransportQuality};
+use crate::lighting::FrameSky;
 use crate::sky::radiance::SkyModel;
 use crate::geometry::brdf::GltfSurface;
 use crate::geometry::raycast::{RAY_EPSILON_M, RayScene};
@@ -287,15 +288,19 @@ pub struct ObjectTransfer {
     /// Sun direction `sun` belongs to; `None` before the first trace with a sun.
     traced_sun: Option<Vec3>,
     traced: bool,
-    /// A trace replayed frames decided on but did not do (with its sun), paid by `restore`.
-    owed: Option<Option<Vec3>>,
+    /// A trace replayed frames decided on but did not do (with its sun and sky), paid by
+    /// `restore`.
+    owed: Option<(Option<Vec3>, SkyModel)>,
     /// Lattice pixels re-traced per frame after a sun move (0: all at once); see `retrace`.
     slice: usize,
     /// The re-trace for a new sun in progress.
     job: Option<retrace::SunJob>,
-    /// The sky the paths see (`R_a` depends on the sun unless it is uniform): the scene's, or
-    /// on overcast frames its uniform variant ([`ObjectTransfer::set_uniform_sky`]).
+    /// The sky the frame's paths see (`R_a` depends on the sun unless it is uniform): the
+    /// scene's, or the variant the frame's estimate used ([`ObjectTransfer::set_frame_sky`]).
     sky_model: SkyModel,
+    /// The sky the served `R_a`, `R_d` were traced under (differs from `sky_model` while a
+    /// re-trace for a fitted turbidity is owed or in progress).
+    traced_sky: SkyModel,
     /// The scene's sky.
     scene_sky: SkyModel,
     quality: TransportQuality,
@@ -318,7 +323,7 @@ impl ObjectTransfer {
             point[s.pixel as usize] = [s.point.x, s.point.y, s.point.z, s.footprint_m];
             normal[s.pixel as usize] = [s.normal.x, s.normal.y, s.normal.z, 0.0];
         }
-        Self { surfaces, object_pixels, stride, sky: vec![[0.0; 4]; n], sun: vec![[0.0; 4]; n], point, normal, traced_sun: None, traced: false, owed: None, slice: 0, job: None, sky_model: SkyModel::uniform(), scene_sky: SkyModel::uniform(), quality, seed }
+        Self { surfaces, object_pixels, stride, sky: vec![[0.0; 4]; n], sun: vec![[0.0; 4]; n], point, normal, traced_sun: None, traced: false, owed: None, slice: 0, job: None, sky_model: SkyModel::uniform(), traced_sky: SkyModel::uniform(), scene_sky: SkyModel::uniform(), quality, seed }
     }
 
     /// Re-traces `R_d` after a sun move in slices of about `paths_per_frame` paths, one slice per
@@ -333,27 +338,42 @@ impl ObjectTransfer {
     /// when the sun moves (the sky's shape follows it).
     pub fn with_sky(mut self, sky: SkyModel) -> Self {
         self.scene_sky = sky.clone();
+        self.traced_sky = sky.clone();
         self.sky_model = sky;
         self
     }
 
-    /// True when [`Self::set_uniform_sky`] with `uniform_sky` would change the sky the paths see
-    /// (and there are pixels to trace): the next frame traces everything again.
-    pub fn sky_switch_pending(&self, uniform_sky: bool) -> bool {
-        !self.surfaces.is_empty() && self.scene_sky.for_frame(uniform_sky) != self.sky_model
+    /// True when [`Self::set_frame_sky`] with `sky` would change the sky the paths see (and
+    /// there are pixels to trace): the next frame traces.
+    pub fn sky_switch_pending(&self, sky: FrameSky) -> bool {
+        !self.surfaces.is_empty() && self.scene_sky.for_frame(sky) != self.sky_model
     }
 
-    /// Traces under the uniform sky (`true`: an overcast frame, whose estimate used it) or the
-    /// scene's (`false`) from now on. A change drops the traced state and any re-trace in
+    /// Traces under the sky the frame's estimate used from now on. A switch between the uniform
+    /// sky (an overcast frame) and the scene's shape drops the traced state and any re-trace in
     /// progress, so the next [`Self::ensure`] (or [`Self::replay`]) traces in full under the new
-    /// sky; this depends on the frames' lighting only, so replayed frames decide alike.
-    pub fn set_uniform_sky(&mut self, uniform_sky: bool) {
-        let model = self.scene_sky.for_frame(uniform_sky);
+    /// sky; a change of the shape's turbidity alone ([`SkyModel::reshapes_to`]) is re-traced as
+    /// a sun move is, a slice per frame while the served values stay (`retrace`). This depends
+    /// on the frames' lighting only, so replayed frames decide alike.
+    pub fn set_frame_sky(&mut self, sky: FrameSky) {
+        let model = self.scene_sky.for_frame(sky);
         if model != self.sky_model {
+            if !self.sky_model.reshapes_to(&model) {
+                self.traced = false;
+                self.job = None;
+            }
             self.sky_model = model;
-            self.traced = false;
-            self.job = None;
         }
+    }
+
+    /// The sky the frame's paths see.
+    pub fn sky_model(&self) -> &SkyModel {
+        &self.sky_model
+    }
+
+    /// The sky the served values were traced under.
+    pub fn traced_sky(&self) -> &SkyModel {
+        &self.traced_sky
     }
 
     /// The traced pixels (the object pixels on the lattice).

@@ -14,6 +14,10 @@
 //!   traces the last slice swaps the job's values in. A job is not restarted while it runs:
 //!   the sun seen at its start is traced to the end, then the next frame compares the sun with
 //!   it again. The served `R_d` thus lags the sun by at most the job's length in frames.
+//! - A change of the sky's turbidity alone (a turbidity fitted per frame,
+//!   `ObjectTransfer::set_frame_sky`) starts a job as a sun move does, for the frame's sun (or
+//!   the traced one on a frame without sun) under the new sky; the job keeps the sky it started
+//!   with, and the served values the sky they were traced under.
 //! - **Keep**: nothing to do.
 //!
 //! Every pixel's value is a pure function of its seed and the sun (`trace_point`), so the job's
@@ -22,6 +26,7 @@
 //! by [`ObjectTransfer::restore`].
 
 use super::{ObjectTransfer, PointTransfer, TransferScene, trace_point};
+use crate::sky::radiance::SkyModel;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::ops::Range;
@@ -48,6 +53,8 @@ pub(super) fn slice_pixels(budget: u64, paths: u64) -> usize {
 #[derive(Clone, Debug)]
 pub(super) struct SunJob {
     sun: Vec3,
+    /// The sky the job traces under.
+    sky: SkyModel,
     /// Lattice pixels `surfaces[..done]` are traced (or owed).
     done: usize,
     /// `R_a` and `R_d` of the traced lattice pixels, in lattice order (empty while owed).
@@ -82,16 +89,13 @@ impl ObjectTransfer {
         if let Some(job) = &self.job {
             return Step::Slice { sun: job.sun, range: job.done..(job.done + slice).min(n) };
         }
-        match (self.traced_sun, sun) {
-            (Some(a), Some(l)) if angle_deg(a, l) > rebuild_deg => {
-                if slice >= n {
-                    Step::Full(Some(l))
-                } else {
-                    Step::Slice { sun: l, range: 0..slice }
-                }
-            }
-            _ => Step::Keep,
-        }
+        let resky = self.traced_sky != self.sky_model;
+        let target = match (self.traced_sun, sun) {
+            (Some(a), Some(l)) if resky || angle_deg(a, l) > rebuild_deg => l,
+            (Some(a), None) if resky => a,
+            _ => return Step::Keep,
+        };
+        if slice >= n { Step::Full(Some(target)) } else { Step::Slice { sun: target, range: 0..slice } }
     }
 
     /// True when [`ObjectTransfer::ensure`] for `sun` would trace: on first use, for the first
@@ -116,11 +120,13 @@ impl ObjectTransfer {
                 if sun.is_some() {
                     self.traced_sun = *sun;
                 }
+                self.traced_sky = self.sky_model.clone();
                 self.job = None;
                 None
             }
             Step::Slice { sun, range } => {
-                let job = self.job.get_or_insert_with(|| SunJob { sun: *sun, done: 0, values: Vec::new(), owed: false });
+                let sky = &self.sky_model;
+                let job = self.job.get_or_insert_with(|| SunJob { sun: *sun, sky: sky.clone(), done: 0, values: Vec::new(), owed: false });
                 job.done = range.end;
                 (range.end == self.surfaces.len()).then_some(*sun)
             }
@@ -137,12 +143,14 @@ impl ObjectTransfer {
             Step::Keep => TransferUpdate::default(),
             Step::Full(sun) => {
                 self.owed = None;
-                self.trace_values(scene, sun)
+                let sky = self.sky_model.clone();
+                self.trace_values(scene, sun, &sky)
             }
             Step::Slice { sun, range } => {
                 let t0 = std::time::Instant::now();
                 let traced = range.len();
-                let values = self.trace_sun(scene, sun, range);
+                let sky = self.job.as_ref().expect("take_step started the job").sky.clone();
+                let values = self.trace_sun(scene, sun, &sky, range);
                 let job = self.job.as_mut().expect("take_step started the job");
                 job.values.extend(values);
                 if done.is_some() {
@@ -162,16 +170,17 @@ impl ObjectTransfer {
         let done = self.take_step(&step);
         match step {
             Step::Keep => {}
-            Step::Full(sun) => self.owed = Some(sun),
+            Step::Full(sun) => self.owed = Some((sun, self.sky_model.clone())),
             Step::Slice { .. } => {
                 let job = self.job.as_mut().expect("take_step started the job");
                 job.owed = true;
                 job.values.clear();
                 if let Some(l) = done {
-                    // The swapped-in values are a full trace for the job's sun.
-                    self.owed = Some(Some(l));
+                    // The swapped-in values are a full trace for the job's sun and sky.
+                    let sky = self.job.take().expect("take_step started the job").sky;
+                    self.owed = Some((Some(l), sky.clone()));
                     self.traced_sun = Some(l);
-                    self.job = None;
+                    self.traced_sky = sky;
                 }
             }
         }
@@ -186,13 +195,13 @@ impl ObjectTransfer {
     /// then the slices of a re-trace still in progress; nothing when they owe none.
     pub fn restore(&mut self, scene: &TransferScene) -> TransferUpdate {
         let mut u = match self.owed.take() {
-            Some(sun) => self.trace_values(scene, sun),
+            Some((sun, sky)) => self.trace_values(scene, sun, &sky),
             None => TransferUpdate::default(),
         };
         if let Some(job) = self.job.as_ref().filter(|j| j.owed) {
             let t0 = std::time::Instant::now();
-            let (sun, done) = (job.sun, job.done);
-            let values = self.trace_sun(scene, sun, 0..done);
+            let (sun, done, sky) = (job.sun, job.done, job.sky.clone());
+            let values = self.trace_sun(scene, sun, &sky, 0..done);
             let job = self.job.as_mut().expect("checked above");
             job.values = values;
             job.owed = false;
@@ -213,20 +222,21 @@ impl ObjectTransfer {
             self.sun[s.pixel as usize] = [v.sun.x, v.sun.y, v.sun.z, 0.0];
         }
         self.traced_sun = Some(job.sun);
+        self.traced_sky = job.sky;
     }
 
-    /// `R_a` and `R_d` of lattice pixels `range` for `sun`.
-    fn trace_sun(&self, scene: &TransferScene, sun: Vec3, range: Range<usize>) -> Vec<PointTransfer> {
+    /// `R_a` and `R_d` of lattice pixels `range` for `sun` under `sky`.
+    fn trace_sun(&self, scene: &TransferScene, sun: Vec3, sky: &SkyModel, range: Range<usize>) -> Vec<PointTransfer> {
         let (q, seed) = (self.quality, self.seed);
-        let sky = self.sky_model.for_sun(Some(sun));
+        let sky = sky.for_sun(Some(sun));
         self.surfaces[range].par_iter().map(|s| trace_point(scene, s, Some(sun), &sky, q, pixel_seed(seed, s.pixel))).collect()
     }
 
-    /// Traces every lattice pixel for `sun` into the stored values.
-    fn trace_values(&mut self, scene: &TransferScene, sun: Option<Vec3>) -> TransferUpdate {
+    /// Traces every lattice pixel for `sun` under `sky` into the stored values.
+    fn trace_values(&mut self, scene: &TransferScene, sun: Option<Vec3>, sky: &SkyModel) -> TransferUpdate {
         let t0 = std::time::Instant::now();
         let (q, seed) = (self.quality, self.seed);
-        let sky = self.sky_model.for_sun(sun);
+        let sky = sky.for_sun(sun);
         let values: Vec<_> = self.surfaces.par_iter().map(|s| trace_point(scene, s, sun, &sky, q, pixel_seed(seed, s.pixel))).collect();
         for (s, t) in self.surfaces.iter().zip(&values) {
             self.sky[s.pixel as usize] = [t.sky.x, t.sky.y, t.sky.z, 1.0];

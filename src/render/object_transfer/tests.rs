@@ -241,24 +241,71 @@ fn an_overcast_frame_retraces_under_the_uniform_sky_and_back() {
     let l = Vec3::new(0.6, 0.2, 0.3).normalize();
     let mut t = ObjectTransfer::new(&canvas, &scene, q, 1, 1).with_sky(shaped.clone());
     let n = t.surfaces().len();
-    assert!(n > 0 && !t.sky_switch_pending(false));
+    assert!(n > 0 && !t.sky_switch_pending(FrameSky::Declared));
     assert_eq!(t.ensure(&scene, Some(l), 0.25).traced, n);
     let clear = t.sky.clone();
-    assert!(t.sky_switch_pending(true));
-    t.set_uniform_sky(true);
+    assert!(t.sky_switch_pending(FrameSky::Uniform));
+    t.set_frame_sky(FrameSky::Uniform);
     assert!(t.needs_trace(Some(l), 0.25));
     assert_eq!(t.ensure(&scene, Some(l), 0.25).traced, n, "the whole lattice under the uniform sky");
-    let mut fresh = ObjectTransfer::new(&canvas, &scene, q, 1, 1).with_sky(shaped.for_frame(true));
+    let mut fresh = ObjectTransfer::new(&canvas, &scene, q, 1, 1).with_sky(shaped.for_frame(FrameSky::Uniform));
     fresh.ensure(&scene, Some(l), 0.25);
     assert_eq!(t.sky, fresh.sky, "the uniform sky's R_a");
     assert_ne!(t.sky, clear, "a low sun's shaped sky differs from the uniform one");
     // The same frame again changes nothing; a clear frame goes back to the shaped sky's values.
-    t.set_uniform_sky(true);
+    t.set_frame_sky(FrameSky::Uniform);
     assert_eq!(t.ensure(&scene, Some(l), 0.25).traced, 0);
-    t.set_uniform_sky(false);
+    t.set_frame_sky(FrameSky::Declared);
     assert_eq!(t.ensure(&scene, Some(l), 0.25).traced, n);
     assert_eq!(t.sky, clear);
     // Under Jensen's model there is nothing to switch.
     let jensen = ObjectTransfer::new(&canvas, &scene, q, 1, 1);
-    assert!(!jensen.sky_switch_pending(true));
+    assert!(!jensen.sky_switch_pending(FrameSky::Uniform));
+}
+
+/// A turbidity fitted per frame reshapes the sky (issue 13, "one sky in the renderer"): the
+/// transfer is re-traced under it a slice per frame as after a sun move, the old values serving
+/// until the last slice, and then equals a transfer traced under that turbidity from the start;
+/// the same turbidity again traces nothing.
+#[test]
+fn a_fitted_turbidity_is_retraced_in_slices_and_equals_its_fixed_sky() {
+    let cam = Camera {
+        intrinsics: Intrinsics::brown_conrady(32, 24, 30.0, 30.0, 16.0, 12.0, [0.0; 5]),
+        pose: Pose::look_at(DVec3::new(0.0, 2.0, 4.0), DVec3::new(0.0, 2.0, 0.0), DVec3::Y).unwrap(),
+    };
+    let canvas = Canvas::new(&cam, 1.0);
+    let ball = lambert_ball();
+    let scene = TransferScene::new(&Mesh::default(), &[&ball]);
+    let q = TransportQuality { paths: 16, max_bounces: 2 };
+    let declared = SkyModel { hosek_turbidity: Some(3.0), terrain_albedo: [0.5; 3] };
+    let l = Vec3::new(0.6, 0.2, 0.3).normalize();
+    const SLICE: usize = 5;
+    let mut t = ObjectTransfer::new(&canvas, &scene, q, 1, 1).with_budget(SLICE as u64 * q.paths as u64).with_sky(declared.clone());
+    let n = t.surfaces().len();
+    assert!(n > 2 * SLICE, "{n} lattice pixels");
+    assert_eq!(t.ensure(&scene, Some(l), 0.25).traced, n, "the first trace is whole");
+    let t3 = t.sky.clone();
+    let fitted = FrameSky::Turbidity(6.0);
+    assert!(t.sky_switch_pending(fitted));
+    t.set_frame_sky(fitted);
+    assert_eq!(t.sky_model().hosek_turbidity, Some(6.0));
+    let mut frames = 0;
+    loop {
+        let u = t.ensure(&scene, Some(l), 0.25);
+        frames += 1;
+        assert!(u.traced > 0 && u.traced <= SLICE, "{u:?}");
+        if u.changed {
+            break;
+        }
+        assert_eq!((&t.sky, t.traced_sky()), (&t3, &declared), "frame {frames}: the declared sky's values serve");
+        t.set_frame_sky(fitted);
+    }
+    assert_eq!(frames, n.div_ceil(SLICE));
+    assert_eq!(t.traced_sky(), &declared.for_frame(fitted));
+    let mut fixed = ObjectTransfer::new(&canvas, &scene, q, 1, 1).with_sky(declared.for_frame(fitted));
+    fixed.ensure(&scene, Some(l), 0.25);
+    assert_eq!((&t.sky, &t.sun), (&fixed.sky, &fixed.sun), "bit for bit the fixed turbidity's");
+    assert_ne!(t.sky, t3, "turbidity 6 gives another R_a than 3 under a low sun");
+    t.set_frame_sky(fitted);
+    assert!(!t.needs_trace(Some(l), 0.25) && t.ensure(&scene, Some(l), 0.25).traced == 0, "the same sky again: nothing traced");
 }

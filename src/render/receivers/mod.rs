@@ -21,11 +21,17 @@
 //! terrain (`with_sky`, the scene's `[estimator.sky]`) `c` and `c_v` do follow the sun; every
 //! computation for a sun gives them for that sun's sky, so they are recomputed with `b`.
 //! Overcast frames, which the estimator fits under the uniform sky, switch the integrals to it
-//! ([`Receivers::set_uniform_sky`]; issue 13), and the next clear frame back.
+//! ([`Receivers::set_frame_sky`]; issue 13), and the next clear frame back. A turbidity fitted per
+//! frame reshapes the sky: the values are recomputed under it as after a sun move (a slice per
+//! frame within the budget, the stored values serving), not dropped.
 
 mod retrace;
+mod sweep;
+
+pub use sweep::swept_box_contains;
 
 use crate::geometry::ambient::{TransportQuality, transport_under};
+use crate::lighting::FrameSky;
 use crate::sky::radiance::SkyModel;
 use crate::geometry::raycast::RayScene;
 use crate::camera::Camera;
@@ -64,6 +70,8 @@ pub struct Receivers {
     have_bounce: Vec<bool>,
     /// Sun direction the bounce values belong to.
     pub bounce_sun: Option<Vec3>,
+    /// The sky the bounce values (and the `c` computed with them) were integrated under.
+    bounce_sky: SkyModel,
     /// Seed of the integrals.
     seed: u64,
     /// The camera (for sub-pixel rays).
@@ -72,13 +80,11 @@ pub struct Receivers {
     budget_paths: u64,
     /// The recomputation for a new sun in progress.
     job: Option<retrace::BounceJob>,
-    /// The sky the integrals see (under a shaped sky `c` follows the sun with `b`): the scene's,
-    /// or on overcast frames its uniform variant.
+    /// The sky the frame's integrals see (under a shaped sky `c` follows the sun with `b`): the
+    /// scene's, or the variant the frame's estimate used ([`Receivers::set_frame_sky`]).
     sky_model: SkyModel,
     /// The scene's sky.
     scene_sky: SkyModel,
-    /// `sky_model` is the scene's uniform variant.
-    uniform_sky: bool,
 }
 
 /// One pixel's computed values: pixel, `c`, `b`, sunlit fraction, and (`c_v`, `b_v`).
@@ -94,9 +100,9 @@ const LIT_SUBPIXELS: u32 = 4;
 #[derive(Clone, Debug, PartialEq)]
 enum Owed {
     Reset,
-    /// The sky switched: every value dropped ([`Receivers::set_uniform_sky`]).
+    /// The sky switched: every value dropped ([`Receivers::set_frame_sky`]).
     Drop,
-    Compute { todo: Vec<u32>, bounce_sun: Option<Vec3>, with: bool, uniform_sky: bool },
+    Compute { todo: Vec<u32>, bounce_sun: Option<Vec3>, with: bool, sky: SkyModel },
     /// `c_v`, `b_v` set from the sky visibility with the objects present (the visibility cuts
     /// at a replayed frame's poses): [`Receivers::set_with_from_visibility`].
     Visibility { pixels: Vec<u32>, visibility: Vec<f32> },
@@ -162,13 +168,13 @@ impl Receivers {
             owed: Vec::new(),
             have_bounce: vec![false; n],
             bounce_sun: None,
+            bounce_sky: SkyModel::uniform(),
             seed,
             camera: camera.clone(),
             budget_paths: 0,
             job: None,
             sky_model: SkyModel::uniform(),
             scene_sky: SkyModel::uniform(),
-            uniform_sky: false,
         }
     }
 
@@ -184,22 +190,30 @@ impl Receivers {
     /// gives `c` for that sun's sky, so `c` follows the sun wherever `b` does.
     pub fn with_sky(mut self, sky: SkyModel) -> Self {
         self.scene_sky = sky.clone();
+        self.bounce_sky = sky.clone();
         self.sky_model = sky;
         self
     }
 
-    /// Integrates under the uniform sky (`true`: an overcast frame, whose estimate used it) or
-    /// the scene's (`false`) from now on. A change drops every computed value (integrated under
-    /// the other sky) and any recomputation in progress, so the pixels the next [`Self::ensure`]
-    /// needs are computed again; while `replaying` ([`Self::replay`]) the drop of the values is
-    /// owed in order, so [`Self::restore`] redoes it where the uninterrupted run did. Returns
-    /// true on a change.
-    pub fn set_uniform_sky(&mut self, uniform_sky: bool, replaying: bool) -> bool {
-        let model = self.scene_sky.for_frame(uniform_sky);
+    /// Integrates under the sky the frame's estimate used from now on. A switch between the
+    /// uniform sky (an overcast frame) and the scene's shape drops every computed value
+    /// (integrated under the other sky) and any recomputation in progress, so the pixels the
+    /// next [`Self::ensure`] needs are computed again; while `replaying` ([`Self::replay`]) the
+    /// drop of the values is owed in order, so [`Self::restore`] redoes it where the
+    /// uninterrupted run did. A change of the shape's turbidity alone
+    /// ([`SkyModel::reshapes_to`]) keeps the values: the next [`Self::ensure`] with a sun
+    /// recomputes them as after a sun move ([`retrace`]). Returns true on a change.
+    pub fn set_frame_sky(&mut self, sky: FrameSky, replaying: bool) -> bool {
+        let model = self.scene_sky.for_frame(sky);
         if model == self.sky_model {
             return false;
         }
-        (self.sky_model, self.uniform_sky) = (model, uniform_sky);
+        let reshape = self.sky_model.reshapes_to(&model);
+        self.sky_model = model;
+        if reshape {
+            return true;
+        }
+        self.bounce_sky = self.sky_model.clone();
         self.have_ambient.fill(false);
         self.have_bounce.fill(false);
         self.have_with.fill(false);
@@ -212,9 +226,19 @@ impl Receivers {
         true
     }
 
-    /// True when [`Self::set_uniform_sky`] with `uniform_sky` would change the sky.
-    pub fn sky_switch_pending(&self, uniform_sky: bool) -> bool {
-        self.scene_sky.for_frame(uniform_sky) != self.sky_model
+    /// True when [`Self::set_frame_sky`] with `sky` would change the sky.
+    pub fn sky_switch_pending(&self, sky: FrameSky) -> bool {
+        self.scene_sky.for_frame(sky) != self.sky_model
+    }
+
+    /// The sky the frame's integrals see.
+    pub fn sky_model(&self) -> &SkyModel {
+        &self.sky_model
+    }
+
+    /// The sky the stored bounce values were integrated under.
+    pub fn bounce_sky(&self) -> &SkyModel {
+        &self.bounce_sky
     }
 
     /// Every pixel back to its value before any computation (`c = 1`, `b = 0`, no `c_v`).
@@ -247,7 +271,8 @@ impl Receivers {
         }
         let (todo, bounce_sun, bounce_reset) = self.advance(pixels, sun, rebuild_deg, with.is_some());
         let q = if bounce_sun.is_some() { bounce_quality } else { ambient_quality };
-        self.compute(proxy, with, &todo, bounce_sun, q);
+        let sky = self.sky_model.clone();
+        self.compute(proxy, with, &todo, bounce_sun, q, &sky);
         EnsureStats { computed: todo.len(), bounce_reset, ms: t.elapsed().as_secs_f64() * 1e3 }
     }
 
@@ -265,7 +290,7 @@ impl Receivers {
         }
         let computed = todo.len();
         if computed > 0 {
-            self.owed.push(Owed::Compute { todo, bounce_sun, with, uniform_sky: self.uniform_sky });
+            self.owed.push(Owed::Compute { todo, bounce_sun, with, sky: self.sky_model.clone() });
         }
         EnsureStats { computed, bounce_reset, ms: 0.0 }
     }
@@ -326,7 +351,6 @@ impl Receivers {
     /// computed before it); returns the pixels computed.
     pub fn restore(&mut self, proxy: &RayScene, with: Option<&RayScene>, ambient_quality: TransportQuality, bounce_quality: TransportQuality) -> usize {
         let mut computed = 0;
-        let current = self.sky_model.clone();
         for step in std::mem::take(&mut self.owed) {
             match step {
                 Owed::Drop => self.drop_values(),
@@ -336,15 +360,13 @@ impl Receivers {
                 }
                 Owed::Forget => self.clear_with(),
                 Owed::Visibility { pixels, visibility } => self.set_with_from_visibility(&pixels, &visibility),
-                Owed::Compute { todo, bounce_sun, with: with_on, uniform_sky } => {
-                    self.sky_model = self.scene_sky.for_frame(uniform_sky);
+                Owed::Compute { todo, bounce_sun, with: with_on, sky } => {
                     let q = if bounce_sun.is_some() { bounce_quality } else { ambient_quality };
-                    self.compute(proxy, with.filter(|_| with_on), &todo, bounce_sun, q);
+                    self.compute(proxy, with.filter(|_| with_on), &todo, bounce_sun, q, &sky);
                     computed += todo.len();
                 }
             }
         }
-        self.sky_model = current;
         computed + self.restore_job(proxy, with, bounce_quality)
     }
 
@@ -354,9 +376,9 @@ impl Receivers {
     fn advance(&mut self, pixels: &[u32], sun: Option<Vec3>, rebuild_deg: f64, with: bool) -> (Vec<u32>, Option<Vec3>, bool) {
         let mut reset = false;
         if let Some(l) = sun {
-            let moved = self.bounce_sun.is_none_or(|s| (s.dot(l).clamp(-1.0, 1.0).acos().to_degrees() as f64) > rebuild_deg);
+            let moved = self.bounce_sky != self.sky_model || self.bounce_sun.is_none_or(|s| (s.dot(l).clamp(-1.0, 1.0).acos().to_degrees() as f64) > rebuild_deg);
             if moved {
-                self.reset_bounce(l);
+                self.reset_bounce(l, self.sky_model.clone());
                 reset = true;
             }
         }
@@ -375,8 +397,9 @@ impl Receivers {
         (todo, bounce_sun, reset)
     }
 
-    /// Drops every pixel's `b`, `b_v` (the bounce now belongs to the sun `l`).
-    fn reset_bounce(&mut self, l: Vec3) {
+    /// Drops every pixel's `b`, `b_v` (the bounce now belongs to the sun `l` under `sky`).
+    fn reset_bounce(&mut self, l: Vec3, sky: SkyModel) {
+        self.bounce_sky = sky;
         self.have_bounce.iter_mut().for_each(|b| *b = false);
         self.bounce.iter_mut().for_each(|b| *b = [0.0; 4]);
         self.bounce_with.iter_mut().for_each(|b| *b = [0.0; 4]);
@@ -394,16 +417,16 @@ impl Receivers {
     }
 
     /// Path-traces `c`, `b`, the sunlit fraction (and with `with`, `c_v`, `b_v`) at `todo` for
-    /// `bounce_sun` with quality `q`, into the stored values.
-    fn compute(&mut self, proxy: &RayScene, with: Option<&RayScene>, todo: &[u32], bounce_sun: Option<Vec3>, q: TransportQuality) {
-        let rows = self.trace_rows(proxy, with, todo, bounce_sun, q);
+    /// `bounce_sun` under `sky` with quality `q`, into the stored values.
+    fn compute(&mut self, proxy: &RayScene, with: Option<&RayScene>, todo: &[u32], bounce_sun: Option<Vec3>, q: TransportQuality, sky: &SkyModel) {
+        let rows = self.trace_rows(proxy, with, todo, bounce_sun, q, sky);
         self.apply_rows(rows, bounce_sun.is_some());
     }
 
     /// The values of [`Self::compute`] at `todo`, not stored.
-    fn trace_rows(&self, proxy: &RayScene, with: Option<&RayScene>, todo: &[u32], bounce_sun: Option<Vec3>, q: TransportQuality) -> Vec<Row> {
+    fn trace_rows(&self, proxy: &RayScene, with: Option<&RayScene>, todo: &[u32], bounce_sun: Option<Vec3>, q: TransportQuality, sky: &SkyModel) -> Vec<Row> {
         let seed = self.seed;
-        let sky = self.sky_model.for_sun(bounce_sun);
+        let sky = sky.for_sun(bounce_sun);
         todo
             .par_iter()
             .filter_map(|&p| {
@@ -464,42 +487,5 @@ impl Receivers {
                 }))
             })
             .collect()
-    }
-}
-
-/// Whether `p` lies in the box `(lo, hi)` or in its shadow sweep along `−l`: moving from `p`
-/// toward the sun, does the ray pass through the box?
-pub fn swept_box_contains((lo, hi): (Vec3, Vec3), l: Vec3, p: Vec3) -> bool {
-    // Slab test of the ray p + t·l, t ≥ 0.
-    let (mut t0, mut t1) = (0.0f32, f32::MAX);
-    for a in 0..3 {
-        if l[a].abs() < 1e-12 {
-            if p[a] < lo[a] || p[a] > hi[a] {
-                return false;
-            }
-        } else {
-            let (ta, tb) = ((lo[a] - p[a]) / l[a], (hi[a] - p[a]) / l[a]);
-            t0 = t0.max(ta.min(tb));
-            t1 = t1.min(ta.max(tb));
-        }
-    }
-    t0 <= t1
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn swept_box() {
-        let b = (Vec3::ZERO, Vec3::ONE);
-        let l = Vec3::new(0.0, 1.0, 0.0);
-        assert!(swept_box_contains(b, l, Vec3::new(0.5, -3.0, 0.5)));
-        assert!(swept_box_contains(b, l, Vec3::new(0.5, 0.5, 0.5)));
-        assert!(!swept_box_contains(b, l, Vec3::new(0.5, 3.0, 0.5)));
-        assert!(!swept_box_contains(b, l, Vec3::new(1.5, -3.0, 0.5)));
-        let l = Vec3::new(1.0, 1.0, 0.0).normalize();
-        assert!(swept_box_contains(b, l, Vec3::new(-1.5, -1.5, 0.5)));
-        assert!(!swept_box_contains(b, l, Vec3::new(1.5, -1.5, 0.5)));
     }
 }

@@ -11,7 +11,9 @@
 //! exactly as the immediate path would have done in one frame: every `b`, `b_v` dropped, then
 //! the job's pixels stored. A job runs to its end once started (a frame without sun moves it on
 //! too); the next frame compares the sun with the job's again. If the darkening model changes
-//! (whether `c_v`, `b_v` are wanted), the job is dropped and the immediate path takes over.
+//! (whether `c_v`, `b_v` are wanted), the job is dropped and the immediate path takes over. A
+//! change of the sky's turbidity alone (fitted per frame, [`Receivers::set_frame_sky`]) starts a
+//! job as a sun move does, under the new sky, which the job keeps to its end.
 //!
 //! The decisions depend on the frames' suns and pixel lists only, and every value is a pure
 //! function of its pixel's seed and the sun, so a job's result equals the immediate
@@ -29,6 +31,8 @@ use std::ops::Range;
 #[derive(Clone, Debug)]
 pub(super) struct BounceJob {
     sun: Vec3,
+    /// The sky the job integrates under.
+    sky: crate::sky::radiance::SkyModel,
     /// Pixels to compute, in the frame's order.
     todo: Vec<u32>,
     /// With the objects' `c_v`, `b_v`.
@@ -60,14 +64,14 @@ impl Receivers {
         }
         if self.job.is_none() {
             let (Some(l), Some(s)) = (sun, self.bounce_sun) else { return None };
-            if (s.dot(l).clamp(-1.0, 1.0).acos().to_degrees() as f64) <= rebuild_deg {
+            if self.bounce_sky == self.sky_model && (s.dot(l).clamp(-1.0, 1.0).acos().to_degrees() as f64) <= rebuild_deg {
                 return None;
             }
             let todo: Vec<u32> = pixels.iter().copied().filter(|&p| self.point.get(p as usize).is_some_and(Option::is_some)).collect();
             if todo.len() <= slice {
                 return None; // one frame does it: the immediate path
             }
-            self.job = Some(BounceJob { sun: l, todo, with, done: 0, rows: Vec::new(), owed: false });
+            self.job = Some(BounceJob { sun: l, sky: self.sky_model.clone(), todo, with, done: 0, rows: Vec::new(), owed: false });
         }
         let job = self.job.as_mut()?;
         let range = job.done..(job.done + slice).min(job.todo.len());
@@ -88,7 +92,7 @@ impl Receivers {
     ) -> Option<super::EnsureStats> {
         let range = self.job_step(pixels, sun, rebuild_deg, with.is_some(), bounce_quality.paths)?;
         let job = self.job.as_ref()?;
-        let rows = self.trace_rows(proxy, with.filter(|_| job.with), &job.todo[range.clone()], Some(job.sun), bounce_quality);
+        let rows = self.trace_rows(proxy, with.filter(|_| job.with), &job.todo[range.clone()], Some(job.sun), bounce_quality, &job.sky);
         let job = self.job.as_mut()?;
         job.rows.extend(rows);
         let complete = job.done == job.todo.len();
@@ -108,10 +112,10 @@ impl Receivers {
         if complete {
             let job = self.job.take()?;
             // The immediate path's steps, owed in its order.
-            self.reset_bounce(job.sun);
+            self.reset_bounce(job.sun, job.sky.clone());
             self.mark(&job.todo, true, job.with);
             self.owed.push(super::Owed::Reset);
-            self.owed.push(super::Owed::Compute { todo: job.todo, bounce_sun: Some(job.sun), with: job.with, uniform_sky: self.uniform_sky });
+            self.owed.push(super::Owed::Compute { todo: job.todo, bounce_sun: Some(job.sun), with: job.with, sky: job.sky });
         }
         Some(super::EnsureStats { computed: range.len(), bounce_reset: complete, ms: 0.0 })
     }
@@ -140,7 +144,7 @@ impl Receivers {
     /// Computes the slices a job in progress owes; returns the pixels computed.
     pub(super) fn restore_job(&mut self, proxy: &RayScene, with: Option<&RayScene>, bounce_quality: TransportQuality) -> usize {
         let Some(job) = self.job.as_ref().filter(|j| j.owed) else { return 0 };
-        let rows = self.trace_rows(proxy, with.filter(|_| job.with), &job.todo[..job.done], Some(job.sun), bounce_quality);
+        let rows = self.trace_rows(proxy, with.filter(|_| job.with), &job.todo[..job.done], Some(job.sun), bounce_quality, &job.sky);
         let Some(job) = self.job.as_mut() else { return 0 };
         job.rows = rows;
         job.owed = false;
@@ -151,7 +155,7 @@ impl Receivers {
     /// immediate path stores them.
     fn swap_in_job(&mut self) {
         let Some(job) = self.job.take() else { return };
-        self.reset_bounce(job.sun);
+        self.reset_bounce(job.sun, job.sky);
         self.mark(&job.todo, true, job.with);
         self.apply_rows(job.rows, true);
     }
@@ -267,5 +271,42 @@ mod tests {
                 assert!(values(&resumed) == states[k], "resumed at {resume_at}: frame {k} differs");
             }
         }
+    }
+
+    /// A turbidity fitted per frame (issue 13): the receivers recompute under it a slice per
+    /// frame as after a sun move, the values of the declared sky serving until the last slice,
+    /// and end with the bits of receivers built under that turbidity from the start.
+    #[test]
+    fn a_fitted_turbidity_is_recomputed_in_slices_and_equals_its_fixed_sky() {
+        use crate::lighting::FrameSky;
+        use crate::sky::radiance::SkyModel;
+        let (cam, proxy, with) = scenes();
+        let declared = SkyModel { hosek_turbidity: Some(3.0), terrain_albedo: [0.5; 3] };
+        let fitted = FrameSky::Turbidity(6.0);
+        let mut r = Receivers::new(&cam, &proxy, 3).with_budget(BUDGET).with_sky(declared.clone());
+        let pixels: Vec<u32> = (0..r.point.len() as u32).filter(|&p| r.point[p as usize].is_some()).collect();
+        let l = sun(0.0);
+        let ensure = |r: &mut Receivers| r.ensure(&proxy, Some(&with), &pixels, Some(l), AMBIENT, BOUNCE, 0.25);
+        assert_eq!(ensure(&mut r).computed, pixels.len());
+        let first = values(&r);
+        assert!(r.sky_switch_pending(fitted) && r.set_frame_sky(fitted, false));
+        assert_eq!(values(&r), first, "a change of turbidity drops nothing");
+        let mut frames = 0;
+        loop {
+            let s = ensure(&mut r);
+            frames += 1;
+            assert!(s.computed > 0 && s.computed <= SLICE, "{s:?}");
+            if s.bounce_reset {
+                break;
+            }
+            assert_eq!((values(&r), r.bounce_sky()), (first.clone(), &declared), "frame {frames}: the declared sky's values serve");
+        }
+        assert_eq!(frames, pixels.len().div_ceil(SLICE));
+        assert_eq!(r.bounce_sky(), &declared.for_frame(fitted));
+        let mut fixed = Receivers::new(&cam, &proxy, 3).with_sky(declared.for_frame(fitted));
+        fixed.ensure(&proxy, Some(&with), &pixels, Some(l), AMBIENT, BOUNCE, 0.25);
+        assert_eq!(values(&r), values(&fixed), "bit for bit the fixed turbidity's");
+        assert_ne!(values(&r).0, first.0, "turbidity 6 gives another c than 3");
+        assert!(!r.set_frame_sky(fitted, false) && ensure(&mut r).computed == 0, "the same sky again: nothing computed");
     }
 }

@@ -34,7 +34,7 @@ const MAX_OFF_SHARE: f64 = 0.01;
 const PIXEL_RATIO_TOLERANCE: f32 = 0.02;
 
 fn night(pa: f32, k: [f32; 3]) -> Lighting {
-    Lighting { sun_dir: Vec3::Y, above_horizon: false, pd: Vec3::ZERO, pa: Vec3::splat(pa), uniform_sky: false, lamps: LampScales::from_slice(&[k]) }
+    Lighting { sun_dir: Vec3::Y, above_horizon: false, pd: Vec3::ZERO, pa: Vec3::splat(pa), sky: heliar::lighting::FrameSky::Declared, lamps: LampScales::from_slice(&[k]) }
 }
 
 /// One real pixel of the reference: its expected ratio, whether the objects block the lamp.

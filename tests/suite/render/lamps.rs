@@ -62,7 +62,7 @@ pub(super) fn spot(position: Vec3, at: Vec3) -> Lamp {
 }
 
 fn night(k: [f32; 3]) -> Lighting {
-    Lighting { sun_dir: Vec3::Y, above_horizon: false, pd: Vec3::ZERO, pa: Vec3::ZERO, uniform_sky: false, lamps: LampScales::from_slice(&[k]) }
+    Lighting { sun_dir: Vec3::Y, above_horizon: false, pd: Vec3::ZERO, pa: Vec3::ZERO, sky: heliar::lighting::FrameSky::Declared, lamps: LampScales::from_slice(&[k]) }
 }
 
 pub(super) fn config() -> CompositorConfig {
@@ -244,7 +244,7 @@ fn lamps_that_are_off_or_out_of_reach_change_nothing_and_say_why() {
     let s = setup(false, [1.2, 1.7, 2.8]);
     let (w, h) = (320, 240);
     let video = VideoFrame { width: w, height: h, rgba: (0..w * h).map(|i| [0.1 + (i % w) as f32 * 1e-3, 0.2, 0.3, 1.0]).collect() };
-    let day = Lighting { sun_dir: courtyard_sun(), above_horizon: true, pd: Vec3::splat(3.0), pa: Vec3::new(0.55, 0.62, 0.8), uniform_sky: false, lamps: LampScales::from_slice(&[K]) };
+    let day = Lighting { sun_dir: courtyard_sun(), above_horizon: true, pd: Vec3::splat(3.0), pa: Vec3::new(0.55, 0.62, 0.8), sky: heliar::lighting::FrameSky::Declared, lamps: LampScales::from_slice(&[K]) };
     let mut plain = s.compositor(config());
     let (want, r0) = plain.render(&video, &Lighting { lamps: LampScales::NONE, ..day }).unwrap();
     assert!(r0.ran.iter().chain(r0.skipped.iter().map(|x| &x.pass)).all(|p| !p.starts_with("lamp")), "{r0:?}");

@@ -28,7 +28,7 @@ fn statue_near_wall() -> Vec<(String, Mesh)> {
 }
 
 fn lit(sun: Vec3, pd: f32) -> Lighting {
-    Lighting { sun_dir: sun, above_horizon: sun.y > 0.0, pd: Vec3::splat(pd), pa: Vec3::new(0.55, 0.62, 0.8), uniform_sky: false, lamps: heliar::lighting::LampScales::NONE }
+    Lighting { sun_dir: sun, above_horizon: sun.y > 0.0, pd: Vec3::splat(pd), pa: Vec3::new(0.55, 0.62, 0.8), sky: heliar::lighting::FrameSky::Declared, lamps: heliar::lighting::LampScales::NONE }
 }
 
 fn below() -> Lighting {
@@ -107,7 +107,7 @@ fn frames() -> Vec<String> {
     let mut c = setup(vec![("ball".into(), icosphere(Vec3::new(1.0, 0.4, 2.5), 0.4, 2, Material::diffuse("b", [0.5; 3]), "ball"))]).compositor(config());
     run(&mut c, &lit(sun, 3.0), &mut out);
     run(&mut c, &lit(sun, 3.0), &mut out);
-    run(&mut c, &Lighting { sun_dir: Vec3::ZERO, above_horizon: true, pd: Vec3::splat(3.0), pa: Vec3::splat(0.5), uniform_sky: false, lamps: heliar::lighting::LampScales::NONE }, &mut out);
+    run(&mut c, &Lighting { sun_dir: Vec3::ZERO, above_horizon: true, pd: Vec3::splat(3.0), pa: Vec3::splat(0.5), sky: heliar::lighting::FrameSky::Declared, lamps: heliar::lighting::LampScales::NONE }, &mut out);
     run(&mut c, &lit(sun, f32::NAN), &mut out);
 
     // The transfer off by configuration, and the compute builder.

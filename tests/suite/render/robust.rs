@@ -92,7 +92,7 @@ fn compute_builder_makes_the_cpu_builders_triangles_and_the_same_masks() {
     let mut comp = setup.compositor(config);
     let (w, h) = (240, 180);
     let video = heliar::render::VideoFrame { width: w, height: h, rgba: vec![[0.5; 4]; (w * h) as usize] };
-    comp.render(&video, &heliar::lighting::Lighting { sun_dir: sun, above_horizon: true, pd: Vec3::splat(3.0), pa: Vec3::splat(0.6), uniform_sky: false, lamps: heliar::lighting::LampScales::NONE }).unwrap();
+    comp.render(&video, &heliar::lighting::Lighting { sun_dir: sun, above_horizon: true, pd: Vec3::splat(3.0), pa: Vec3::splat(0.6), sky: heliar::lighting::FrameSky::Declared, lamps: heliar::lighting::LampScales::NONE }).unwrap();
     let gpu = gpu();
     let bufs = comp.volumes().compute_buffers().expect("compute buffers");
     for ((name, mesh), b) in setup.objects.iter().zip(bufs) {

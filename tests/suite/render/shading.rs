@@ -62,7 +62,7 @@ fn shaded_pixels_match_a_cpu_evaluation() {
     comp.set_probes(&grid);
     let (w, h) = (320, 240);
     let video = VideoFrame { width: w, height: h, rgba: vec![[0.0, 0.0, 0.0, 1.0]; (w * h) as usize] };
-    let (frame, _) = comp.render(&video, &Lighting { sun_dir: sun, above_horizon: true, pd, pa, uniform_sky: false, lamps: heliar::lighting::LampScales::NONE }).expect("render");
+    let (frame, _) = comp.render(&video, &Lighting { sun_dir: sun, above_horizon: true, pd, pa, sky: heliar::lighting::FrameSky::Declared, lamps: heliar::lighting::LampScales::NONE }).expect("render");
 
     let r = reference(&setup, sun);
     let lit: Vec<(u32, bool)> = r.iter().map(|p| (p.tri, p.real_shadow || p.virtual_shadow)).collect();

@@ -25,7 +25,7 @@ fn compare(setup: &Setup, sun: Vec3, config: CompositorConfig) -> Vec<Agreement>
     let mut comp = setup.compositor(config);
     let (w, h) = (setup.camera.intrinsics.width, setup.camera.intrinsics.height);
     let video = VideoFrame { width: w, height: h, rgba: vec![[0.5, 0.5, 0.5, 1.0]; (w * h) as usize] };
-    let lighting = Lighting { sun_dir: sun, above_horizon: true, pd: Vec3::splat(3.0), pa: Vec3::splat(0.6), uniform_sky: false, lamps: heliar::lighting::LampScales::NONE };
+    let lighting = Lighting { sun_dir: sun, above_horizon: true, pd: Vec3::splat(3.0), pa: Vec3::splat(0.6), sky: heliar::lighting::FrameSky::Declared, lamps: heliar::lighting::LampScales::NONE };
     let (frame, report) = comp.render(&video, &lighting).expect("render");
     assert!(report.ran("virtual_volumes"), "{report:?}");
     let masks = frame.masks.expect("debug masks");

@@ -22,7 +22,7 @@ fn setup(objects: Vec<(String, Mesh)>) -> Setup {
 }
 
 fn lighting(sun: Vec3, pd: f32) -> Lighting {
-    Lighting { sun_dir: sun, above_horizon: sun.y > 0.0, pd: Vec3::splat(pd), pa: Vec3::new(0.55, 0.62, 0.8), uniform_sky: false, lamps: heliar::lighting::LampScales::NONE }
+    Lighting { sun_dir: sun, above_horizon: sun.y > 0.0, pd: Vec3::splat(pd), pa: Vec3::new(0.55, 0.62, 0.8), sky: heliar::lighting::FrameSky::Declared, lamps: heliar::lighting::LampScales::NONE }
 }
 
 fn config() -> CompositorConfig {

@@ -83,7 +83,7 @@ fn transfer_shading_matches_an_independent_path_tracer() {
     let mut comp = setup.compositor(CompositorConfig::from_estimator_settings(&Default::default()));
     let (w, h) = (240u32, 180u32);
     let video = VideoFrame { width: w, height: h, rgba: vec![[0.0, 0.0, 0.0, 1.0]; (w * h) as usize] };
-    let (frame, report) = comp.render(&video, &Lighting { sun_dir: sun, above_horizon: true, pd, pa, uniform_sky: false, lamps: heliar::lighting::LampScales::NONE }).expect("render");
+    let (frame, report) = comp.render(&video, &Lighting { sun_dir: sun, above_horizon: true, pd, pa, sky: heliar::lighting::FrameSky::Declared, lamps: heliar::lighting::LampScales::NONE }).expect("render");
     assert!(report.ran("object_transfer"), "{report:?}");
     assert!(report.transfer_traced > 1000, "{} pixels traced", report.transfer_traced);
 
@@ -137,13 +137,13 @@ fn transfer_shading_matches_an_independent_path_tracer() {
     // Every second canvas pixel traced (a quarter of the paths): the lookup reconstructs the
     // pixels between the lattice points from their neighbours on the same face.
     let mut coarse = setup.compositor(CompositorConfig { transfer_stride: 2, ..CompositorConfig::from_estimator_settings(&Default::default()) });
-    let (frame2, report2) = coarse.render(&video, &Lighting { sun_dir: sun, above_horizon: true, pd, pa, uniform_sky: false, lamps: heliar::lighting::LampScales::NONE }).expect("render");
+    let (frame2, report2) = coarse.render(&video, &Lighting { sun_dir: sun, above_horizon: true, pd, pa, sky: heliar::lighting::FrameSky::Declared, lamps: heliar::lighting::LampScales::NONE }).expect("render");
     assert!(report2.transfer_traced < report.transfer_traced / 3, "{} of {} traced", report2.transfer_traced, report.transfer_traced);
     let got: Vec<Vec3> = pixels.iter().map(|&i| Vec3::from(frame2.image.data[i])).collect();
     compare("sun and sky, stride 2", &got, &want);
 
     // Sky light alone (the sun below the horizon): R_a by itself, and the sun term and R_d off.
-    let (frame, report) = comp.render(&video, &Lighting { sun_dir: sun, above_horizon: false, pd, pa, uniform_sky: false, lamps: heliar::lighting::LampScales::NONE }).expect("render");
+    let (frame, report) = comp.render(&video, &Lighting { sun_dir: sun, above_horizon: false, pd, pa, sky: heliar::lighting::FrameSky::Declared, lamps: heliar::lighting::LampScales::NONE }).expect("render");
     assert!(!report.ran("object_transfer"), "no sun: the traced transfer is reused");
     let want = traced(Vec3::ZERO, 0x52);
     let got: Vec<Vec3> = pixels.iter().map(|&i| Vec3::from(frame.image.data[i])).collect();
