@@ -13,7 +13,7 @@
 //! # How it works
 //! The transfer's own paths ([`super::walk`]): at every vertex after the first, next-event
 //! estimation toward each lamp with the estimator's shadowed lamp irradiance
-//! ([`crate::estimate::lamp_bounce::direct_irradiance`], against the proxy and the objects
+//! ([`crate::lamps::visibility::direct_irradiance`], against the proxy and the objects
 //! together, so the objects' lamp shadows on the ground take their bounce away):
 //! - on the proxy, `ρ/π · E_i(y, n_y)·V_i(y)` (the estimator's lamp bounce `B`, seen from the
 //!   object);
@@ -26,7 +26,7 @@
 
 use super::walk::{Vertices, walk};
 use super::{PixelSurface, TransferScene};
-use crate::estimate::lamp_bounce::direct_irradiance;
+use crate::lamps::visibility::direct_irradiance;
 use crate::geometry::ambient::TransportQuality;
 use crate::geometry::brdf::GltfSurface;
 use crate::geometry::raycast::{Hit, RayScene};
