@@ -1,7 +1,7 @@
 // Pass 5: the virtual objects, shaded (Jensen §3.2 step 4 and §3.3): the glTF metallic-roughness
 // response to the sun, times its visibility (the fraction of the pixel's virtual-surface samples
 // that no shadow volume covers, from the shadow-mask pass), plus ambient light: the per-pixel
-// transfer R_a·Pa + R_d·Pd traced on the CPU (src/render/object_transfer.rs), reconstructed from the
+// transfer R_a·Pa + R_d·Pd (+ the lamps' bounce Σ k_i·R_i) traced on the CPU (src/render/object_transfer.rs), reconstructed from the
 // lattice entries around the pixel that lie on the fragment's surface, otherwise the probe grid
 // evaluated per pixel times the objects' own ambient occlusion; for objects that moved, the
 // per-vertex ambient of the visibility cuts instead (issue 15 §2). Depth-tested for equality against
@@ -34,6 +34,9 @@
 @group(0) @binding(8) var transfer_sun: texture_2d<f32>;
 @group(0) @binding(9) var transfer_point: texture_2d<f32>;
 @group(0) @binding(10) var transfer_normal: texture_2d<f32>;
+// The lamps' light bounced off the proxy and the objects, Σ k_i·R_i, per canvas pixel of the same
+// lattice (src/render/object_transfer/lamps.rs; zero without lamps or with none on).
+@group(0) @binding(12) var transfer_lamp: texture_2d<f32>;
 
 // Per vertex of the objects (the order of their vertex buffer), the ambient from the visibility
 // cuts (src/cuts/frame.rs, issue 15 §2; mirrors `VertexAmbient` there), four entries per vertex:
@@ -89,6 +92,7 @@ struct TransferHit {
     found: bool,
     sky: vec3<f32>,
     sun: vec3<f32>,
+    lamp: vec3<f32>,
 }
 
 // The fragment's transfer from the 3×3 lattice entries around canvas pixel `px` (lattice spacing
@@ -98,6 +102,7 @@ fn transfer_lookup(px: vec2<i32>, stride: i32, p: vec3<f32>, n: vec3<f32>) -> Tr
     out.found = false;
     out.sky = vec3<f32>(0.0);
     out.sun = vec3<f32>(0.0);
+    out.lamp = vec3<f32>(0.0);
     let size = vec2<i32>(textureDimensions(transfer_sky));
     let base = (px / stride) * stride;
     var wsum = 0.0;
@@ -124,12 +129,14 @@ fn transfer_lookup(px: vec2<i32>, stride: i32, p: vec3<f32>, n: vec3<f32>) -> Tr
             wsum += w;
             out.sky += w * sky.rgb;
             out.sun += w * textureLoad(transfer_sun, q, 0).rgb;
+            out.lamp += w * textureLoad(transfer_lamp, q, 0).rgb;
         }
     }
     if (wsum > 0.0) {
         out.found = true;
         out.sky /= wsum;
         out.sun /= wsum;
+        out.lamp /= wsum;
     }
     return out;
 }
@@ -216,6 +223,8 @@ fn fs_main(in: ShadeVertex, @builtin(front_facing) front: bool) -> @location(0) 
         if (sun_on) {
             radiance += transfer.sun * lighting.pd.rgb;
         }
+        // Zero without lamps: the sum is then the one above, bit for bit.
+        radiance += transfer.lamp;
     } else {
         let ao = multi_bounce_ao(textureLoad(ambient_occlusion, px, 0).r, s.base_color);
         radiance = ao * ambient_radiance(s, nv, probe_irradiance(in.world, n), probe_irradiance(in.world, r));

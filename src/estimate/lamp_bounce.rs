@@ -12,7 +12,8 @@
 //! light; without `B` the fit gives that light to `Pa` and lowers `k` to keep the paving right.
 //!
 //! # How it works
-//! - **Direct** ([`direct_irradiance`]): the lamp model's irradiance `E(p, n)` when a shadow ray
+//! - **Direct** ([`direct_irradiance`], in [`crate::lamps::visibility`] so that the renderer's
+//!   lamp bounce shares it): the lamp model's irradiance `E(p, n)` when a shadow ray
 //!   from `p` reaches the lamp (stopping [`LAMP_CLEARANCE_M`] short of it, so the luminaire's own
 //!   housing in the proxy does not shadow it); zero behind the surface.
 //! - **Bounce** ([`bounce_irradiance`]): the paths of the sun's `b` (cosine-weighted from `p`,
@@ -27,29 +28,11 @@
 
 use crate::geometry::ambient::TransportQuality;
 use crate::geometry::raycast::{RAY_EPSILON_M, RayScene};
+pub use crate::lamps::visibility::{LAMP_CLEARANCE_M, direct_irradiance};
 use crate::geometry::sampling::{sample_cosine_around, sample_stratified_2d};
 use crate::lamps::Lamp;
 use glam::{Vec2, Vec3};
 use rand::{Rng, SeedableRng, rngs::SmallRng};
-
-/// Shadow rays toward a lamp stop this short of it (metres), so the luminaire's own housing in
-/// the proxy does not shadow its light.
-pub const LAMP_CLEARANCE_M: f32 = 0.02;
-
-/// The lamp model's irradiance at `p` (facing unit normal `n`) when the proxy lets its light
-/// through, per channel in model units; zero behind the surface or in the proxy's shadow.
-pub fn direct_irradiance(lamp: &Lamp, scene: &RayScene, p: Vec3, n: Vec3) -> [f64; 3] {
-    let d = lamp.light.position.as_vec3() - p;
-    let dist = d.length();
-    if !(dist > LAMP_CLEARANCE_M + RAY_EPSILON_M) || n.dot(d) <= 0.0 {
-        return [0.0; 3];
-    }
-    let irr = lamp.irradiance(p.as_dvec3(), n.as_dvec3());
-    if irr.iter().all(|&v| v <= 0.0) || scene.occluded(p + n * RAY_EPSILON_M, d / dist, dist - LAMP_CLEARANCE_M) {
-        return [0.0; 3];
-    }
-    irr
-}
 
 /// The irradiance at `p` (facing unit normal `n`) from the lamp's light reflected by the proxy
 /// (module docs), per channel in model units, with `quality.paths` paths of up to

@@ -31,6 +31,7 @@ pub mod lightfield;
 pub mod model;
 pub mod photometry;
 pub mod storage;
+pub mod visibility;
 
 pub use analytic::{AnalyticLightError, PointLight, SpotLight};
 pub use model::{Lamp, LampError};

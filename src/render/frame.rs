@@ -217,6 +217,9 @@ pub mod pass {
     pub const LAMP_TERM: &str = "lamp_term";
     /// The objects' lamp shadows on the real receivers (`render::lamps::ground`).
     pub const LAMP_GROUND: &str = "lamp_ground";
+    /// The lamps' light bounced onto the objects off the proxy and the objects
+    /// (`render::object_transfer::lamps`), added to their per-pixel ambient.
+    pub const LAMP_BOUNCE: &str = "lamp_bounce";
     /// One lamp left out of the lamp term (the reason names it).
     pub const LAMP: &str = "lamp";
     /// The output frame.

@@ -50,6 +50,8 @@ impl VirtualShading {
                 texture_entry(10, false),
                 // The objects' per-vertex ambient from the visibility cuts, read by the vertex stage.
                 wgpu::BindGroupLayoutEntry { visibility: wgpu::ShaderStages::VERTEX, ..storage_entry(11) },
+                // The lamps' bounce per canvas pixel (`render::object_transfer::lamps`).
+                texture_entry(12, false),
             ],
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

@@ -68,6 +68,10 @@ pub struct RenderSweep {
     /// they add.
     #[arg(long)]
     no_lamp_ground: bool,
+    /// Leave out the lamps' light bounced onto the objects (`lamp_bounce`), to measure what it
+    /// adds.
+    #[arg(long)]
+    no_lamp_bounce: bool,
 }
 
 /// One reference frame: its footage, lighting, reference image and pixel classes.
@@ -111,7 +115,8 @@ pub fn run(a: RenderSweep) -> Result<()> {
     let seq = scene.sequence(refs.sequence.as_deref()).context("the references' sequence")?.clone();
     let frames = reference_frames(&scene, &ray, &refs, &seq, a.lamp_k)?;
     let values = knob_values(a.knob, &CompositorConfig::for_scene(&scene));
-    let rows = sweep(&scene, &ray, &frames, values, !a.no_lamp_ground)?;
+    let options = heliar::render::lamps::LampOptions { ground: !a.no_lamp_ground, bounce: !a.no_lamp_bounce, ..Default::default() };
+    let rows = sweep(&scene, &ray, &frames, values, options)?;
     report(&a, &rows, &frames)
 }
 
@@ -178,9 +183,8 @@ fn knob_values(knob: Knob, base: &CompositorConfig) -> Vec<(String, CompositorCo
     }
 }
 
-/// Runs the compositor once per setting over the reference frames; `lamp_ground`: the objects'
-/// lamp shadows on real receivers.
-fn sweep(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayScene>, frames: &[RefFrame], values: Vec<(String, CompositorConfig, u32)>, lamp_ground: bool) -> Result<Vec<Row>> {
+/// Runs the compositor once per setting over the reference frames, with the lamps' `options`.
+fn sweep(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayScene>, frames: &[RefFrame], values: Vec<(String, CompositorConfig, u32)>, options: heliar::render::lamps::LampOptions) -> Result<Vec<Row>> {
     let mut gpus: Vec<(u32, Arc<Gpu>)> = Vec::new();
     let pb = frame_bar(values.len(), "sweep");
     let mut rows = Vec::new();
@@ -195,9 +199,9 @@ fn sweep(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayS
         };
         let t = std::time::Instant::now();
         let mut comp = Compositor::for_scene(gpu, scene, ray.clone(), config).with_context(|| format!("setting up the compositor for {}", scene.root.display()))?;
-        if !lamp_ground && !scene.lights.is_empty() {
+        if options != heliar::render::lamps::LampOptions::default() && !scene.lights.is_empty() {
             let lamps = heliar::lamps::Lamp::load_all(&scene.root.join(heliar::scene::MANIFEST_FILE), &scene.lights)?;
-            comp.set_lamps(&lamps, heliar::render::lamps::LampOptions { ground: false, ..Default::default() })?;
+            comp.set_lamps(&lamps, options)?;
         }
         let setup_ms = ms(t);
         let (mut errors, mut frame_ms, mut transfer_ms, mut traced) = (Vec::new(), Vec::new(), 0.0f64, 0usize);

@@ -48,6 +48,7 @@ impl Compositor {
         if ctx.admit(&self.transfer, &mut report) {
             self.transfer.record(&ctx, &self.gpu.queue, &self.res, &mut report);
         }
+        self.prepare_lamp_bounce(&ctx, &lighting.lamps, &mut report);
         self.upload_frame(&ctx, video, lighting, output_scale, &mut report);
 
         // Render passes.

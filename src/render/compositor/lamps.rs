@@ -3,6 +3,7 @@
 //! in the virtual shading's render pass (`units.rs`); see [`crate::render::lamps`].
 
 use super::Compositor;
+use super::lamp_bounce::LampBouncePass;
 use super::context::FrameContext;
 use crate::lamps::Lamp;
 use crate::lighting::Lighting;
@@ -16,6 +17,9 @@ impl Compositor {
     /// the lamp stage.
     pub fn set_lamps(&mut self, lamps: &[Lamp], options: LampOptions) -> Result<(), RenderError> {
         self.lamps = if lamps.is_empty() { None } else { Some(LampPass::new(&self.gpu, lamps, options, &self.camera_buf, &self.mat_layout, &self.lamp_layout)?) };
+        self.lamp_bounce = (!lamps.is_empty() && options.bounce).then(|| LampBouncePass::new(lamps));
+        // A bounce of earlier lamps must not stay in the shading's texture.
+        self.res.transfer_lamp.write(&self.gpu.queue, &vec![[0.0f32; 4]; (self.canvas.intrinsics.width * self.canvas.intrinsics.height) as usize]);
         Ok(())
     }
 

@@ -49,6 +49,7 @@
 //! | `volume_build` | [`Volumes`] | CPU (or compute) and upload |
 //! | receivers' `c`, `b` | `receiver_update.rs` (not in the report) | CPU and upload |
 //! | `object_transfer` | `transfer.rs` | CPU and upload |
+//! | `lamp_bounce` (with `[[lights]]` only) | `lamp_bounce.rs` ([`crate::render::object_transfer::lamps`]) | CPU (once) and upload |
 //! | footage, lighting uniform | | upload |
 //! | `depth_prepass`, `real_volumes`, `virtual_volumes` | [`DepthPrepass`](crate::render::depth_prepass::DepthPrepass), [`RealVolumes`], [`VirtualVolumes`] | one render pass |
 //! | `shadow_mask` | [`ShadowMask`](crate::render::shadow_mask::ShadowMask) | render pass |
@@ -61,6 +62,7 @@
 mod config;
 mod context;
 mod encode;
+mod lamp_bounce;
 mod lamps;
 mod motion;
 mod receiver_update;
@@ -157,6 +159,8 @@ pub struct Compositor {
     cuts: Option<motion::ReceiverVisibility>,
     /// The lamp stage (`None`: the scene has no lamps).
     lamps: Option<super::lamps::LampPass>,
+    /// The lamps' bounce on the objects (`None`: no lamps, or its option off).
+    lamp_bounce: Option<lamp_bounce::LampBouncePass>,
 }
 
 impl Compositor {

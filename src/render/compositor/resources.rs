@@ -44,6 +44,9 @@ pub struct Resources {
     pub transfer_sky: Tex,
     /// Transfer `R_d` per canvas pixel.
     pub transfer_sun: Tex,
+    /// The lamps' bounce `Σ k_i·R_i` per canvas pixel, zero without lamps
+    /// (`render::object_transfer::lamps`).
+    pub transfer_lamp: Tex,
     /// Surface point of the transfer entry, `w` its footprint radius (metres).
     pub transfer_point: Tex,
     /// Shading normal of the transfer entry.
@@ -77,6 +80,7 @@ impl Resources {
             occlusion: Tex::new(d, "virtual occlusion", canvas, wgpu::TextureFormat::R32Float, 1, input),
             transfer_sky: Tex::new(d, "transfer R_a", canvas, f32x4, 1, input),
             transfer_sun: Tex::new(d, "transfer R_d", canvas, f32x4, 1, input),
+            transfer_lamp: Tex::new(d, "transfer lamp bounce", canvas, f32x4, 1, input),
             transfer_point: Tex::new(d, "transfer point", canvas, f32x4, 1, input),
             transfer_normal: Tex::new(d, "transfer normal", canvas, f32x4, 1, input),
             sampler: d.create_sampler(&wgpu::SamplerDescriptor {

@@ -225,6 +225,7 @@ impl Compositor {
             vertex_sources,
             cuts: None,
             lamps: None,
+            lamp_bounce: None,
             gpu,
         })
     }
@@ -256,6 +257,7 @@ impl Compositor {
                 wgpu::BindGroupEntry { binding: 9, resource: wgpu::BindingResource::TextureView(&res.transfer_point.view) },
                 wgpu::BindGroupEntry { binding: 10, resource: wgpu::BindingResource::TextureView(&res.transfer_normal.view) },
                 wgpu::BindGroupEntry { binding: 11, resource: cut_ambient.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 12, resource: wgpu::BindingResource::TextureView(&res.transfer_lamp.view) },
             ],
         })
     }

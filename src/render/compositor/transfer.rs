@@ -36,6 +36,11 @@ impl TransferPass {
         self.traced.as_ref().map(|(_, t)| t)
     }
 
+    /// The transfer and its scene, when it is on.
+    pub fn scene_and_transfer(&self) -> Option<(&TransferScene, &ObjectTransfer)> {
+        self.traced.as_ref().map(|(s, t)| (s, t))
+    }
+
     /// Drops the traced transfer (it no longer matches the objects); the plan reports `reason`
     /// and the shading falls back to the probe grid times ambient occlusion.
     pub fn drop_traced(&mut self, reason: &str) {

@@ -65,13 +65,16 @@ pub struct LampOptions {
     /// Darken the real receivers by the objects' lamp shadows ([`ground`], with the
     /// differential darkening).
     pub ground: bool,
+    /// Add the lamps' light bounced off the proxy and the objects to the objects' per-pixel
+    /// ambient (`render::object_transfer::lamps`; the compositor's `lamp_bounce`).
+    pub bounce: bool,
 }
 
 impl Default for LampOptions {
     /// One point per cell (16 lookups per spot), up to 81 maps (a 9×9 light field) of 256²,
-    /// shadows on real receivers on.
+    /// shadows on real receivers and the lamps' bounce on.
     fn default() -> Self {
-        Self { support_points: 1, shadows: true, shadow_maps: 81, tile: DEFAULT_TILE, ground: true }
+        Self { support_points: 1, shadows: true, shadow_maps: 81, tile: DEFAULT_TILE, ground: true, bounce: true }
     }
 }
 

@@ -48,6 +48,10 @@
 //! the uniform sky of the crate's radiometry. Moving objects or a moving camera would need a
 //! trace per frame: the manifest's placements and the calibrated camera are static.
 //!
+//! With `[[lights]]`, the lamps' light after one or more bounces is a third part,
+//! `Σ k_i·R_i`, traced along the same paths (`walk`) once for all frames
+//! ([`lamps`], issue 16 §3).
+//!
 //! Pixels are traced on a lattice, every `stride`-th canvas pixel in each direction: 1 (all of
 //! them) while the object pixels times the paths fit [`TRANSFER_PATH_BUDGET`], coarser for
 //! objects that fill much of a large frame. The shading pass reconstructs each fragment's value
@@ -64,10 +68,8 @@ use crate::geometry::ambient::{Escape, TransportQuality};
 use crate::lighting::FrameSky;
 use crate::sky::radiance::SkyModel;
 use crate::geometry::brdf::GltfSurface;
-use crate::geometry::raycast::{RAY_EPSILON_M, RayScene};
-use crate::geometry::sampling::{sample_cosine_around, sample_stratified_2d};
+use crate::geometry::raycast::{Hit, RayScene};
 use glam::{Vec2, Vec3};
-use rand::{Rng, SeedableRng, rngs::SmallRng};
 use rayon::prelude::*;
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
@@ -171,70 +173,44 @@ impl TransferScene {
 /// Traces `R_a` and `R_d` of one surface point (module docs) under `sky`. `sun` is the unit
 /// direction toward the sun, or `None` for `R_a` alone. Deterministic for a given `seed`.
 pub fn trace_point(scene: &TransferScene, s: &PixelSurface, sun: Option<Vec3>, sky: &impl Escape, quality: TransportQuality, seed: u64) -> PointTransfer {
-    let world = &scene.world;
-    let mut rng = SmallRng::seed_from_u64(seed ^ 0x7a3f_10c5_be11_0001);
-    let k = quality.paths.max(1);
-    let env = sky;
-    let first = scene.surface(s.tri, world.barycentric(s.tri, s.point));
-    let (mut sky, mut sun_sum) = (Vec3::ZERO, Vec3::ZERO);
-    for i in 0..k {
-        let u0 = sample_stratified_2d(i, k, &mut rng);
-        let Some(mut dir) = first.sample(s.normal, s.view, u0, rng.random()) else { continue };
-        let pdf = first.sample_pdf(s.normal, s.view, dir);
-        if pdf.is_nan() || pdf <= 0.0 {
-            continue;
-        }
-        let mut throughput = first.eval_cos(s.normal, s.view, dir) / pdf;
-        // Offset along the geometric normal: the shading normal may tilt below the face.
-        let (mut origin, mut offset) = (s.point, s.face_normal * RAY_EPSILON_M);
-        for bounce in 0..=quality.max_bounces {
-            let Some(hit) = world.intersect(origin + offset, dir, f32::MAX) else {
-                if let Some((pa, pd)) = env.escape(dir) {
-                    sky += throughput * FRAC_1_PI * pa;
-                    sun_sum += throughput * FRAC_1_PI * pd;
-                }
-                break;
-            };
-            if bounce == quality.max_bounces {
-                break;
-            }
-            let v = -dir;
-            let next = if scene.is_object(hit.tri) {
-                let surf = scene.surface(hit.tri, hit.bary);
-                let n = scene.shading_normal(hit.tri, hit.bary, hit.normal);
-                if let Some(l) = sun
-                    && world.sees_direction(hit.point, hit.normal, l)
-                {
-                    sun_sum += throughput * surf.eval_cos(n, v, l);
-                }
-                let u = Vec2::new(rng.random(), rng.random());
-                let Some(next) = surf.sample(n, v, u, rng.random()) else { break };
-                let pdf = surf.sample_pdf(n, v, next);
-                if pdf.is_nan() || pdf <= 0.0 || next.dot(hit.normal) <= 0.0 {
-                    break;
-                }
-                throughput *= surf.eval_cos(n, v, next) / pdf;
-                next
-            } else {
-                let rho = world.albedo(&hit);
-                if let Some(l) = sun {
-                    let cos = hit.normal.dot(l);
-                    if cos > 0.0 && world.sees_direction(hit.point, hit.normal, l) {
-                        sun_sum += throughput * rho * FRAC_1_PI * cos;
-                    }
-                }
-                throughput *= rho;
-                sample_cosine_around(hit.normal, Vec2::new(rng.random(), rng.random()).min(Vec2::splat(0.999_999)))
-            };
-            if throughput.max_element() < MIN_THROUGHPUT {
-                break;
-            }
-            origin = hit.point;
-            offset = hit.normal * RAY_EPSILON_M;
-            dir = next;
+    let mut visit = SkySun { world: &scene.world, env: sky, sun, sky: Vec3::ZERO, sun_sum: Vec3::ZERO };
+    let k = walk::walk(scene, s, quality, seed ^ 0x7a3f_10c5_be11_0001, &mut visit);
+    PointTransfer { sky: visit.sky / k as f32, sun: visit.sun_sum / k as f32 }
+}
+
+/// The sky at the escapes and the sun by next-event estimation at the vertices (`R_a`, `R_d`).
+struct SkySun<'a, E> {
+    world: &'a RayScene,
+    env: &'a E,
+    sun: Option<Vec3>,
+    sky: Vec3,
+    sun_sum: Vec3,
+}
+
+impl<E: Escape> walk::Vertices for SkySun<'_, E> {
+    fn escape(&mut self, throughput: Vec3, dir: Vec3) {
+        if let Some((pa, pd)) = self.env.escape(dir) {
+            self.sky += throughput * FRAC_1_PI * pa;
+            self.sun_sum += throughput * FRAC_1_PI * pd;
         }
     }
-    PointTransfer { sky: sky / k as f32, sun: sun_sum / k as f32 }
+
+    fn object(&mut self, throughput: Vec3, hit: &Hit, surf: &GltfSurface, n: Vec3, v: Vec3) {
+        if let Some(l) = self.sun
+            && self.world.sees_direction(hit.point, hit.normal, l)
+        {
+            self.sun_sum += throughput * surf.eval_cos(n, v, l);
+        }
+    }
+
+    fn proxy(&mut self, throughput: Vec3, hit: &Hit, rho: Vec3) {
+        if let Some(l) = self.sun {
+            let cos = hit.normal.dot(l);
+            if cos > 0.0 && self.world.sees_direction(hit.point, hit.normal, l) {
+                self.sun_sum += throughput * rho * FRAC_1_PI * cos;
+            }
+        }
+    }
 }
 
 /// The surfaces the canvas pixels' centres show on the virtual objects (pixels whose centre ray
@@ -397,8 +373,11 @@ impl ObjectTransfer {
     }
 }
 
+pub mod lamps;
 mod retrace;
+mod walk;
 
+pub use lamps::{LampBounce, trace_lamp_point};
 pub use retrace::TransferUpdate;
 
 #[cfg(test)]

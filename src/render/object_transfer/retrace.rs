@@ -248,7 +248,7 @@ impl ObjectTransfer {
 }
 
 /// The seed of a lattice pixel's paths.
-fn pixel_seed(seed: u64, pixel: u32) -> u64 {
+pub(super) fn pixel_seed(seed: u64, pixel: u32) -> u64 {
     seed ^ (pixel as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)
 }
 

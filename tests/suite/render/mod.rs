@@ -4,6 +4,7 @@
 //! compositor gave before its passes became units (the report is behaviour, see that module).
 
 mod courtyard;
+mod lamp_bounce;
 mod lamp_ground;
 mod lamps;
 mod report_order;
