@@ -4,7 +4,8 @@
 //! ([`Fallback`]). Then the temporal smoothing and the change detection.
 
 use super::smoother::ChangeReason;
-use super::solve::{COND_CAP, ChannelFit, ChannelRows, robust_fit};
+use super::noise::fit_channel;
+use super::solve::{COND_CAP, ChannelFit, ChannelRows};
 use super::{DARK_FRACTION, DARK_MAX_GAP_S, Estimator, Fallback, FrameEstimate, Intensities, LUMA, MIN_LIT_SAMPLES, Status, luma};
 use chrono::{DateTime, FixedOffset};
 use glam::Vec3;
@@ -151,10 +152,10 @@ impl Estimator {
         if self.lamps_in_fit() {
             return self.fit_channels_lamps(two, rng);
         }
-        let fl = self.noise_floor;
-        let f0 = robust_fit(&self.rows[0], &self.lit, two, fl, rng)?;
-        let f1 = robust_fit(&self.rows[1], &self.lit, two, fl, rng)?;
-        let f2 = robust_fit(&self.rows[2], &self.lit, two, fl, rng)?;
+        let (fl, rn) = (self.noise_floor, self.read_noise);
+        let f0 = fit_channel(&self.rows[0], &self.lit, two, fl, rn, rng)?;
+        let f1 = fit_channel(&self.rows[1], &self.lit, two, fl, rn, rng)?;
+        let f2 = fit_channel(&self.rows[2], &self.lit, two, fl, rn, rng)?;
         Some([f0, f1, f2])
     }
 
@@ -182,7 +183,7 @@ impl Estimator {
                     for i in 0..n {
                         z.push(r.a[i] + k[c] * r.b[i], 0.0, r.y[i]);
                     }
-                    if let Some(f) = robust_fit(&z, &self.lit, false, self.noise_floor, rng) {
+                    if let Some(f) = fit_channel(&z, &self.lit, false, self.noise_floor, self.read_noise, rng) {
                         fits[c] = f;
                     }
                 }
@@ -202,7 +203,7 @@ impl Estimator {
                     for i in 0..n {
                         z.push(self.rho_over_pi[i][c], 0.0, r.y[i]);
                     }
-                    if let Some(f) = robust_fit(&z, &self.lit, false, self.noise_floor, rng) {
+                    if let Some(f) = fit_channel(&z, &self.lit, false, self.noise_floor, self.read_noise, rng) {
                         total[c] = f.pa;
                     }
                 }

@@ -30,7 +30,8 @@ use super::pool::Pool;
 use super::report::{LampReport, LampStatus};
 use super::solve::{ChannelFit, COND_CAP};
 use super::smoother::LampSmoother;
-use super::solve_multi::{MultiFit, robust_fit_multi};
+use super::noise::robust_fit_noise;
+use super::solve_multi::MultiFit;
 use super::{Estimator, luma};
 pub use super::lamp_bounce::LAMP_CLEARANCE_M;
 use super::lamp_bounce::{bounce_irradiance, direct_irradiance};
@@ -198,7 +199,7 @@ impl Estimator {
                 self.lamp_column(j, c, prior(j), &mut off);
             }
             y.iter_mut().zip(&off).for_each(|(y, o)| *y -= o);
-            fits[c] = robust_fit_multi(&cols, &y, self.noise_floor, rng)?;
+            fits[c] = robust_fit_noise(&cols, &y, self.noise_floor, self.read_noise, rng)?;
         }
         Some(fits)
     }

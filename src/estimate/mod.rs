@@ -18,6 +18,8 @@
 //! - [`lamps`]: with `[[lights]]`, each lamp that is on and reaches the samples is one more
 //!   column `ρ/π·E·V` whose scale `k` is fitted with `Pd` and `Pa` ([`solve_multi`]); without
 //!   lamps nothing of it runs.
+//! - [`noise`]: with the camera's read noise (`response.read_noise`), the fits weight rows by an
+//!   absolute noise floor beside the relative one and model values clipped at zero.
 //! - [`temporal`]: smooth across frames and detect when the lighting changed enough to relight.
 //!
 //! Thresholds are named constants or [`EstimatorConfig`] fields, documented where defined.
@@ -29,6 +31,7 @@ pub mod rebuild;
 mod report;
 mod gather;
 mod decide;
+pub mod noise;
 pub mod sky_terms;
 pub mod smoother;
 pub mod solve;
@@ -103,6 +106,8 @@ pub struct Estimator {
     drawn: Vec<u32>,
     states: Vec<([f32; 3], PixelState)>,
     noise_floor: f64,
+    /// This frame's read noise in radiance (`noise`; 0: relative weights only).
+    read_noise: f64,
     stats: SetupStats,
     /// The scene's lamps and their terms on the pool ([`lamps`]); `None` without lamps.
     lamps: Option<lamps::LampColumns>,
@@ -191,6 +196,7 @@ impl Estimator {
             drawn: Vec::new(),
             states: Vec::new(),
             noise_floor: HDR_NOISE_FLOOR_REL,
+            read_noise: 0.0,
             stats,
             lamps: None,
             lamp_frame: None,
@@ -306,6 +312,7 @@ impl Estimator {
             crate::io::frames::FrameData::Ldr { .. } => LDR_NOISE_FLOOR_REL,
             crate::io::frames::FrameData::Hdr(_) => HDR_NOISE_FLOOR_REL,
         };
+        self.read_noise = lin.read_noise();
         let rebuilt = self.ensure_sun(dir, above)?;
         let sun_rebuild_ms = self.sun_timings.total_ms();
         let t_start = std::time::Instant::now();

@@ -126,7 +126,7 @@ fn eigenvalues(g: &[f64], p: usize) -> Vec<f64> {
 }
 
 /// NNLS on the normal equations `G x = h` (Lawson–Hanson active sets).
-fn nnls(g: &[f64], h: &[f64], p: usize) -> Vec<f64> {
+pub(super) fn nnls(g: &[f64], h: &[f64], p: usize) -> Vec<f64> {
     let mut x = vec![0.0; p];
     let mut passive = vec![false; p];
     let mut barred = vec![false; p];
@@ -168,7 +168,7 @@ fn nnls(g: &[f64], h: &[f64], p: usize) -> Vec<f64> {
 }
 
 /// Weighted normal equations `G = AᵀWA`, `h = AᵀWy` and `Σw`.
-fn normal(cols: &[Vec<f64>], y: &[f64], w: &[f64]) -> (Vec<f64>, Vec<f64>, f64) {
+pub(super) fn normal(cols: &[Vec<f64>], y: &[f64], w: &[f64]) -> (Vec<f64>, Vec<f64>, f64) {
     let p = cols.len();
     let mut g = vec![0.0; p * p];
     let mut h = vec![0.0; p];
@@ -244,9 +244,34 @@ pub fn robust_fit_multi(cols: &[Vec<f64>], y: &[f64], noise_floor_rel: f64, rng:
     let d: Vec<f64> = y.iter().map(|v| v.abs() + floor).collect();
     let ys: Vec<f64> = (0..n).map(|i| y[i] / d[i]).collect();
     let cs: Vec<Vec<f64>> = cols.iter().map(|c| (0..n).map(|i| c[i] / d[i]).collect()).collect();
-    let resid = |x: &[f64], i: usize| ys[i] - (0..p).map(|j| cs[j][i] * x[j]).sum::<f64>();
-    // LMedS start.
-    let (g, h, _) = normal(&cs, &ys, &vec![1.0; n]);
+    let (x, med) = lmeds_start(&cs, &ys, rng);
+    let small_sample = 1.0 + 5.0 / (n as f64 - p as f64).max(1.0);
+    let sigma = (MAD_TO_SIGMA * small_sample * med.sqrt()).max(SIGMA_FLOOR);
+    // IRLS.
+    let mut x = x;
+    for _ in 0..IRLS_MAX_ITERS {
+        let w: Vec<f64> = (0..n).map(|i| tukey(resid(&cs, &ys, &x, i), sigma)).collect();
+        let (g, h, _) = normal(&cs, &ys, &w);
+        let nx = nnls(&g, &h, p);
+        let change: f64 = (0..p).map(|j| (nx[j] - x[j]).abs()).sum();
+        x = nx;
+        if change <= IRLS_TOL * x.iter().sum::<f64>().max(1e-300) {
+            break;
+        }
+    }
+    Some(report(&cs, &ys, &d, x, |_, r| tukey(r, sigma)))
+}
+
+/// Residual of scaled row `i` at `x`.
+pub(super) fn resid(cs: &[Vec<f64>], ys: &[f64], x: &[f64], i: usize) -> f64 {
+    ys[i] - (0..cs.len()).map(|j| cs[j][i] * x[j]).sum::<f64>()
+}
+
+/// The LMedS start on scaled rows (module docs, step 2): the best candidate and its median
+/// squared residual.
+pub(super) fn lmeds_start(cs: &[Vec<f64>], ys: &[f64], rng: &mut impl Rng) -> (Vec<f64>, f64) {
+    let (n, p) = (ys.len(), cs.len());
+    let (g, h, _) = normal(cs, ys, &vec![1.0; n]);
     let mut candidates = vec![nnls(&g, &h, p)];
     let support: Vec<Vec<usize>> = cs.iter().map(|c| (0..n).filter(|&i| c[i] > 0.0).collect()).collect();
     if support.iter().all(|s| !s.is_empty()) {
@@ -264,30 +289,22 @@ pub fn robust_fit_multi(cols: &[Vec<f64>], y: &[f64], noise_floor_rel: f64, rng:
     let mut r = Vec::with_capacity(n);
     for (k, x) in candidates.iter().enumerate() {
         r.clear();
-        r.extend((0..n).step_by(stride).map(|i| resid(x, i).powi(2)));
+        r.extend((0..n).step_by(stride).map(|i| resid(cs, ys, x, i).powi(2)));
         let med = median_in_place(&mut r);
         if med < best.0 {
             best = (med, k);
         }
     }
-    let small_sample = 1.0 + 5.0 / (n as f64 - p as f64).max(1.0);
-    let sigma = (MAD_TO_SIGMA * small_sample * best.0.sqrt()).max(SIGMA_FLOOR);
-    // IRLS.
-    let mut x = candidates.swap_remove(best.1);
-    for _ in 0..IRLS_MAX_ITERS {
-        let w: Vec<f64> = (0..n).map(|i| tukey(resid(&x, i), sigma)).collect();
-        let (g, h, _) = normal(&cs, &ys, &w);
-        let nx = nnls(&g, &h, p);
-        let change: f64 = (0..p).map(|j| (nx[j] - x[j]).abs()).sum();
-        x = nx;
-        if change <= IRLS_TOL * x.iter().sum::<f64>().max(1e-300) {
-            break;
-        }
-    }
-    // Report.
-    let res: Vec<f64> = (0..n).map(|i| resid(&x, i)).collect();
-    let w: Vec<f64> = res.iter().map(|&ri| tukey(ri, sigma)).collect();
-    let (g, _, sw) = normal(&cs, &ys, &w);
+    (candidates.swap_remove(best.1), best.0)
+}
+
+/// The fit's report (module docs, step 4) from scaled rows, their scales `d` and the robust
+/// weight `weight(row, residual)`.
+pub(super) fn report(cs: &[Vec<f64>], ys: &[f64], d: &[f64], x: Vec<f64>, weight: impl Fn(usize, f64) -> f64) -> MultiFit {
+    let (n, p) = (ys.len(), cs.len());
+    let res: Vec<f64> = (0..n).map(|i| resid(cs, ys, &x, i)).collect();
+    let w: Vec<f64> = res.iter().enumerate().map(|(i, &ri)| weight(i, ri)).collect();
+    let (g, _, sw) = normal(cs, ys, &w);
     let wss: f64 = (0..n).map(|i| w[i] * res[i] * res[i]).sum();
     let s2 = wss / (sw - p as f64).max(1.0);
     let (condition, column_condition) = conditions(&g, p);
@@ -296,14 +313,14 @@ pub fn robust_fit_multi(cols: &[Vec<f64>], y: &[f64], noise_floor_rel: f64, rng:
         _ => vec![f64::INFINITY; p],
     };
     let wss_units: f64 = (0..n).map(|i| w[i] * (res[i] * d[i]).powi(2)).sum();
-    Some(MultiFit {
+    MultiFit {
         x,
         se,
         residual_rms: if sw > 0.0 { (wss_units / sw).sqrt() } else { f64::INFINITY },
         inliers: w.iter().filter(|&&v| v > 0.0).count(),
         condition,
         column_condition,
-    })
+    }
 }
 
 #[cfg(test)]

@@ -93,6 +93,7 @@ pub struct Linearizer {
     sat8: u16,
     sat16: u16,
     hdr_clip: f32,
+    read_noise: f32,
 }
 
 impl Linearizer {
@@ -111,7 +112,21 @@ impl Linearizer {
             sat8: (saturation * 255.0).ceil().min(255.0) as u16,
             sat16: (saturation * 65535.0).ceil().min(65535.0) as u16,
             hdr_clip: hdr_clip.unwrap_or(HALF_MAX),
+            read_noise: 0.0,
         }
+    }
+
+    /// The same tables with the sensor's read noise: its standard deviation in linear camera
+    /// units (before the exposure), as [`Photometry::read_noise`].
+    pub fn with_read_noise(mut self, read_noise: f32) -> Self {
+        self.read_noise = read_noise;
+        self
+    }
+
+    /// The read noise's standard deviation in scaled radiance (the units of [`Self::radiance`]);
+    /// 0 when the calibration gives none.
+    pub fn read_noise(&self) -> f64 {
+        self.read_noise as f64 * self.inv_exposure as f64
     }
 
     /// Linear radiance of pixel `index` (row-major) of `frame`, and whether it is usable.
@@ -239,12 +254,16 @@ pub struct Photometry {
     pub saturation: f32,
     /// HDR values at or above this are treated as clipped.
     pub hdr_clip: Option<f32>,
+    /// Standard deviation of the sensor's read noise in linear camera units (after the response
+    /// curve, before the exposure), ≥ 0; 0 when unknown. The estimator's fit weights rows by it
+    /// and models values clipped at zero (`estimate::noise`).
+    pub read_noise: f32,
 }
 
 impl Photometry {
     /// Lookup tables for this calibration.
     pub fn linearizer(&self) -> Linearizer {
-        Linearizer::new(&self.response, self.exposure, self.saturation, self.hdr_clip)
+        Linearizer::new(&self.response, self.exposure, self.saturation, self.hdr_clip).with_read_noise(self.read_noise)
     }
 }
 

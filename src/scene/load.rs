@@ -41,6 +41,11 @@ pub(super) fn check_response(camera_path: &Path, rs: &ResponseSpec) -> Result<()
     if rs.hdr_clip.is_some_and(|c| !(c > 0.0)) {
         return Err(invalid(camera_path, "response.hdr_clip", "must be positive"));
     }
+    if let Some(v) = rs.read_noise
+        && !(v.is_finite() && v >= 0.0)
+    {
+        return Err(invalid(camera_path, "response.read_noise", format!("{v} is not a finite standard deviation ≥ 0 (linear camera units)")));
+    }
     Ok(())
 }
 
@@ -174,7 +179,7 @@ pub(super) fn sequences(within: &Within, m: &Path, manifest: &Manifest, response
             name: s.name.clone(),
             files,
             times,
-            photometry: Photometry { response: response.clone(), exposure, saturation: rs.saturation, hdr_clip: rs.hdr_clip },
+            photometry: Photometry { response: response.clone(), exposure, saturation: rs.saturation, hdr_clip: rs.hdr_clip, read_noise: rs.read_noise.unwrap_or(0.0) },
             truth,
         });
     }

@@ -373,10 +373,14 @@ pub struct ResponseSpec {
     pub saturation: f32,
     /// HDR values at or above this count as clipped (default: 65504, the half-float maximum).
     pub hdr_clip: Option<f32>,
+    /// Standard deviation of the sensor's read noise in linear camera units (after the response
+    /// curve, before the exposure); absent: unknown, and the estimator weights rows by their
+    /// level only.
+    pub read_noise: Option<f32>,
 }
 
 impl Default for ResponseSpec {
     fn default() -> Self {
-        Self { kind: srgb(), gamma: None, table: None, exposure: 1.0, saturation: sat(), hdr_clip: None }
+        Self { kind: srgb(), gamma: None, table: None, exposure: 1.0, saturation: sat(), hdr_clip: None, read_noise: None }
     }
 }

@@ -323,7 +323,7 @@ impl Scene {
             observer,
             geo,
             camera,
-            photometry: Photometry { response: response.clone(), exposure: rs.exposure, saturation: rs.saturation, hdr_clip: rs.hdr_clip },
+            photometry: Photometry { response: response.clone(), exposure: rs.exposure, saturation: rs.saturation, hdr_clip: rs.hdr_clip, read_noise: rs.read_noise.unwrap_or(0.0) },
             camera_path: camera_path.clone(),
             proxy,
             proxy_notes,

@@ -285,8 +285,9 @@ fn write_manifests(out: &Path, cam: &heliar::camera::Camera, lamp_on: chrono::Da
              width = {}\nheight = {}\nfx = {}\nfy = {}\ncx = {}\ncy = {}\n\
              distortion = {:?}  # k1, k2, p1, p2, k3\n\n\
              [pose]\nposition = [4.5, 1.7, 9.0]\nlook_at = [-2.5, 0.6, -4.0]\nup = [0.0, 1.0, 0.0]\n\n\
-             [response]\nkind = \"srgb\"\nexposure = 1.0\nsaturation = 0.98\n",
-            k.width, k.height, k.fx, k.fy, k.cx, k.cy, k.distortion().copied().unwrap_or_default()
+             [response]\nkind = \"srgb\"\nexposure = 1.0\nsaturation = 0.98\n\
+             read_noise = {}  # the frames' read noise (standard deviation, linear units; clipped at 0)\n",
+            k.width, k.height, k.fx, k.fy, k.cx, k.cy, k.distortion().copied().unwrap_or_default(), NOISE_ABS
         ),
     )?;
     let [tx, ty, tz] = STATUE_TRANSLATION;
