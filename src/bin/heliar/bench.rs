@@ -26,6 +26,11 @@ enum BenchWhat {
     /// The compositor against the scene's reference frames: transfer paths and stride, MSAA,
     /// supersampling.
     Render(crate::bench_render::RenderSweep),
+    /// Lamps (issue 16 §5): light-field grid, texels and storage format against the truth;
+    /// shadow-map size against the references; frame time against frame size and lamp count.
+    Lamps(crate::bench_lamps::LampsSweep),
+    /// Visibility cuts (issue 15 §4): threshold, S and field sampling against a traced reference.
+    Cuts(crate::bench_cuts::CutsSweep),
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -209,6 +214,8 @@ pub fn run(a: BenchArgs) -> Result<()> {
         BenchWhat::Irradiance(s) => return crate::bench_irradiance::run(s),
         BenchWhat::Vem(s) => return crate::bench_vem::run(s),
         BenchWhat::Render(s) => return crate::bench_render::run(s),
+        BenchWhat::Lamps(s) => return crate::bench_lamps::run(s),
+        BenchWhat::Cuts(s) => return crate::bench_cuts::run(s),
     };
     let (scene, ray) = load_scene(&s.scene)?;
     let outputs: Vec<&std::path::Path> = std::iter::once(&s.csv).chain(&s.plot).map(PathBuf::as_path).collect();
