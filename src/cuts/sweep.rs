@@ -13,8 +13,10 @@
 //!   (from `VCF_B`) against the traced one; RMSE over the receivers relative to the RMS of the
 //!   traced occlusion;
 //! - **precompute time** of `SVC_A` and `VCF_B`, **stored bytes** of both banks and their mean
-//!   cut sizes, and the **time per evaluation** of a vertex and of a receiver (one thread, the
-//!   fastest of three runs).
+//!   cut sizes, and the **time per evaluation** of a vertex and of a receiver and of one frame's
+//!   evaluations of all of them (one thread, the fastest of three runs).
+//!
+//! `heliar bench cuts` runs it from the command line (table, CSV, plot).
 
 use super::eval::{CutScene, ObjectCuts};
 use super::lighting::{ClusteredLighting, ReceiverWeights, Reflectance};
@@ -80,6 +82,8 @@ pub struct SweepRow {
     pub us_per_vertex: f64,
     /// Time per receiver evaluation (one thread), µs.
     pub us_per_receiver: f64,
+    /// One frame's evaluations (every vertex of A and every receiver, one thread), ms.
+    pub frame_ms: f64,
 }
 
 /// The sky of the sweep: a zenith-bright gradient, a bright patch (σ = 8°) at 35° elevation
@@ -244,12 +248,13 @@ pub fn sweep_point(scene: &SweepScene, point: &SweepPoint, reference: &SweepRefe
         mean_vcf_cut: objects[1].vcf.cuts.mean_cut_size(),
         us_per_vertex,
         us_per_receiver,
+        frame_ms: (vertex_s + receiver_s) * 1e3,
     })
 }
 
 /// The sweep as a table (for the terminal or CSV).
 pub fn sweep_table(rows: &[SweepRow]) -> Table {
-    let mut t = Table::new(&["S", "svc_threshold", "vcf", "vertex_rel_rmse", "receiver_rel_rmse", "precompute_ms", "svc_bytes", "vcf_bytes", "mean_svc_cut", "mean_vcf_cut", "us_per_vertex", "us_per_receiver"]);
+    let mut t = Table::new(&["S", "svc_threshold", "vcf", "vertex_rel_rmse", "receiver_rel_rmse", "precompute_ms", "svc_bytes", "vcf_bytes", "mean_svc_cut", "mean_vcf_cut", "us_per_vertex", "us_per_receiver", "frame_ms"]);
     for r in rows {
         let v = &r.point.vcf;
         t.push(vec![
@@ -265,6 +270,7 @@ pub fn sweep_table(rows: &[SweepRow]) -> Table {
             format!("{:.1}", r.mean_vcf_cut),
             format!("{:.1}", r.us_per_vertex),
             format!("{:.1}", r.us_per_receiver),
+            format!("{:.3}", r.frame_ms),
         ]);
     }
     t

@@ -11,6 +11,7 @@ mod bad_input;
 mod bad_input_calib;
 mod bad_input_run;
 mod behaviour;
+mod bench_cli;
 mod calib_tool;
 mod chunks;
 mod cli;

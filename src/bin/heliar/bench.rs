@@ -26,6 +26,11 @@ enum BenchWhat {
     /// The compositor against the scene's reference frames: transfer paths and stride, MSAA,
     /// supersampling.
     Render(crate::bench_render::RenderSweep),
+    /// Lamps (issue 16 §5): light-field grid, texels and storage format against the truth;
+    /// shadow-map size against the references; frame time against frame size and lamp count.
+    Lamps(crate::bench_lamps::LampsSweep),
+    /// Visibility cuts (issue 15 §4): threshold, S and field sampling against a traced reference.
+    Cuts(crate::bench_cuts::CutsSweep),
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -204,12 +209,18 @@ fn terrain_configs(scene: &heliar::scene::Scene, ray: &std::sync::Arc<heliar::ge
 }
 
 pub fn run(a: BenchArgs) -> Result<()> {
-    let s = match a.what {
-        BenchWhat::Estimate(s) => s,
-        BenchWhat::Irradiance(s) => return crate::bench_irradiance::run(s),
-        BenchWhat::Vem(s) => return crate::bench_vem::run(s),
-        BenchWhat::Render(s) => return crate::bench_render::run(s),
-    };
+    match a.what {
+        BenchWhat::Estimate(s) => run_estimate(s),
+        BenchWhat::Irradiance(s) => crate::bench_irradiance::run(s),
+        BenchWhat::Vem(s) => crate::bench_vem::run(s),
+        BenchWhat::Render(s) => crate::bench_render::run(s),
+        BenchWhat::Lamps(s) => crate::bench_lamps::run(s),
+        BenchWhat::Cuts(s) => crate::bench_cuts::run(s),
+    }
+}
+
+/// `heliar bench estimate`.
+fn run_estimate(s: EstimateSweep) -> Result<()> {
     let (scene, ray) = load_scene(&s.scene)?;
     let outputs: Vec<&std::path::Path> = std::iter::once(&s.csv).chain(&s.plot).map(PathBuf::as_path).collect();
     crate::common::guard_files(Some(&scene.root), &[], &outputs, s.force)?;

@@ -75,13 +75,13 @@ pub struct RenderSweep {
 }
 
 /// One reference frame: its footage, lighting, reference image and pixel classes.
-struct RefFrame {
-    index: usize,
-    video: VideoFrame,
-    lighting: Lighting,
-    grid: heliar::irradiance::ProbeGrid,
-    reference: heliar::io::image::LinearImage,
-    classes: Classes,
+pub(crate) struct RefFrame {
+    pub(crate) index: usize,
+    pub(crate) video: VideoFrame,
+    pub(crate) lighting: Lighting,
+    pub(crate) grid: heliar::irradiance::ProbeGrid,
+    pub(crate) reference: heliar::io::image::LinearImage,
+    pub(crate) classes: Classes,
 }
 
 struct Row {
@@ -123,7 +123,7 @@ pub fn run(a: RenderSweep) -> Result<()> {
 /// Estimates the sequence up to the last reference frame (the smoothing needs the frames
 /// before), and keeps what the references need; `lamp_k` replaces the scale of every lamp
 /// the schedule has on.
-fn reference_frames(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayScene>, refs: &References, seq: &heliar::scene::Sequence, lamp_k: Option<f32>) -> Result<Vec<RefFrame>> {
+pub(crate) fn reference_frames(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayScene>, refs: &References, seq: &heliar::scene::Sequence, lamp_k: Option<f32>) -> Result<Vec<RefFrame>> {
     let (scene, ray) = (scene, ray.clone());
     let lin = seq.photometry.linearizer();
     let mut est = Estimator::new(&scene, ray.clone()).with_context(|| format!("setting up the estimator for {}", scene.root.display()))?;

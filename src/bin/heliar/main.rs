@@ -3,8 +3,11 @@
 mod bake;
 mod augment;
 mod bench;
+mod bench_cuts;
 mod bench_estimate_sun;
 mod bench_irradiance;
+mod bench_lamps;
+mod bench_lamps_gpu;
 mod bench_render;
 mod bench_render_sun;
 mod bench_vem;

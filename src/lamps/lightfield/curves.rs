@@ -10,7 +10,9 @@
 //!   irradiance of Eq. 11 against Eq. 5 on the measurement plane, acquired at several `d`.
 //! - [`spot_curve`]: the textured spot lights (Eq. 14) against the exact reconstruction, and the
 //!   exact reconstruction against the true emitter, on receiver planes at several depths.
-//! - [`sweep`]: error against the filter grid, texture resolution and storage format.
+//! - [`sweep`]: error against the filter grid, texture resolution and storage format, with the
+//!   CPU times of the acquisition and of both reconstructions (`heliar bench lamps --knob
+//!   field` adds the GPU frame time of each grid).
 //!
 //! Errors compare two irradiance maps on a receiver plane facing the lamp, over the points where
 //! the reference exceeds [`LIT_FRACTION`] of its peak: relative RMS `√(Σ(a − b)² / Σ b²)` (per
@@ -23,6 +25,7 @@ use crate::lamps::storage::{self, StorageFormat};
 use crate::report::Table;
 use glam::DVec3;
 use rayon::prelude::*;
+use std::time::Instant;
 
 /// Receiver points whose reference irradiance is below this fraction of the plane's peak are
 /// left out of the error (their relative error says nothing about the lit pattern).
@@ -160,6 +163,12 @@ pub struct SweepRow {
     pub exact: MapError,
     /// Textured spot lights (centre lookup) against the truth.
     pub spots: MapError,
+    /// Wall time of the simulated acquisition (once per grid and resolution), ms.
+    pub acquire_ms: f64,
+    /// Wall time of the exact reconstruction over the receiver plane (parallel), ms.
+    pub exact_ms: f64,
+    /// Wall time of the spot reconstruction over the receiver plane (parallel), ms.
+    pub spots_ms: f64,
 }
 
 /// The sweep of `heliar bench lamps` (CPU side): for each grid and resolution, acquire the torch
@@ -171,23 +180,45 @@ pub fn sweep(torch: &TorchEmitter, filters: &[usize], resolutions: &[u32], forma
     let mut rows = Vec::new();
     for &m in filters {
         for &res in resolutions {
+            let started = Instant::now();
             let lf = acquire(torch, &torch_acquisition(torch, m, distance_m, res, emitter_points))?;
+            let acquire_ms = ms(started);
             for &format in formats {
                 let stored = lf.map_images(|img| format.round_trip_image(img))?;
+                let started = Instant::now();
                 let exact = compare(&irradiance_map(&stored, Method::Exact(Default::default()), &pts), &truth);
+                let exact_ms = ms(started);
+                let started = Instant::now();
                 let spots = compare(&irradiance_map(&stored, Method::Spots(super::Footprint::Centre), &pts), &truth);
-                rows.push(SweepRow { filters: m, resolution: res, format, bytes: m * m * (res * res) as usize * format.bytes_per_texel(), exact, spots });
+                let spots_ms = ms(started);
+                let bytes = m * m * (res * res) as usize * format.bytes_per_texel();
+                rows.push(SweepRow { filters: m, resolution: res, format, bytes, exact, spots, acquire_ms, exact_ms, spots_ms });
             }
         }
     }
     Ok(rows)
 }
 
+/// Milliseconds since `t`.
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
 /// The sweep as a table.
 pub fn sweep_table(rows: &[SweepRow]) -> Table {
-    let mut t = Table::new(&["filters", "texels", "format", "bytes", "exact_rel_rms", "spots_rel_rms"]);
+    let mut t = Table::new(&["filters", "texels", "format", "bytes", "exact_rel_rms", "spots_rel_rms", "acquire_ms", "exact_ms", "spots_ms"]);
     for r in rows {
-        t.push(vec![format!("{0}x{0}", r.filters), format!("{0}x{0}", r.resolution), r.format.name().into(), r.bytes.to_string(), format!("{:.4}", r.exact.rel_rms), format!("{:.4}", r.spots.rel_rms)]);
+        t.push(vec![
+            format!("{0}x{0}", r.filters),
+            format!("{0}x{0}", r.resolution),
+            r.format.name().into(),
+            r.bytes.to_string(),
+            format!("{:.4}", r.exact.rel_rms),
+            format!("{:.4}", r.spots.rel_rms),
+            format!("{:.0}", r.acquire_ms),
+            format!("{:.1}", r.exact_ms),
+            format!("{:.1}", r.spots_ms),
+        ]);
     }
     t
 }
