@@ -75,7 +75,7 @@ impl GpuBench {
 
 /// The night lighting of the time-only sweeps with `lamps` lamps at `k = 1`.
 pub fn night(lamps: usize) -> Lighting {
-    Lighting { sun_dir: Vec3::Y, above_horizon: false, pd: Vec3::ZERO, pa: Vec3::splat(NIGHT_PA), uniform_sky: true, lamps: LampScales::from_slice(&vec![[1.0; 3]; lamps]) }
+    Lighting { sun_dir: Vec3::Y, above_horizon: false, pd: Vec3::ZERO, pa: Vec3::splat(NIGHT_PA), sky: heliar::lighting::FrameSky::Uniform, lamps: LampScales::from_slice(&vec![[1.0; 3]; lamps]) }
 }
 
 /// Median frame time (module docs), ms, and whether the lamp term ran.

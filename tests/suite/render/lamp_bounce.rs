@@ -88,7 +88,7 @@ fn a_face_over_a_lamp_lit_floor_gets_the_closed_form_bounce() {
 }
 
 fn night(k: [f32; 3]) -> Lighting {
-    Lighting { sun_dir: Vec3::Y, above_horizon: false, pd: Vec3::ZERO, pa: Vec3::ZERO, uniform_sky: false, lamps: LampScales::from_slice(&[k]) }
+    Lighting { sun_dir: Vec3::Y, above_horizon: false, pd: Vec3::ZERO, pa: Vec3::ZERO, sky: heliar::lighting::FrameSky::Declared, lamps: LampScales::from_slice(&[k]) }
 }
 
 fn transfer_config() -> CompositorConfig {
