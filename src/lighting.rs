@@ -43,6 +43,17 @@ pub enum FrameSky {
     Turbidity(f64),
 }
 
+impl FrameSky {
+    /// `(uniform, turbidity)`: the form `crate::sky::radiance::SkyModel::for_frame` takes.
+    pub fn parts(self) -> (bool, Option<f64>) {
+        match self {
+            FrameSky::Declared => (false, None),
+            FrameSky::Uniform => (true, None),
+            FrameSky::Turbidity(t) => (false, Some(t)),
+        }
+    }
+}
+
 /// Most lamps whose scales a frame's [`Lighting`] carries; lamps past it give no light.
 pub const MAX_LAMPS: usize = 16;
 

@@ -160,7 +160,7 @@ impl Relighter {
     /// true when that changed the sky, which drops the sun planes, so the next
     /// [`Self::update_sun`] rebuilds them under the new sky.
     pub fn set_frame_sky(&mut self, sky: crate::lighting::FrameSky) -> bool {
-        let model = self.scene_sky.for_frame(sky);
+        let model = self.scene_sky.for_frame(sky.parts());
         if model == self.sky_model {
             return false;
         }

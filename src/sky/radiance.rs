@@ -14,7 +14,6 @@
 //! same bits as before this module existed.
 
 use super::SkyError;
-use crate::lighting::FrameSky;
 use super::hosek::HosekSky;
 use super::quadrature::hemisphere_integral_rgb;
 use glam::Vec3;
@@ -70,15 +69,18 @@ impl SkyModel {
         self.hosek_turbidity.is_none() && self.terrain_albedo == [0.0; 3]
     }
 
-    /// The model of one frame ([`FrameSky`], what the frame's estimate used): the scene's; under
+    /// The model of one frame (`FrameSky`, what the frame's estimate used): the scene's; under
     /// an overcast frame (which the estimator fits with the uniform sky; issue 13) the uniform
     /// sky with the same terrain; under a turbidity chosen by residual the scene's shape with
     /// that turbidity (a scene without a shape stays as it is).
-    pub fn for_frame(&self, sky: FrameSky) -> SkyModel {
-        match sky {
-            FrameSky::Declared => self.clone(),
-            FrameSky::Uniform => Self { hosek_turbidity: None, terrain_albedo: self.terrain_albedo },
-            FrameSky::Turbidity(t) => Self { hosek_turbidity: self.hosek_turbidity.map(|_| t), terrain_albedo: self.terrain_albedo },
+    ///
+    /// `(uniform, turbidity)` is the frame's `crate::lighting::FrameSky` as plain values
+    /// (`FrameSky::parts`), so that this leaf does not import the lighting value.
+    pub fn for_frame(&self, (uniform, turbidity): (bool, Option<f64>)) -> SkyModel {
+        match (uniform, turbidity) {
+            (true, _) => Self { hosek_turbidity: None, terrain_albedo: self.terrain_albedo },
+            (false, Some(t)) => Self { hosek_turbidity: self.hosek_turbidity.map(|_| t), terrain_albedo: self.terrain_albedo },
+            (false, None) => self.clone(),
         }
     }
 
@@ -180,6 +182,7 @@ impl crate::geometry::ambient::Escape for ShapeMinusUniform<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lighting::FrameSky;
     use crate::sky::quadrature::hemisphere_integral_rgb;
 
     #[test]
@@ -208,24 +211,24 @@ mod tests {
     #[test]
     fn an_overcast_frame_keeps_the_terrain_and_drops_the_shape() {
         let m = SkyModel { hosek_turbidity: Some(3.0), terrain_albedo: [0.8, 0.8, 0.82] };
-        assert_eq!(m.for_frame(FrameSky::Declared), m);
-        assert_eq!(m.for_frame(FrameSky::Uniform), SkyModel { hosek_turbidity: None, terrain_albedo: [0.8, 0.8, 0.82] });
-        assert_eq!(SkyModel::uniform().for_frame(FrameSky::Uniform), SkyModel::uniform());
+        assert_eq!(m.for_frame(FrameSky::Declared.parts()), m);
+        assert_eq!(m.for_frame(FrameSky::Uniform.parts()), SkyModel { hosek_turbidity: None, terrain_albedo: [0.8, 0.8, 0.82] });
+        assert_eq!(SkyModel::uniform().for_frame(FrameSky::Uniform.parts()), SkyModel::uniform());
         // The overcast sky above the horizon is exactly the uniform one.
-        let s = m.for_frame(FrameSky::Uniform).for_sun(Some(Vec3::new(0.5, 0.3, 0.1)));
+        let s = m.for_frame(FrameSky::Uniform.parts()).for_sun(Some(Vec3::new(0.5, 0.3, 0.1)));
         assert_eq!(s.escape(Vec3::new(0.2, 0.5, 0.1).normalize()), Some((Vec3::ONE, Vec3::ZERO)));
-        assert!(!m.reshapes_to(&m.for_frame(FrameSky::Uniform)) && !m.for_frame(FrameSky::Uniform).reshapes_to(&m));
+        assert!(!m.reshapes_to(&m.for_frame(FrameSky::Uniform.parts())) && !m.for_frame(FrameSky::Uniform.parts()).reshapes_to(&m));
     }
 
     #[test]
     fn a_fitted_turbidity_reshapes_a_shaped_sky_only() {
         let m = SkyModel { hosek_turbidity: Some(3.0), terrain_albedo: [0.5; 3] };
-        let fitted = m.for_frame(FrameSky::Turbidity(6.0));
+        let fitted = m.for_frame(FrameSky::Turbidity(6.0).parts());
         assert_eq!(fitted, SkyModel { hosek_turbidity: Some(6.0), terrain_albedo: [0.5; 3] });
         assert!(m.reshapes_to(&fitted) && fitted.reshapes_to(&m));
         assert_eq!((m.name(), fitted.name()), ("hosek_wilkie T=3".to_owned(), "hosek_wilkie T=6".to_owned()));
         // Jensen's model has no shape to reshape.
-        assert_eq!(SkyModel::uniform().for_frame(FrameSky::Turbidity(6.0)), SkyModel::uniform());
+        assert_eq!(SkyModel::uniform().for_frame(FrameSky::Turbidity(6.0).parts()), SkyModel::uniform());
         // A hazier sky puts more of its light near the horizon away from the sun.
         let sun = Some(Vec3::new(0.8, 0.15, -0.2).normalize());
         let away = Vec3::new(-0.8, 0.1, 0.2).normalize();

@@ -322,7 +322,7 @@ impl ObjectTransfer {
     /// True when [`Self::set_frame_sky`] with `sky` would change the sky the paths see (and
     /// there are pixels to trace): the next frame traces.
     pub fn sky_switch_pending(&self, sky: FrameSky) -> bool {
-        !self.surfaces.is_empty() && self.scene_sky.for_frame(sky) != self.sky_model
+        !self.surfaces.is_empty() && self.scene_sky.for_frame(sky.parts()) != self.sky_model
     }
 
     /// Traces under the sky the frame's estimate used from now on. A switch between the uniform
@@ -332,7 +332,7 @@ impl ObjectTransfer {
     /// a sun move is, a slice per frame while the served values stay (`retrace`). This depends
     /// on the frames' lighting only, so replayed frames decide alike.
     pub fn set_frame_sky(&mut self, sky: FrameSky) {
-        let model = self.scene_sky.for_frame(sky);
+        let model = self.scene_sky.for_frame(sky.parts());
         if model != self.sky_model {
             if !self.sky_model.reshapes_to(&model) {
                 self.traced = false;

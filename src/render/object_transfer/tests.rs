@@ -248,7 +248,7 @@ fn an_overcast_frame_retraces_under_the_uniform_sky_and_back() {
     t.set_frame_sky(FrameSky::Uniform);
     assert!(t.needs_trace(Some(l), 0.25));
     assert_eq!(t.ensure(&scene, Some(l), 0.25).traced, n, "the whole lattice under the uniform sky");
-    let mut fresh = ObjectTransfer::new(&canvas, &scene, q, 1, 1).with_sky(shaped.for_frame(FrameSky::Uniform));
+    let mut fresh = ObjectTransfer::new(&canvas, &scene, q, 1, 1).with_sky(shaped.for_frame(FrameSky::Uniform.parts()));
     fresh.ensure(&scene, Some(l), 0.25);
     assert_eq!(t.sky, fresh.sky, "the uniform sky's R_a");
     assert_ne!(t.sky, clear, "a low sun's shaped sky differs from the uniform one");
@@ -301,8 +301,8 @@ fn a_fitted_turbidity_is_retraced_in_slices_and_equals_its_fixed_sky() {
         t.set_frame_sky(fitted);
     }
     assert_eq!(frames, n.div_ceil(SLICE));
-    assert_eq!(t.traced_sky(), &declared.for_frame(fitted));
-    let mut fixed = ObjectTransfer::new(&canvas, &scene, q, 1, 1).with_sky(declared.for_frame(fitted));
+    assert_eq!(t.traced_sky(), &declared.for_frame(fitted.parts()));
+    let mut fixed = ObjectTransfer::new(&canvas, &scene, q, 1, 1).with_sky(declared.for_frame(fitted.parts()));
     fixed.ensure(&scene, Some(l), 0.25);
     assert_eq!((&t.sky, &t.sun), (&fixed.sky, &fixed.sun), "bit for bit the fixed turbidity's");
     assert_ne!(t.sky, t3, "turbidity 6 gives another R_a than 3 under a low sun");

@@ -204,7 +204,7 @@ impl Receivers {
     /// ([`SkyModel::reshapes_to`]) keeps the values: the next [`Self::ensure`] with a sun
     /// recomputes them as after a sun move ([`retrace`]). Returns true on a change.
     pub fn set_frame_sky(&mut self, sky: FrameSky, replaying: bool) -> bool {
-        let model = self.scene_sky.for_frame(sky);
+        let model = self.scene_sky.for_frame(sky.parts());
         if model == self.sky_model {
             return false;
         }
@@ -228,7 +228,7 @@ impl Receivers {
 
     /// True when [`Self::set_frame_sky`] with `sky` would change the sky.
     pub fn sky_switch_pending(&self, sky: FrameSky) -> bool {
-        self.scene_sky.for_frame(sky) != self.sky_model
+        self.scene_sky.for_frame(sky.parts()) != self.sky_model
     }
 
     /// The sky the frame's integrals see.

@@ -302,8 +302,8 @@ mod tests {
             assert_eq!((values(&r), r.bounce_sky()), (first.clone(), &declared), "frame {frames}: the declared sky's values serve");
         }
         assert_eq!(frames, pixels.len().div_ceil(SLICE));
-        assert_eq!(r.bounce_sky(), &declared.for_frame(fitted));
-        let mut fixed = Receivers::new(&cam, &proxy, 3).with_sky(declared.for_frame(fitted));
+        assert_eq!(r.bounce_sky(), &declared.for_frame(fitted.parts()));
+        let mut fixed = Receivers::new(&cam, &proxy, 3).with_sky(declared.for_frame(fitted.parts()));
         fixed.ensure(&proxy, Some(&with), &pixels, Some(l), AMBIENT, BOUNCE, 0.25);
         assert_eq!(values(&r), values(&fixed), "bit for bit the fixed turbidity's");
         assert_ne!(values(&r).0, first.0, "turbidity 6 gives another c than 3");

@@ -90,7 +90,7 @@ fn the_renderer_takes_the_turbidity_fitted_for_the_frame() {
     }
     let (k, frame, lighting, chosen) = found.expect("a reference frame whose fitted turbidity differs from the declared one");
     assert_eq!(lighting.sky, FrameSky::Turbidity(chosen));
-    let fitted = declared.for_frame(lighting.sky);
+    let fitted = declared.for_frame(lighting.sky.parts());
     let video = VideoFrame::from_frame(&frame, &lin);
     let as_declared = Lighting { sky: FrameSky::Declared, ..lighting };
     let mut follows = Compositor::for_scene(gpu(), &scene, ray.clone(), config.clone()).expect("compositor");
