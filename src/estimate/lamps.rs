@@ -235,16 +235,7 @@ impl Estimator {
         self.record_lamps(&fits, &groups, &held, base, merged.unwrap_or(COND_CAP));
         Some(std::array::from_fn(|c| {
             let f = &fits[c];
-            let cond = f.column_condition[..base].iter().copied().fold(1.0, f64::max);
-            ChannelFit {
-                pa: f.x[0],
-                pd: if two { f.x[1] } else { 0.0 },
-                pa_se: f.se[0],
-                pd_se: if two { f.se[1] } else { f64::INFINITY },
-                residual_rms: f.residual_rms,
-                inliers: f.inliers,
-                condition: if two { cond.min(COND_CAP) } else { 1.0 },
-            }
+            f.channel(two, f.column_condition[..base].iter().copied().fold(1.0, f64::max))
         }))
     }
 

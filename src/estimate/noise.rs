@@ -43,7 +43,7 @@
 //! With `σ_r = 0` (the default: no `read_noise` in the camera file), nothing here runs and the fits
 //! are those of [`super::solve`] and [`super::solve_multi`], bit for bit.
 
-use super::solve::{COND_CAP, ChannelFit, ChannelRows, IRLS_MAX_ITERS, IRLS_TOL, MAD_TO_SIGMA, SIGMA_FLOOR, TUKEY_C, median_in_place, robust_fit, tukey};
+use super::solve::{ChannelFit, ChannelRows, IRLS_MAX_ITERS, IRLS_TOL, MAD_TO_SIGMA, SIGMA_FLOOR, TUKEY_C, median_in_place, robust_fit, tukey};
 use super::solve_multi::{MultiFit, lmeds_start, nnls, normal, report, robust_fit_multi};
 use rand::Rng;
 
@@ -191,15 +191,7 @@ pub(super) fn fit_channel(rows: &ChannelRows, lit: &[bool], two: bool, noise_flo
     }
     let cols = if two { vec![rows.a.clone(), rows.b.clone()] } else { vec![rows.a.clone()] };
     let f = robust_fit_noise(&cols, &rows.y, noise_floor_rel, read_noise, rng)?;
-    Some(ChannelFit {
-        pa: f.x[0],
-        pd: if two { f.x[1] } else { 0.0 },
-        pa_se: f.se[0],
-        pd_se: if two { f.se[1] } else { f64::INFINITY },
-        residual_rms: f.residual_rms,
-        inliers: f.inliers,
-        condition: if two { f.condition.min(COND_CAP) } else { 1.0 },
-    })
+    Some(f.channel(two, f.condition))
 }
 
 #[cfg(test)]

@@ -16,7 +16,7 @@
 //!    fit by the others (`r_j² = 1 − 1/VIF_j`, `VIF_j` the diagonal of the normalised inverse), which
 //!    says which parameter cannot be told apart from the rest.
 
-use super::solve::{COND_CAP, IRLS_MAX_ITERS, IRLS_TOL, LMEDS_SCORE_ROWS, MAD_TO_SIGMA, SIGMA_FLOOR, median_in_place, tukey};
+use super::solve::{COND_CAP, ChannelFit, IRLS_MAX_ITERS, IRLS_TOL, LMEDS_SCORE_ROWS, MAD_TO_SIGMA, SIGMA_FLOOR, median_in_place, tukey};
 use rand::Rng;
 
 /// Minimal-fit trials of the LMedS start. With three columns and 30% outliers a triple is clean
@@ -40,6 +40,22 @@ pub struct MultiFit {
     pub condition: f64,
     /// Per column, the condition number against the best fit of it by the other columns.
     pub column_condition: Vec<f64>,
+}
+
+impl MultiFit {
+    /// The fit of `Pa` (column 0) and, when `two`, `Pd` (column 1) as a [`ChannelFit`], whose
+    /// condition number is `condition` (capped at [`COND_CAP`]; 1 for a one-column fit).
+    pub(super) fn channel(&self, two: bool, condition: f64) -> ChannelFit {
+        ChannelFit {
+            pa: self.x[0],
+            pd: if two { self.x[1] } else { 0.0 },
+            pa_se: self.se[0],
+            pd_se: if two { self.se[1] } else { f64::INFINITY },
+            residual_rms: self.residual_rms,
+            inliers: self.inliers,
+            condition: if two { condition.min(COND_CAP) } else { 1.0 },
+        }
+    }
 }
 
 /// Solves the `p×p` system `m·x = v` (row-major) by Gaussian elimination with partial pivoting;
