@@ -171,6 +171,29 @@ impl Canvas {
         (self.pose.rotation * DVec3::new((u - self.intrinsics.cx) / self.intrinsics.fx, (v - self.intrinsics.cy) / self.intrinsics.fy, 1.0).normalize()).as_vec3()
     }
 
+    /// World ray (camera centre, unit direction) through footage pixel coordinates `(x, y)`
+    /// (OpenCV convention: pixel centres at integers), through the lens: [`Canvas::warp`]
+    /// interpolated bilinearly between the four nearest footage pixels (the nearest one's where
+    /// a neighbour has no inverse). `None` outside the footage or where the lens model has no
+    /// inverse. What a pointer on the shown frame looks at (the live window's dragging).
+    pub fn footage_ray(&self, x: f64, y: f64) -> Option<(DVec3, DVec3)> {
+        let (w, h) = (self.out_width as usize, self.out_height as usize);
+        if !(x >= -0.5 && y >= -0.5 && x < w as f64 - 0.5 && y < h as f64 - 0.5) {
+            return None;
+        }
+        let at = |c: usize, r: usize| Some(self.warp[r * w + c]).filter(|p| p[0] >= 0.0).map(|p| DVec2::new(p[0] as f64, p[1] as f64));
+        let (cx, cy) = (x.clamp(0.0, (w - 1) as f64), y.clamp(0.0, (h - 1) as f64));
+        let (c0, r0) = (cx.floor() as usize, cy.floor() as usize);
+        let (c1, r1) = ((c0 + 1).min(w - 1), (r0 + 1).min(h - 1));
+        let (fx, fy) = (cx - c0 as f64, cy - r0 as f64);
+        let p = match (at(c0, r0), at(c1, r0), at(c0, r1), at(c1, r1)) {
+            (Some(a), Some(b), Some(c), Some(d)) => (a * (1.0 - fx) + b * fx) * (1.0 - fy) + (c * (1.0 - fx) + d * fx) * fy,
+            _ => at(x.round().clamp(0.0, (w - 1) as f64) as usize, y.round().clamp(0.0, (h - 1) as f64) as usize)?,
+        };
+        let d = DVec3::new((p.x - self.intrinsics.cx) / self.intrinsics.fx, (p.y - self.intrinsics.cy) / self.intrinsics.fy, 1.0).normalize();
+        Some((self.pose.translation, self.pose.rotation * d))
+    }
+
     /// Canvas pixel coordinates of a world point in front of the camera.
     pub fn canvas_from_world(&self, p: DVec3) -> Option<DVec2> {
         let c = self.pose.camera_from_world(p);
@@ -264,6 +287,27 @@ mod tests {
             assert!((DVec2::new(got[0] as f64, got[1] as f64) - want).length() < 1e-3, "{col},{row}: {got:?} vs {want}");
             assert!(got[0] >= 0.0 && (got[0] as u32) < canvas.intrinsics.width && (got[1] as u32) < canvas.intrinsics.height);
         }
+    }
+
+    #[test]
+    fn a_footage_ray_is_the_calibrated_camera_s_ray_through_the_lens() {
+        let cam = camera([-0.08, 0.012, 0.0005, -0.0003, 0.0]);
+        let canvas = Canvas::new(&cam, 2.0);
+        for (col, row) in [(0u32, 0u32), (319, 239), (160, 120), (17, 201)] {
+            let (o, d) = cam.pixel_ray(col, row).unwrap();
+            let (o2, d2) = canvas.footage_ray(col as f64, row as f64).unwrap();
+            assert!((o - o2).length() < 1e-12);
+            // The warp is stored in f32 canvas pixels: 1e-3 px at f ≈ 520 is 2e-6 rad.
+            assert!(d.angle_between(d2) < 1e-5, "{col},{row}: {d} vs {d2}");
+        }
+        // Between pixel centres: the lens's own ray within a hundredth of a pixel (the warp is
+        // smooth over a pixel; 0.01 px at f ≈ 260 is 4e-5 rad).
+        for uv in [DVec2::new(100.3, 57.8), DVec2::new(2.5, 230.25), DVec2::new(318.9, 0.1)] {
+            let (_, d) = cam.ray_at(uv).unwrap();
+            let (_, d2) = canvas.footage_ray(uv.x, uv.y).unwrap();
+            assert!(d.angle_between(d2) < 4e-5, "{uv}: {}", d.angle_between(d2));
+        }
+        assert!(canvas.footage_ray(-0.6, 10.0).is_none() && canvas.footage_ray(319.6, 10.0).is_none() && canvas.footage_ray(f64::NAN, 1.0).is_none());
     }
 
     #[test]

@@ -24,7 +24,10 @@
 //!   switched off is reported as skipped, "turned off in the live view"), the darkening model
 //!   and the ambient source; the estimator's status, fallback, condition number, `Pd`/`Pa`,
 //!   relight, frame rate and dropped frames; plots of `Pd`, `Pa` and the residual over the last
-//!   five minutes (egui_plot).
+//!   five minutes (egui_plot). The objects can be dragged over the real ground with the mouse,
+//!   turned with the scroll wheel and reset (issue 15 §1): a move by hand is rigid, so the
+//!   visibility cuts (`crate::run::motion_cuts`) serve it without a re-trace, and the pass
+//!   report lists the objects that moved.
 //! - **VEM** ([`vem`], `--vem-input`): a captured video environment map sequence decomposed
 //!   into lights, drawn on a polar plot, with a slider for the light count and a switch that
 //!   lights and shadows the virtual objects with those lights over the feed (the VEM renderer).
@@ -35,6 +38,6 @@ pub mod source;
 pub mod vem;
 
 pub use crate::run::clock::FrameClock;
-pub use app::{AmbientChoice, LiveApp, TURNED_OFF};
+pub use app::{AmbientChoice, FEED_ALT_TEXT, LiveApp, TURNED_OFF};
 pub use slot::LatestSlot;
 pub use source::{Capture, CaptureOptions, Captured, FrameSource, Opener, SourceState};

@@ -33,11 +33,38 @@ pub const REACH_STEPS_PER_KEY: usize = 8;
 struct Object {
     name: String,
     motion: Option<ObjectMotion>,
+    /// Where the scene places it (an object without a motion).
+    placed: Mesh,
+    /// Where it stands now.
     mesh: Mesh,
+    /// World from its rest frame (with a motion) or from its placement (without one, moved by
+    /// hand); `None`: as placed.
     pose: Option<Mat4>,
+    /// The move by hand (the live window), applied after the object's own pose; the identity
+    /// when there is none.
+    user: Mat4,
     /// Frame it last moved in (`None`: never since set-up).
     moved_at: Option<usize>,
     warned: bool,
+}
+
+impl Object {
+    /// Its pose at `seconds` of the motion's clock (the field `pose`).
+    fn pose_at(&self, seconds: impl FnOnce(&ObjectMotion) -> f64) -> Option<Mat4> {
+        match &self.motion {
+            Some(m) => Some(self.user * m.motion.world_from_rest(seconds(m))),
+            None => (self.user != Mat4::IDENTITY).then_some(self.user),
+        }
+    }
+
+    /// The mesh in `pose` (see the field).
+    fn posed(&self, pose: Option<Mat4>) -> Mesh {
+        match (&self.motion, pose) {
+            (Some(m), Some(p)) => crate::scene::motion::posed(&m.rest, p),
+            (None, Some(p)) => crate::scene::motion::posed(&self.placed, p),
+            (_, None) => self.placed.clone(),
+        }
+    }
 }
 
 /// The scene's objects and where they stand (module docs).
@@ -52,6 +79,8 @@ pub struct MovingObjects {
     volume_box: Option<(Vec3, Vec3)>,
     /// The visibility cuts, or why there are none.
     cuts: Result<CutState, String>,
+    /// The objects may be moved by hand (the live window): every object is here, moving or not.
+    draggable: bool,
 }
 
 /// What the motion did in one frame.
@@ -70,14 +99,27 @@ impl MovingObjects {
         if !scene.virtual_objects.iter().any(|o| o.moves()) {
             return None;
         }
+        Some(Self::new(scene, start, false))
+    }
+
+    /// The objects of `scene` for the live window, where a person drags and turns them
+    /// ([`Self::set_user`]) besides their motions: every object, moving or not (`None` when the
+    /// scene has none).
+    pub fn for_live(scene: &Scene, start: DateTime<FixedOffset>) -> Option<Self> {
+        (!scene.virtual_objects.is_empty()).then(|| Self::new(scene, start, true))
+    }
+
+    fn new(scene: &Scene, start: DateTime<FixedOffset>, draggable: bool) -> Self {
         let objects = scene
             .virtual_objects
             .iter()
             .map(|o| Object {
                 name: o.path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| o.path.display().to_string()),
                 motion: o.motion.clone(),
+                placed: o.mesh.clone(),
                 mesh: o.mesh.clone(),
                 pose: o.motion.as_ref().map(|m| m.motion.world_from_rest(m.motion.start_seconds())),
+                user: Mat4::IDENTITY,
                 moved_at: None,
                 warned: false,
             })
@@ -87,25 +129,26 @@ impl MovingObjects {
             (Vec3::from(g.min.map(|v| v as f32)) - margin, Vec3::from(g.max.map(|v| v as f32)) + margin)
         });
         let cuts = Err("the visibility cuts were not loaded: every move is re-traced".to_owned());
-        Some(Self { objects, proxy: scene.proxy.clone(), start, volume_box, cuts })
+        Self { objects, proxy: scene.proxy.clone(), start, volume_box, cuts, draggable }
     }
 
     /// Poses every moving object for frame `index` at `time`; returns which moved.
     pub fn advance(&mut self, index: usize, time: &DateTime<FixedOffset>) -> FrameMotion {
         let mut out = FrameMotion::default();
+        let start = self.start;
         for o in &mut self.objects {
-            let Some(m) = &o.motion else {
-                out.moved.push(false);
-                continue;
-            };
-            let pose = m.motion.world_from_rest(m.motion.seconds_at(time, &self.start));
-            let moved = o.pose != Some(pose);
+            let pose = o.pose_at(|m| m.motion.seconds_at(time, &start));
+            let moved = o.pose != pose;
             if moved {
-                o.mesh = crate::scene::motion::posed(&m.rest, pose);
-                o.pose = Some(pose);
+                o.mesh = o.posed(pose);
+                o.pose = pose;
                 o.moved_at = Some(index);
             }
             out.moved.push(moved);
+            if o.motion.is_none() && o.moved_at.is_none() {
+                // Where the scene placed it: its own business.
+                continue;
+            }
             if let (Some((lo, hi)), Some((a, b)), false) = (self.volume_box, o.mesh.bounds(), o.warned)
                 && (a.cmplt(lo).any() || b.cmpgt(hi).any())
             {
@@ -126,8 +169,52 @@ impl MovingObjects {
     /// Loads (or computes) `scene`'s visibility cuts (`super::motion_cuts`); `proxy` is the
     /// proxy's BVH. Without them every move is re-traced, and the report says why.
     pub fn with_cuts(mut self, scene: &Scene, proxy: &crate::geometry::raycast::RayScene) -> Self {
-        self.cuts = CutState::load(scene, proxy);
+        self.cuts = CutState::load(scene, proxy, self.draggable);
         self
+    }
+
+    /// True when the objects may be moved by hand ([`Self::for_live`]).
+    pub fn draggable(&self) -> bool {
+        self.draggable
+    }
+
+    /// The objects' names, in the scene's order.
+    pub fn names(&self) -> Vec<&str> {
+        self.objects.iter().map(|o| o.name.as_str()).collect()
+    }
+
+    /// Object `k` where it stands (as of the last [`Self::advance`]).
+    pub fn mesh(&self, k: usize) -> Option<&Mesh> {
+        self.objects.get(k).map(|o| &o.mesh)
+    }
+
+    /// Object `k`'s move by hand (world from where its own pose puts it).
+    pub fn user(&self, k: usize) -> Option<Mat4> {
+        self.objects.get(k).map(|o| o.user)
+    }
+
+    /// Moves object `k` by hand: `user` (a rotation and a translation, world from where its own
+    /// pose puts it) applies from the next [`Self::advance`]. An error when `k` is out of range,
+    /// when the objects are not draggable, or when `user` is not rigid or not finite.
+    pub fn set_user(&mut self, k: usize, user: Mat4) -> Result<(), String> {
+        if !self.draggable {
+            return Err("the objects are not draggable here (only the live window moves them by hand)".into());
+        }
+        let n = self.objects.len();
+        let o = self.objects.get_mut(k).ok_or_else(|| format!("there is no object {k} (the scene has {n})"))?;
+        if !user.is_finite() {
+            return Err(format!("{}: the move is not finite", o.name));
+        }
+        crate::cuts::rotate::Pose::from_parts(glam::Mat3::from_mat4(user), user.w_axis.truncate()).map_err(|e| format!("{}: {e}", o.name))?;
+        o.user = user;
+        Ok(())
+    }
+
+    /// Puts every object back where the scene places it (and on its motion).
+    pub fn reset_users(&mut self) {
+        for o in &mut self.objects {
+            o.user = Mat4::IDENTITY;
+        }
     }
 
     /// True when the visibility cuts are loaded.
@@ -223,7 +310,8 @@ impl MovingObjects {
                 continue;
             }
             let since = match (&o.motion, o.moved_at) {
-                (None, _) => "it has no motion".to_owned(),
+                (None, Some(k)) => format!("it was last moved by hand at frame {k}"),
+                (None, None) => "it has no motion".to_owned(),
                 (Some(_), Some(k)) => format!("it has not moved since frame {k}"),
                 (Some(_), None) => "it has not moved yet".to_owned(),
             };

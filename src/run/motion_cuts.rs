@@ -64,14 +64,16 @@ fn same_objects(cuts: &PrecomputedCuts, scene: &Scene) -> bool {
 }
 
 impl CutState {
-    /// The cuts of `scene` (module docs); `proxy` is the proxy's BVH. The error is the reason
-    /// the frame loop reports.
-    pub fn load(scene: &Scene, proxy: &RayScene) -> Result<Self, String> {
+    /// The cuts of `scene` (module docs); `proxy` is the proxy's BVH; `draggable`: computed
+    /// for objects without a motion too (the live window moves them by hand). The error is the
+    /// reason the frame loop reports.
+    pub fn load(scene: &Scene, proxy: &RayScene, draggable: bool) -> Result<Self, String> {
         let path = precompute::cuts_path(scene);
+        let opts = if draggable { PrecomputeOptions::draggable() } else { PrecomputeOptions::frame_loop() };
         let cuts = match file::read(&path) {
             Ok(c) if same_objects(&c, scene) => c,
             _ => {
-                precompute::precompute(scene, proxy, &PrecomputeOptions::frame_loop(), &no_progress)
+                precompute::precompute(scene, proxy, &opts, &no_progress)
                     .map_err(|e| format!("no usable visibility cuts for {}: {e:#}: every move is re-traced", scene.root.display()))?;
                 file::read(&path).map_err(|e| format!("{e}: every move is re-traced"))?
             }
@@ -82,18 +84,21 @@ impl CutState {
     }
 
     /// Each object's pose since its cuts were computed (`crate::cuts::rotate::Pose`), from its
-    /// pose this frame (`None`: the object has no motion, the identity); `Err((k, why))` when
-    /// object `k` is not moved rigidly (scaled or mirrored since its first key).
+    /// pose this frame: world from its rest frame for an object with a motion, world from its
+    /// placement for one without (moved by hand in the live window), `None` where it stands as
+    /// placed (the identity). `Err((k, why))` when object `k` is not moved rigidly (scaled or
+    /// mirrored since its first key).
     pub fn poses(&self, poses: &[Option<Mat4>]) -> Result<Vec<Pose>, (usize, String)> {
         self.origin
             .iter()
             .enumerate()
-            .map(|(k, origin)| match (origin, poses.get(k).copied().flatten()) {
-                (Some(o), Some(p)) => {
-                    let d = p * o.inverse();
-                    Pose::from_parts(Mat3::from_mat4(d), d.w_axis.truncate()).map_err(|e| (k, e))
-                }
-                _ => Ok(Pose::translated(Vec3::ZERO)),
+            .map(|(k, origin)| {
+                let d = match (origin, poses.get(k).copied().flatten()) {
+                    (Some(o), Some(p)) => p * o.inverse(),
+                    (None, Some(p)) => p,
+                    (_, None) => return Ok(Pose::translated(Vec3::ZERO)),
+                };
+                Pose::from_parts(Mat3::from_mat4(d), d.w_axis.truncate()).map_err(|e| (k, e))
             })
             .collect()
     }

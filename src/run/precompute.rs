@@ -48,12 +48,15 @@ pub struct PrecomputeOptions {
     pub proxy_spacing_m: Option<f32>,
     /// Compute even when the cache is up to date.
     pub force: bool,
+    /// Compute for a scene whose objects have no motion too: they are moved by hand (the live
+    /// window's dragging, issue 15 §1).
+    pub draggable: bool,
 }
 
 impl Default for PrecomputeOptions {
     /// The paper's settings: `S = 2^15`, SVC threshold 0.1, 32 spheres × 32² points.
     fn default() -> Self {
-        Self { levels: PAPER_LEVELS, svc: SvcSettings::default(), vcf: VcfSampling::default(), proxy_spacing_m: None, force: false }
+        Self { levels: PAPER_LEVELS, svc: SvcSettings::default(), vcf: VcfSampling::default(), proxy_spacing_m: None, force: false, draggable: false }
     }
 }
 
@@ -64,6 +67,12 @@ impl PrecomputeOptions {
     /// `heliar precompute` with finer settings beforehand is used instead when present.
     pub fn frame_loop() -> Self {
         Self { levels: 10, vcf: VcfSampling { spheres: 8, rows: 16, cols: 16, ..VcfSampling::default() }, ..Self::default() }
+    }
+
+    /// [`Self::frame_loop`] for a scene whose objects are dragged by hand (`heliar live`), moving
+    /// or not.
+    pub fn draggable() -> Self {
+        Self { draggable: true, ..Self::frame_loop() }
     }
 }
 
@@ -150,9 +159,9 @@ pub fn precompute(scene: &Scene, proxy: &RayScene, opts: &PrecomputeOptions, pro
         seconds: 0.0,
         inputs_hash: None,
     };
-    if moving == 0 {
+    if moving == 0 && !opts.draggable {
         let m = scene.root.join(MANIFEST_FILE);
-        summary.skipped = Some(format!("no virtual object in {} has a motion: the static per-pixel transfer serves every frame", m.display()));
+        summary.skipped = Some(format!("no virtual object in {} has a motion: the static per-pixel transfer serves every frame (`--draggable` computes them for the live window's dragging)", m.display()));
         return Ok(summary);
     }
     let settings = settings(scene, opts);

@@ -59,8 +59,19 @@ impl OutdoorSession {
     /// visibility cuts are loaded from `baked/cuts.bin` or computed (`super::motion_cuts`).
     /// Nothing changes for a scene where nothing moves.
     pub fn follow_motion(&mut self, scene: &Scene, start: DateTime<FixedOffset>) {
+        self.follow(scene, MovingObjects::for_scene(scene, start));
+    }
+
+    /// [`Self::follow_motion`] for the live window, where a person also drags and turns the
+    /// objects (`MovingObjects::for_live`): every object is followed, with a motion or not, and
+    /// the cuts are computed for them all (`heliar precompute --draggable`).
+    pub fn follow_live(&mut self, scene: &Scene, start: DateTime<FixedOffset>) {
+        self.follow(scene, MovingObjects::for_live(scene, start));
+    }
+
+    fn follow(&mut self, scene: &Scene, objects: Option<MovingObjects>) {
         let proxy = self.compositor.proxy_ray().clone();
-        self.motion = MovingObjects::for_scene(scene, start).map(|m| m.with_cuts(scene, &proxy));
+        self.motion = objects.map(|m| m.with_cuts(scene, &proxy));
         if let Some(m) = self.motion.as_ref().filter(|m| m.has_cuts()) {
             // The receivers along the motion get `c`, `b` at set-up, so that a move costs no trace.
             self.compositor.reach_motion(m.reach());
@@ -102,6 +113,18 @@ impl OutdoorSession {
         self.pose_objects(index, time)?;
         self.compositor.replay(&lighting);
         Ok(estimate)
+    }
+
+    /// Frame `index` composited again under `lighting` (as it was estimated), with the objects
+    /// where they stand now: the live window's answer to a move by hand while the footage is
+    /// paused or has ended. Nothing is estimated or relit.
+    pub fn recompose(&mut self, index: usize, time: &DateTime<FixedOffset>, video: &VideoFrame, lighting: &Lighting) -> anyhow::Result<(RenderedFrame, PassReport)> {
+        let motion = self.pose_objects(index, time)?;
+        let (rendered, mut passes) = self.compositor.render(video, lighting)?;
+        if let (Some(m), Some(frame)) = (&self.motion, &motion) {
+            m.report(frame, &mut passes);
+        }
+        Ok((rendered, passes))
     }
 
     /// One frame: estimate, relight when needed, composite offscreen and read back.

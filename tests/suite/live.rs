@@ -23,12 +23,12 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
-fn bundled() -> PathBuf {
+pub(crate) fn bundled() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/courtyard")
 }
 
 /// One device for the whole binary (as tests/render does).
-fn gpu() -> Arc<Gpu> {
+pub(crate) fn gpu() -> Arc<Gpu> {
     static GPU: OnceLock<Arc<Gpu>> = OnceLock::new();
     GPU.get_or_init(|| Arc::new(Gpu::new(GpuOptions { samples: 1 }).expect("a GPU adapter (lavapipe or llvmpipe)"))).clone()
 }
@@ -38,17 +38,17 @@ fn scene() -> Scene {
 }
 
 /// The courtyard's LDR frame `i` (0–5 sunny, 6 behind the cloud).
-fn ldr_frame(i: usize) -> Frame {
+pub(crate) fn ldr_frame(i: usize) -> Frame {
     Frame::load(&bundled().join(format!("frames/ldr/frame_{i:03}.png"))).unwrap()
 }
 
 /// A scripted source: yields `frames` in turn (cycling) at `fps`, until `fail_after` frames
 /// when given, then a read error.
-struct Script {
-    frames: Vec<Frame>,
-    next: usize,
-    fps: f64,
-    fail_after: Option<usize>,
+pub(crate) struct Script {
+    pub(crate) frames: Vec<Frame>,
+    pub(crate) next: usize,
+    pub(crate) fps: f64,
+    pub(crate) fail_after: Option<usize>,
 }
 
 impl FrameSource for Script {
@@ -87,7 +87,7 @@ fn app_with(opener: heliar::live::Opener, options: CaptureOptions) -> LiveApp {
     app
 }
 
-fn harness(app: LiveApp) -> Harness<'static, LiveApp> {
+pub(crate) fn harness(app: LiveApp) -> Harness<'static, LiveApp> {
     Harness::builder().with_size([1280.0, 860.0]).build_ui_state(|ui, app: &mut LiveApp| app.ui(ui), app)
 }
 
@@ -97,6 +97,23 @@ fn wait_for(what: &str, timeout: Duration, mut f: impl FnMut() -> bool) {
         assert!(t.elapsed() < timeout, "timed out waiting for {what}");
         std::thread::sleep(Duration::from_millis(10));
     }
+}
+
+/// A scratch copy of the courtyard without its sequences (what the live window caches, the bake
+/// and the cuts, goes into the scene folder).
+pub(crate) fn scratch_courtyard(tag: &str) -> PathBuf {
+    let src = bundled();
+    let dst = std::env::temp_dir().join(format!("heliar-live-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dst);
+    for d in ["calib", "objects"] {
+        std::fs::create_dir_all(dst.join(d)).unwrap();
+    }
+    for f in ["scene.toml", "proxy.glb", "calib/camera.toml", "env.exr", "objects/statue.glb"] {
+        std::fs::copy(src.join(f), dst.join(f)).unwrap();
+    }
+    let m = std::fs::read_to_string(dst.join("scene.toml")).unwrap();
+    std::fs::write(dst.join("scene.toml"), &m[..m.find("[[sequences]]").unwrap()]).unwrap();
+    dst
 }
 
 /// Pixels around the projection of the statue's bounding-box centre.
@@ -367,18 +384,7 @@ fn the_vem_panel_decomposes_with_the_slider_s_light_count() {
 fn the_ambient_source_switches_between_the_irradiance_volume_and_the_uniform_sky() {
     use heliar::live::AmbientChoice;
     use heliar::irradiance::sources::VolumeProbes;
-    // A scratch copy without sequences: the bake is cached into the scene folder.
-    let src = bundled();
-    let dst = std::env::temp_dir().join(format!("heliar-live-ambient-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dst);
-    for d in ["calib", "objects"] {
-        std::fs::create_dir_all(dst.join(d)).unwrap();
-    }
-    for f in ["scene.toml", "proxy.glb", "calib/camera.toml", "env.exr", "objects/statue.glb"] {
-        std::fs::copy(src.join(f), dst.join(f)).unwrap();
-    }
-    let m = std::fs::read_to_string(dst.join("scene.toml")).unwrap();
-    std::fs::write(dst.join("scene.toml"), &m[..m.find("[[sequences]]").unwrap()]).unwrap();
+    let dst = scratch_courtyard("ambient");
 
     let scene = Scene::load(&dst).unwrap();
     let ray = Arc::new(RayScene::new(scene.proxy.clone()));

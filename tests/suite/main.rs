@@ -24,6 +24,7 @@ mod interrupt_resume;
 mod irradiance_volume;
 mod lamps_estimate;
 mod live;
+mod live_drag;
 mod object_cuts;
 mod object_cuts_turned;
 mod object_cuts_two;

@@ -136,7 +136,12 @@ mod imp {
         config.darkening = a.darkening.into();
         config.transfer_paths = a.transfer_paths;
         config.trace_paths_per_frame = a.trace_paths_per_frame;
-        let session = crate::augment::outdoor_session(&scene, ray, a.samples, config, a.ambient.into())?;
+        let mut session = crate::augment::outdoor_session(&scene, ray, a.samples, config, a.ambient.into())?;
+        // The objects follow their motions and can be dragged and turned by hand; their key
+        // times in seconds count from the first frame. The visibility cuts of all of them are
+        // loaded from `baked/cuts.bin` or computed there (`heliar precompute --draggable`).
+        let start = input.clock.time(0, Some(0.0), None)?;
+        session.follow_live(&scene, start);
         // The uniform sky is always at hand as the other choice of the volume.
         let other: Option<Box<dyn ProbeSource + Send>> =
             (session.stage.probes.name() != "uniform_sky").then(|| Box::new(UniformSky::for_scene(&scene)) as Box<dyn ProbeSource + Send>);

@@ -1,4 +1,4 @@
-//! `heliar precompute`: the visibility cuts of a scene's moving objects, cached beside the bake
+//! `heliar precompute`: the visibility cuts of a scene's moving (or, `--draggable`, draggable) objects, cached beside the bake
 //! (`heliar::run::precompute`), with a progress bar and a JSON summary line on stdout.
 
 use crate::common::load_scene;
@@ -29,6 +29,10 @@ pub struct PrecomputeArgs {
     /// Proxy-field grid spacing, m (default: the scene's `[irradiance]` spacing).
     #[arg(long)]
     proxy_spacing: Option<f32>,
+    /// Also for a scene whose objects have no motion: `heliar live` lets a person drag and turn
+    /// them, and the cuts make such a move cost no re-trace.
+    #[arg(long)]
+    draggable: bool,
 }
 
 fn parse_vcf(s: &str) -> Result<VcfSampling> {
@@ -51,6 +55,7 @@ pub fn run(a: PrecomputeArgs) -> Result<()> {
         vcf: parse_vcf(&a.vcf)?,
         proxy_spacing_m: a.proxy_spacing,
         force: a.force,
+        draggable: a.draggable,
     };
     let (scene, ray) = load_scene(&a.scene)?;
     let bar = ProgressBar::new(0);

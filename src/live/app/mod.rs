@@ -7,9 +7,14 @@
 //! camera's response ([`encode_rgb8`]: untouched pixels keep their own codes), which the window
 //! shows as an egui texture. [`LiveApp::ui`] takes the newest frame from the capture slot,
 //! processes it and draws; it is a plain function of the state, so the tests drive it headless
-//! with egui_kittest.
+//! with egui_kittest. A person drags and turns the virtual objects on the shown frame
+//! (`drag`: [`LiveApp::begin_drag`], [`LiveApp::turn_object`], [`LiveApp::reset_objects`]).
 
+mod drag;
 mod panels;
+
+pub use drag::{MAX_DRAG_DISTANCE_M, STEP_UP_M, TURN_DEG_PER_SCROLL_POINT, UP_FACING_COS};
+pub use panels::FEED_ALT_TEXT;
 
 use super::slot::LatestSlot;
 use super::source::{Capture, CaptureStatus, Captured, SourceState};
@@ -126,6 +131,14 @@ pub struct LiveApp {
     title: String,
     /// The VEM panel (`--vem-input`).
     pub vem: Option<super::vem::VemPanel>,
+    /// The last frame taken from the capture (composited again after a move by hand).
+    last_input: Option<Captured>,
+    /// The object being dragged.
+    drag: Option<drag::Drag>,
+    /// The object last dragged or turned.
+    selected: Option<usize>,
+    /// An object was moved by hand since the last composite.
+    objects_dirty: bool,
 }
 
 impl LiveApp {
@@ -157,6 +170,10 @@ impl LiveApp {
             quit: None,
             title: title.to_owned(),
             vem: None,
+            last_input: None,
+            drag: None,
+            selected: None,
+            objects_dirty: false,
         }
     }
 
@@ -290,6 +307,8 @@ impl LiveApp {
         self.processed += 1;
         self.last = Some(Shown { index: c.index, time, record, passes, vem, composited, input, frame_ms: t.elapsed().as_secs_f64() * 1e3, latency_ms: c.at.elapsed().as_secs_f64() * 1e3 });
         self.texture_dirty = true;
+        self.objects_dirty = false;
+        self.last_input = Some(c);
     }
 
     /// The outdoor compositor's frame.

@@ -9,6 +9,12 @@ use egui::{Color32, RichText};
 use std::sync::atomic::Ordering;
 use std::time::Duration;
 
+/// How long the window waits for a new frame to show a move by hand before it composites the
+/// last one again.
+const RECOMPOSE_AFTER: Duration = Duration::from_millis(250);
+/// The feed image's label (accessibility; the tests find the image by it).
+pub const FEED_ALT_TEXT: &str = "the composited feed";
+
 impl LiveApp {
     /// The whole window.
     pub fn ui(&mut self, ui: &mut egui::Ui) {
@@ -16,10 +22,16 @@ impl LiveApp {
             ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
         }
         self.capture.watchdog();
-        if self.process_in_ui
-            && let Some(c) = self.capture.slot().take()
-        {
-            self.process(c);
+        if self.process_in_ui {
+            match self.capture.slot().take() {
+                Some(c) => self.process(c),
+                // A move by hand shows on the next frame; when none comes (paused, ended, a
+                // still), the last one is composited again.
+                None if self.objects_dirty && self.shown_at.back().is_none_or(|t| t.elapsed() > RECOMPOSE_AFTER) => {
+                    self.recompose();
+                }
+                None => {}
+            }
         }
         self.upload_texture(ui.ctx());
         egui::Panel::top("live_status").show(ui, |ui| self.status_bar_ui(ui));
@@ -119,6 +131,14 @@ impl LiveApp {
         if ui.checkbox(&mut self.show_input, "Show the input").changed() {
             self.texture_dirty = true;
         }
+        if self.can_move_objects() {
+            ui.separator();
+            ui.heading("Objects");
+            ui.label("Drag an object to move it over the ground; scroll over it to turn it.");
+            if ui.button("Reset objects").clicked() {
+                self.reset_objects();
+            }
+        }
     }
 
     fn estimator_ui(&mut self, ui: &mut egui::Ui) {
@@ -162,6 +182,9 @@ impl LiveApp {
         ui.heading("Pass report");
         let Some(s) = &self.last else { return };
         ui.label(format!("ran: {}", s.passes.ran.join(", ")));
+        if !s.passes.moved.is_empty() {
+            ui.label(format!("moved: {}", s.passes.moved.join(", ")));
+        }
         for k in &s.passes.skipped {
             ui.label(format!("skipped {}: {}", k.pass, k.reason));
         }
@@ -193,6 +216,39 @@ impl LiveApp {
         });
     }
 
+    /// Dragging and turning the objects on the shown frame (`super::drag`).
+    fn pointer_ui(&mut self, r: &egui::Response, ui: &egui::Ui, scale: f32) {
+        // Footage pixel coordinates, pixel centres at integers.
+        let px = |p: egui::Pos2| (((p.x - r.rect.min.x) / scale) as f64 - 0.5, ((p.y - r.rect.min.y) / scale) as f64 - 0.5);
+        // A drag is recognised once the pointer has travelled a little: it begins where the
+        // button went down.
+        if r.drag_started()
+            && let Some((x, y)) = ui.input(|i| i.pointer.press_origin()).map(px)
+        {
+            self.begin_drag(x, y);
+        }
+        let mut result = Ok(());
+        if r.dragged()
+            && let Some((x, y)) = r.interact_pointer_pos().map(px)
+        {
+            result = self.drag_to(x, y);
+        }
+        if r.drag_stopped() {
+            self.end_drag();
+        }
+        let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+        let turned = match r.hover_pos().map(px) {
+            Some((x, y)) if scroll != 0.0 => match self.pick_object(x, y).or(self.selected_object()) {
+                Some(k) => self.turn_object(k, scroll * super::drag::TURN_DEG_PER_SCROLL_POINT),
+                None => Ok(()),
+            },
+            _ => Ok(()),
+        };
+        if let Err(e) = result.and(turned) {
+            self.error = Some(e);
+        }
+    }
+
     fn feed_ui(&mut self, ui: &mut egui::Ui) {
         let status = self.capture.status();
         if let SourceState::Lost { reason, .. } = &status.state {
@@ -205,7 +261,13 @@ impl LiveApp {
                 let (w, h) = (s.composited.width as f32, s.composited.height as f32);
                 let avail = ui.available_size();
                 let k = (avail.x / w).min(avail.y / h).max(0.1);
-                ui.add(egui::Image::new((t.id(), egui::vec2(w * k, h * k))));
+                let image = egui::Image::new((t.id(), egui::vec2(w * k, h * k))).alt_text(FEED_ALT_TEXT);
+                if self.can_move_objects() {
+                    let r = ui.add(image.sense(egui::Sense::click_and_drag()));
+                    self.pointer_ui(&r, ui, k);
+                } else {
+                    ui.add(image);
+                }
             }
             _ => {
                 ui.label("waiting for frames…");
