@@ -54,17 +54,26 @@ impl FrameSky {
     }
 }
 
-/// Most lamps whose scales a frame's [`Lighting`] carries; lamps past it give no light.
-pub const MAX_LAMPS: usize = 16;
+/// Most lamps whose scales a frame's [`Lighting`] carries: as many as a scene may declare
+/// (`crate::scene::lights::MAX_LIGHTS`, which refuses more at load; checked equal in
+/// `run::outdoor`'s tests).
+pub const MAX_LAMPS: usize = 64;
 
 /// The scale `k` per channel of each of the scene's lamps (`[[lights]]`, in order) for one frame:
 /// the estimator's fitted `k`, or the prior when the lamp was not fitted, and zero for a lamp
 /// that is off (issue 16 §3). Empty when the scene has no lamps or the lighting says nothing of
 /// them (then the lamps give no light).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LampScales {
     k: [[f32; 3]; MAX_LAMPS],
     len: usize,
+}
+
+impl Default for LampScales {
+    /// No lamp.
+    fn default() -> Self {
+        Self::NONE
+    }
 }
 
 impl LampScales {

@@ -188,6 +188,14 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_frame_carries_a_scale_for_every_lamp_a_scene_may_declare() {
+        assert_eq!(crate::lighting::MAX_LAMPS, crate::scene::lights::MAX_LIGHTS);
+        let k: Vec<[f32; 3]> = (0..crate::scene::lights::MAX_LIGHTS).map(|i| [i as f32; 3]).collect();
+        let s = LampScales::from_slice(&k);
+        assert_eq!(s.as_slice(), &k[..]);
+    }
+
+    #[test]
     fn each_lamp_gets_its_k_and_an_off_lamp_none() {
         let report = |status, k: f64| LampReport { name: "l".into(), status, k: [k, 0.5 * k, f64::NAN], k_se: None, k_smoothed: None, samples: 0, condition_number: None, reason: None };
         let s = lamp_scales(&[report(LampStatus::Fitted, 2.0), report(LampStatus::Off, 3.0), report(LampStatus::Unreached, 1.0), report(LampStatus::NotFitted, -1.0)]);

@@ -301,8 +301,16 @@ fn schedule(m: &Path, field: &str, v: Option<&toml::Value>) -> Result<Schedule, 
     Ok(Schedule::Intervals(out))
 }
 
+/// Most `[[lights]]` a scene may declare: what a frame's lighting carries a scale for
+/// (`crate::lighting::MAX_LAMPS`, the same number). A scene with more is refused rather than
+/// having its last lamps go dark without a word.
+pub const MAX_LIGHTS: usize = 64;
+
 /// Validates `[[lights]]`, naming `lights[i].field` of `scene.toml` (`m`) for the first problem.
 pub(super) fn lights(within: &Within, m: &Path, specs: &[LightSpec]) -> Result<Vec<Light>, SceneError> {
+    if specs.len() > MAX_LIGHTS {
+        return Err(invalid(m, "lights", format!("{} lights are declared; heliar takes at most {MAX_LIGHTS} (merge distant lamps of one kind into fewer, brighter ones)", specs.len())));
+    }
     let mut out = Vec::with_capacity(specs.len());
     for (i, s) in specs.iter().enumerate() {
         let f = |name: &str| format!("lights[{i}].{name}");

@@ -299,6 +299,14 @@ fn scene_lights_parse_and_their_errors_name_the_field() {
     assert!(e.contains("lights[0].schedule[0].on") && e.contains("RFC 3339"), "{e}");
     let e = load_err("lights-unknown", "[[lights]]\nkind = \"point\"\nintensity_cd = 5\nposition = [0, 4, 0]\ncolour = 3\n");
     assert!(e.contains("colour"), "{e}");
+    // More lamps than a frame's lighting carries a scale for: refused, not left dark.
+    let many = |n: usize| (0..n).map(|i| format!("[[lights]]\nkind = \"point\"\nintensity_cd = 5\nposition = [{i}, 4, 0]\n")).collect::<String>();
+    let max = heliar::scene::lights::MAX_LIGHTS;
+    let e = load_err("lights-many", &many(max + 1));
+    assert!(e.contains("`lights`") && e.contains(&format!("{} lights are declared", max + 1)), "{e}");
+    let d = with_lights("lights-max", &many(max));
+    assert_eq!(Scene::load(&d).unwrap().lights.len(), max);
+    std::fs::remove_dir_all(&d).ok();
 
     // A profile that exists but is not an IES file: the scene loads, the lamp's model names the
     // field and the file's line.

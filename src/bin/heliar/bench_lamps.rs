@@ -93,7 +93,7 @@ pub struct LampsSweep {
     #[arg(long, default_value_t = 100_000)]
     triangles: usize,
     /// `lamp-count`: numbers of far-field lamps.
-    #[arg(long, value_delimiter = ',', default_values_t = [0usize, 1, 2, 4, 8, 16])]
+    #[arg(long, value_delimiter = ',', default_values_t = [0usize, 1, 2, 4, 8, 16, 32, 64])]
     lamps: Vec<usize>,
     /// CSV output.
     #[arg(long, default_value = "out/bench_lamps.csv")]
