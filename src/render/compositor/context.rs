@@ -92,6 +92,14 @@ impl FrameContext {
         (self.has_objects() && self.no_sun.is_none()).then_some(self.sun_dir)
     }
 
+    /// The sun direction a sky shaped by the sun follows (objects drawn and a direction),
+    /// whether or not the frame has a sun term: the sun's position is known from the clock when
+    /// its light is not (set, or too low for the estimator to observe `Pd`), and the twilight
+    /// sky keeps its shape, as the estimator's sky terms take it (`estimate::sky_terms`).
+    pub fn sky_sun(&self) -> Option<Vec3> {
+        (self.has_objects() && self.sun_dir != Vec3::ZERO).then_some(self.sun_dir)
+    }
+
     /// True when the stored depth, stencil and mask serve this frame.
     pub fn reuses(&self) -> bool {
         self.reuse.is_some()
@@ -194,6 +202,9 @@ mod tests {
         assert_eq!(c.gate(), Gate::NoSun("night"));
         assert_eq!(c.begin_report().skipped.len(), NO_SUN_PASSES.len());
         assert_eq!(c.sun(), None);
+        // Without a sun term the sky's shape still follows the sun's direction.
+        assert_eq!(c.sky_sun(), Some(Vec3::Y));
+        assert_eq!(context(Some("none"), None).sky_sun(), None);
         let c = context(None, None);
         assert!(c.begin_report().skipped.is_empty() && c.sun() == Some(Vec3::Y) && c.begin_report().sun);
     }
