@@ -100,6 +100,15 @@ impl FrameContext {
         (self.has_objects() && self.sun_dir != Vec3::ZERO).then_some(self.sun_dir)
     }
 
+    /// The sun direction the stages that trace paths under `sky` (the objects' transfer, the
+    /// receivers' `c`, `b`) trace for: under a sky whose shape follows the sun,
+    /// [`Self::sky_sun`], so that a frame without sun term keeps the twilight sky's shape; under
+    /// one that does not, the sun term's ([`Self::sun`]), as before. What they trace per unit
+    /// `Pd` for it is added only with a sun term.
+    pub fn traced_sun(&self, sky: &crate::sky::radiance::SkyModel) -> Option<Vec3> {
+        if sky.follows_sun() { self.sky_sun() } else { self.sun() }
+    }
+
     /// True when the stored depth, stencil and mask serve this frame.
     pub fn reuses(&self) -> bool {
         self.reuse.is_some()

@@ -25,12 +25,12 @@ pub struct TransferPass {
     dropped: Option<String>,
 }
 
-/// The sun direction the transfer is traced for: the frame's sun term's, or under a sky whose
-/// shape follows the sun the sun's direction even without a sun term (`FrameContext::sky_sun`),
-/// so that `R_a` keeps the twilight sky's shape on a frame whose `Pd` is 0. `R_d` is then traced
-/// for that direction too (per unit `Pd`; the shading adds it only with a sun term).
+/// The sun direction the transfer is traced for ([`FrameContext::traced_sun`]): under a sky
+/// whose shape follows the sun, the sun's direction even without a sun term, so that `R_a` keeps
+/// the twilight sky's shape on a frame whose `Pd` is 0 (issue 16, the dusk statue). `R_d` is
+/// then traced for that direction too (per unit `Pd`; the shading adds it only with a sun term).
 fn transfer_sun(transfer: &ObjectTransfer, ctx: &FrameContext) -> Option<Vec3> {
-    if transfer.sky_model().follows_sun() { ctx.sky_sun() } else { ctx.sun() }
+    ctx.traced_sun(transfer.sky_model())
 }
 
 impl TransferPass {
