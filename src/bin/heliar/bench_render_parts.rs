@@ -6,9 +6,10 @@
 //!
 //! Each reference frame is rendered four times by one compositor: all lights, then the sky alone
 //! (`Pd` = 0, lamps dark), the sun alone (`Pa` = 0, lamps dark) and the lamps alone (`Pd` = `Pa` =
-//! 0). The frame's sun direction and sky shape stay, so the transfer traced for the frame
-//! serves all four. The table gives the mean radiance per channel over the object pixels of the
-//! reference classes, the compositor's and the generator's, and their ratio.
+//! 0), and the estimate's lighting. The frame's sun direction and sky shape stay, so the
+//! transfer traced for the frame serves all; the probe grid (the shading's fallback at
+//! silhouettes) is relit for each. The table gives the mean radiance per channel over the interior object pixels
+//! (not at a silhouette) of the reference classes, the compositor's and the generator's, and their ratio.
 
 use crate::bench_render::RefFrame;
 use anyhow::{Context, Result};
@@ -21,13 +22,15 @@ use glam::Vec3;
 use std::path::Path;
 use std::sync::Arc;
 
-/// Mean radiance per channel of `img` over the object pixels of `f`'s classes; `crop_image`
+/// Mean radiance per channel of `img` over the interior object pixels of `f`'s classes; `crop_image`
 /// says whether `img` is the crop (the generator's) or the whole frame (the compositor's).
 fn object_mean(f: &RefFrame, img: &LinearImage, crop_image: bool) -> Vec3 {
     let c = f.classes.crop;
     let (mut sum, mut n) = (Vec3::ZERO, 0u32);
     for (i, class) in f.classes.class.iter().enumerate() {
-        if *class != OBJECT {
+        // Interior pixels only: at the silhouettes the composite blends in the footage, which
+        // carries every light whatever the part.
+        if *class != OBJECT || f.classes.edge[i] {
             continue;
         }
         let (x, y) = (i as u32 % c.width, i as u32 / c.width);
@@ -47,9 +50,11 @@ pub fn run(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::Ra
         comp.set_lamps(&lamps, options)?;
     }
     let truth = truth.context("the references' sequence has no truth file")?;
+    // The probe grid (the shading's fallback where no transfer entry matches, at silhouettes)
+    // relit for each part's lighting, so that no part borrows another's light.
+    let mut probes = heliar::run::outdoor::probe_source(scene, ray.clone(), heliar::run::outdoor::Ambient::Auto, |s, r| crate::bake::bake_with_progress(s, r, false))?;
     println!("part | frame | compositor (R G B) | generator (R G B) | ratio (R G B)");
     for f in frames {
-        comp.set_probes(&f.grid);
         let t = truth.get(f.index).context("the truth file is shorter than the sequence")?;
         let v = |a: [f64; 3]| Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
         let all = Lighting { pd: v(t.pd), pa: v(t.pa), ..f.lighting };
@@ -63,6 +68,7 @@ pub fn run(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::Ra
             ("lamp", Lighting { pd: Vec3::ZERO, pa: Vec3::ZERO, ..all }, Some("lamp")),
         ];
         for (name, lighting, file) in runs {
+            comp.set_probes(probes.relight(&lighting));
             let (out, _) = comp.render(&f.video, &lighting)?;
             let ours = object_mean(f, &out.image, false);
             let theirs = match file {
