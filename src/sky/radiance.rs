@@ -92,6 +92,12 @@ impl SkyModel {
         self.hosek_turbidity.is_some() && to.hosek_turbidity.is_some() && self.terrain_albedo == to.terrain_albedo
     }
 
+    /// True when the sky's shape depends on the sun's direction (a Hošek–Wilkie shape), so
+    /// paths traced under it must know where the sun is even on a frame without sun light.
+    pub fn follows_sun(&self) -> bool {
+        self.hosek_turbidity.is_some()
+    }
+
     /// How the reports name the model (as the estimator's `sky_model`).
     pub fn name(&self) -> String {
         match self.hosek_turbidity {

@@ -41,18 +41,18 @@ use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
 
-const START: &str = "2024-09-22T19:00:00+02:00";
+pub(super) const START: &str = "2024-09-22T19:00:00+02:00";
 /// When the environment map was captured: the same afternoon, the lamp off.
 const CAPTURE: &str = "2024-09-22T15:00:00+02:00";
 const FRAMES: usize = 6;
 /// Seconds between frames (10 min).
-const INTERVAL_S: f64 = 600.0;
+pub(super) const INTERVAL_S: f64 = 600.0;
 /// The lamp is on from this frame on.
-const LAMP_ON_FRAME: usize = 1;
+pub(super) const LAMP_ON_FRAME: usize = 1;
 const TURBIDITY: f64 = 3.0;
 /// The sky's shape once the sun has set: the Hosek–Wilkie sky of a sun this high.
 const TWILIGHT_SHAPE_ELEVATION_DEG: f64 = 2.0;
-const TERRAIN_ALBEDO: f32 = 0.15;
+pub(super) const TERRAIN_ALBEDO: f32 = 0.15;
 /// Green `Pa` at sunset (`h = 0`); `Pa ∝ 10^(h/3)`.
 const PA_GREEN_SUNSET: f32 = 0.12;
 /// Sky colour per unit green `Pa`, at sunset and (bluer) at −6°.
@@ -61,7 +61,7 @@ const PA_TINT_DEEP: [f32; 3] = [0.70, 1.0, 1.55];
 /// Green `Pa` of the afternoon the map was captured.
 const PA_GREEN_CAPTURE: f32 = 0.45;
 /// The lamp: disc centre (world metres), radius, intensity on the axis (frame units, k = 1).
-const LAMP_CENTRE: [f32; 3] = [0.0, 4.0, 2.0];
+pub(super) const LAMP_CENTRE: [f32; 3] = [0.0, 4.0, 2.0];
 const LAMP_RADIUS_M: f32 = 0.15;
 const LAMP_INTENSITY: f32 = 0.8;
 const FRAME_SPP: u32 = 64;
@@ -69,23 +69,23 @@ const ENV_SPP: u32 = 32;
 const ENV_WIDTH: u32 = 256;
 const ENV_CENTRE: [f32; 3] = [0.0, 1.5, 2.0];
 const REFERENCE_SPP: u32 = 1024;
-const REFERENCE_FRAMES: [usize; 2] = [1, 4];
+pub(super) const REFERENCE_FRAMES: [usize; 2] = [1, 4];
 const REFERENCE_SEEDS: [u64; 2] = [5101, 5301];
 
-fn lamp() -> DiscLamp {
+pub(super) fn lamp() -> DiscLamp {
     DiscLamp { centre: Vec3::from(LAMP_CENTRE), radius: LAMP_RADIUS_M, intensity: LAMP_INTENSITY }
 }
 
 /// One frame's sun, sky and lamp.
-struct Moment {
+pub(super) struct Moment {
     time: chrono::DateTime<chrono::FixedOffset>,
-    sun: Vec3,
+    pub(super) sun: Vec3,
     azimuth_deg: f64,
     elevation_deg: f64,
-    sky: SkyLight,
-    pd: Vec3,
-    pa: Vec3,
-    lamp_k: f32,
+    pub(super) sky: SkyLight,
+    pub(super) pd: Vec3,
+    pub(super) pa: Vec3,
+    pub(super) lamp_k: f32,
 }
 
 /// `Pa` at apparent elevation `h_deg` (module docs).
@@ -108,7 +108,7 @@ fn sky_for(sun: Vec3) -> Result<SkyLight> {
     Ok(SkyLight::new(HosekSky::new(shape_sun, TURBIDITY, terrain).context("Hosek sky")?))
 }
 
-fn moment_at(time: chrono::DateTime<chrono::FixedOffset>, observer: &Observer, geo: &GeoFrame, lamp_k: f32) -> Result<Moment> {
+pub(super) fn moment_at(time: chrono::DateTime<chrono::FixedOffset>, observer: &Observer, geo: &GeoFrame, lamp_k: f32) -> Result<Moment> {
     let pos = sun_position(observer, &time)?;
     let sun = geo.sun_dir_in_world(&pos);
     let h = pos.apparent_elevation_deg();

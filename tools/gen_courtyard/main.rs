@@ -17,6 +17,7 @@
 //! `cargo run --release --bin gen-courtyard -- --out scenes/courtyard`
 
 mod dusk;
+mod dusk_parts;
 mod render;
 mod sky_render;
 mod statue;
@@ -84,6 +85,10 @@ struct Args {
     /// lamp that switches on (`dusk.rs`). Of the other options only --width and --height apply.
     #[arg(long, value_name = "DIR")]
     dusk: Option<PathBuf>,
+    /// Write the dusk scene's reference frames split by light (sky, sun, lamp) into DIR, at
+    /// --spp samples per pixel (`dusk_parts.rs`); nothing else is written.
+    #[arg(long, value_name = "DIR")]
+    dusk_parts: Option<PathBuf>,
 }
 
 const START: &str = "2024-06-21T15:30:00+02:00";
@@ -208,6 +213,9 @@ fn write(path: &Path, text: &str) -> Result<()> {
 
 fn main() -> Result<()> {
     let args = Args::parse();
+    if let Some(dir) = &args.dusk_parts {
+        return dusk_parts::run(&args, dir);
+    }
     if let Some(dir) = &args.dusk {
         return dusk::run(&args, dir);
     }

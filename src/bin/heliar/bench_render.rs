@@ -72,6 +72,11 @@ pub struct RenderSweep {
     /// adds.
     #[arg(long)]
     no_lamp_bounce: bool,
+    /// Not a sweep: the objects' radiance split by light (sky, sun, lamps) under the truth's
+    /// `Pd` and `Pa`, against the generator's per-light crops in this folder
+    /// (`gen-courtyard --dusk-parts DIR`; `bench_render_parts`).
+    #[arg(long, value_name = "DIR")]
+    parts: Option<PathBuf>,
 }
 
 /// One reference frame: its footage, lighting, reference image and pixel classes.
@@ -114,8 +119,11 @@ pub fn run(a: RenderSweep) -> Result<()> {
     }
     let seq = scene.sequence(refs.sequence.as_deref()).context("the references' sequence")?.clone();
     let frames = reference_frames(&scene, &ray, &refs, &seq, a.lamp_k)?;
-    let values = knob_values(a.knob, &CompositorConfig::for_scene(&scene));
     let options = heliar::render::lamps::LampOptions { ground: !a.no_lamp_ground, bounce: !a.no_lamp_bounce, ..Default::default() };
+    if let Some(parts) = &a.parts {
+        return crate::bench_render_parts::run(&scene, &ray, &frames, seq.truth.as_deref(), parts, options);
+    }
+    let values = knob_values(a.knob, &CompositorConfig::for_scene(&scene));
     let rows = sweep(&scene, &ray, &frames, values, options)?;
     report(&a, &rows, &frames)
 }

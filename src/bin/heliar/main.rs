@@ -9,6 +9,7 @@ mod bench_irradiance;
 mod bench_lamps;
 mod bench_lamps_gpu;
 mod bench_render;
+mod bench_render_parts;
 mod bench_render_sun;
 mod bench_vem;
 mod bench_vem_sun;

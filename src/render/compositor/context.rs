@@ -92,6 +92,23 @@ impl FrameContext {
         (self.has_objects() && self.no_sun.is_none()).then_some(self.sun_dir)
     }
 
+    /// The sun direction a sky shaped by the sun follows (objects drawn and a direction),
+    /// whether or not the frame has a sun term: the sun's position is known from the clock when
+    /// its light is not (set, or too low for the estimator to observe `Pd`), and the twilight
+    /// sky keeps its shape, as the estimator's sky terms take it (`estimate::sky_terms`).
+    pub fn sky_sun(&self) -> Option<Vec3> {
+        (self.has_objects() && self.sun_dir != Vec3::ZERO).then_some(self.sun_dir)
+    }
+
+    /// The sun direction the stages that trace paths under `sky` (the objects' transfer, the
+    /// receivers' `c`, `b`) trace for: under a sky whose shape follows the sun,
+    /// [`Self::sky_sun`], so that a frame without sun term keeps the twilight sky's shape; under
+    /// one that does not, the sun term's ([`Self::sun`]), as before. What they trace per unit
+    /// `Pd` for it is added only with a sun term.
+    pub fn traced_sun(&self, sky: &crate::sky::radiance::SkyModel) -> Option<Vec3> {
+        if sky.follows_sun() { self.sky_sun() } else { self.sun() }
+    }
+
     /// True when the stored depth, stencil and mask serve this frame.
     pub fn reuses(&self) -> bool {
         self.reuse.is_some()
@@ -194,6 +211,9 @@ mod tests {
         assert_eq!(c.gate(), Gate::NoSun("night"));
         assert_eq!(c.begin_report().skipped.len(), NO_SUN_PASSES.len());
         assert_eq!(c.sun(), None);
+        // Without a sun term the sky's shape still follows the sun's direction.
+        assert_eq!(c.sky_sun(), Some(Vec3::Y));
+        assert_eq!(context(Some("none"), None).sky_sun(), None);
         let c = context(None, None);
         assert!(c.begin_report().skipped.is_empty() && c.sun() == Some(Vec3::Y) && c.begin_report().sun);
     }

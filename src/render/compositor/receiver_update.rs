@@ -120,7 +120,7 @@ impl Compositor {
     fn warm_reach(&mut self, ctx: &FrameContext, report: &mut PassReport) -> bool {
         let Some(pixels) = self.take_reach_pixels(ctx) else { return false };
         let c = &self.config;
-        let s = self.receivers.ensure(&self.proxy_ray, None, &pixels, ctx.sun(), c.ambient_quality, c.bounce_quality, c.bounce_rebuild_deg);
+        let s = self.receivers.ensure(&self.proxy_ray, None, &pixels, ctx.traced_sun(self.receivers.sky_model()), c.ambient_quality, c.bounce_quality, c.bounce_rebuild_deg);
         report.receivers_computed += s.computed;
         report.timings.receivers_ms += s.ms;
         s.computed > 0
@@ -149,7 +149,7 @@ impl Compositor {
             }
         } else {
             pixels = self.receiver_pixels.pixels(&self.receivers, &self.virtual_bounds, ctx.sun(), differential, c.bounce_rebuild_deg).to_vec();
-            self.receivers.ensure(&self.proxy_ray, with, &pixels, ctx.sun(), c.ambient_quality, c.bounce_quality, c.bounce_rebuild_deg)
+            self.receivers.ensure(&self.proxy_ray, with, &pixels, ctx.traced_sun(self.receivers.sky_model()), c.ambient_quality, c.bounce_quality, c.bounce_rebuild_deg)
         };
         report.receivers_computed += s.computed;
         report.timings.receivers_ms += s.ms;

@@ -72,11 +72,13 @@ impl Compositor {
         // The motion's reach, as `receiver_update::warm_reach` takes it on the first frame that
         // rebuilds: `c`, `b` (without the objects) owed for this frame's sun.
         if differential && let Some(reach) = self.take_reach_pixels(ctx) {
-            self.receivers.replay(&reach, ctx.sun(), rebuild, false, self.config.bounce_quality.paths);
+            let sun = ctx.traced_sun(self.receivers.sky_model());
+            self.receivers.replay(&reach, sun, rebuild, false, self.config.bounce_quality.paths);
         }
         let pixels = self.receiver_pixels.pixels(&self.receivers, &self.virtual_bounds, ctx.sun(), differential, rebuild).to_vec();
         // With the visibility cuts serving, `c_v`, `b_v` are not traced (`receiver_update`).
-        self.receivers.replay(&pixels, ctx.sun(), rebuild, differential && self.cuts.is_none(), self.config.bounce_quality.paths);
+        let sun = ctx.traced_sun(self.receivers.sky_model());
+        self.receivers.replay(&pixels, sun, rebuild, differential && self.cuts.is_none(), self.config.bounce_quality.paths);
         // `c_v`, `b_v` from the cuts at this frame's poses, owed in order after the pixels'
         // `c`, `b` (`update_receivers` sets them right after computing those).
         if differential && let Some((kept, vis)) = self.cut_visibility(&pixels) {

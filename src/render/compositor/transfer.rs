@@ -11,6 +11,7 @@
 //! traced.
 
 use super::context::{FrameContext, angle_deg};
+use glam::Vec3;
 use super::resources::Resources;
 use crate::render::frame::{PassReport, pass};
 use crate::render::object_transfer::{ObjectTransfer, TransferScene};
@@ -22,6 +23,14 @@ pub struct TransferPass {
     rebuild_deg: f64,
     /// Why the transfer was dropped after set-up (an object moved), for the report.
     dropped: Option<String>,
+}
+
+/// The sun direction the transfer is traced for ([`FrameContext::traced_sun`]): under a sky
+/// whose shape follows the sun, the sun's direction even without a sun term, so that `R_a` keeps
+/// the twilight sky's shape on a frame whose `Pd` is 0 (issue 16, the dusk statue). `R_d` is
+/// then traced for that direction too (per unit `Pd`; the shading adds it only with a sun term).
+fn transfer_sun(transfer: &ObjectTransfer, ctx: &FrameContext) -> Option<Vec3> {
+    ctx.traced_sun(transfer.sky_model())
 }
 
 impl TransferPass {
@@ -60,7 +69,7 @@ impl TransferPass {
     pub fn record(&mut self, ctx: &FrameContext, queue: &wgpu::Queue, res: &Resources, report: &mut PassReport) {
         let Some((scene, transfer)) = &mut self.traced else { return };
         transfer.set_frame_sky(ctx.sky);
-        let u = transfer.ensure(scene, ctx.sun(), self.rebuild_deg);
+        let u = transfer.ensure(scene, transfer_sun(transfer, ctx), self.rebuild_deg);
         debug_assert!(u.traced > 0, "the plan said the transfer must be traced");
         report.timings.transfer_ms = u.ms;
         report.transfer_traced = u.traced;
@@ -79,7 +88,8 @@ impl TransferPass {
     pub fn replay(&mut self, ctx: &FrameContext) {
         if let Some((_, transfer)) = &mut self.traced {
             transfer.set_frame_sky(ctx.sky);
-            transfer.replay(ctx.sun(), self.rebuild_deg);
+            let sun = transfer_sun(transfer, ctx);
+            transfer.replay(sun, self.rebuild_deg);
         }
     }
 
@@ -119,13 +129,14 @@ impl Pass<FrameContext> for TransferPass {
         if !ctx.switches.transfer {
             return Plan::skip(ctx.off.clone());
         }
-        if transfer.needs_trace(ctx.sun(), self.rebuild_deg) || transfer.sky_switch_pending(ctx.sky) {
+        let sun = transfer_sun(transfer, ctx);
+        if transfer.needs_trace(sun, self.rebuild_deg) || transfer.sky_switch_pending(ctx.sky) {
             return Plan::Run;
         }
         if transfer.surfaces().is_empty() {
             return Plan::skip("no canvas pixel shows a virtual object");
         }
-        Plan::skip(match (transfer.traced_sun(), ctx.sun()) {
+        Plan::skip(match (transfer.traced_sun(), sun) {
             (Some(a), Some(l)) => format!(
                 "the sun moved {:.3}° ≤ {}° since it was traced and the camera and objects are static: the transfer is reused",
                 angle_deg(a, l),

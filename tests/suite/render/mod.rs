@@ -15,4 +15,5 @@ mod skip;
 #[allow(dead_code)]
 pub(crate) mod support;
 mod transfer;
+mod twilight;
 mod winter;
