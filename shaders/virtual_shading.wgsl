@@ -1,6 +1,7 @@
 // Pass 5: the virtual objects, shaded (Jensen §3.2 step 4 and §3.3): the glTF metallic-roughness
-// response to the sun, times its visibility (the fraction of the pixel's virtual-surface samples
-// that no shadow volume covers, from the shadow-mask pass), plus ambient light: the per-pixel
+// response to the sun on the samples no shadow volume covers (two draws, `fs_lit` and
+// `fs_shadowed`, split by the stencil per sample, so a fragment that covers part of a pixel gets
+// its own samples' visibility, not the pixel's), plus ambient light: the per-pixel
 // transfer R_a·Pa + R_d·Pd (+ the lamps' bounce Σ k_i·R_i) traced on the CPU (src/render/object_transfer.rs), reconstructed from the
 // lattice entries around the pixel that lie on the fragment's surface, otherwise the probe grid
 // evaluated per pixel times the objects' own ambient occlusion; for objects that moved, the
@@ -24,9 +25,6 @@
 // Per canvas pixel: the fraction of the hemisphere the virtual objects leave open (their own
 // ambient occlusion, which the probes cannot know).
 @group(0) @binding(5) var ambient_occlusion: texture_2d<f32>;
-// The resolved shadow masks (shadow_mask.wgsl): b = coverage of virtual-surface samples in some
-// shadow, a = coverage of virtual-surface samples.
-@group(0) @binding(6) var shadow_masks: texture_2d<f32>;
 
 // The objects' ambient transfer per canvas pixel (src/render/object_transfer.rs): R_a (rgb, a = 1 where
 // there is an entry), R_d, the entry's surface point (w: footprint radius, metres) and normal.
@@ -193,8 +191,21 @@ fn multi_bounce_ao(visibility: f32, albedo: vec3<f32>) -> vec3<f32> {
     return max(x, ((x * a + b) * x + c) * x);
 }
 
+// The samples of the fragment that no shadow volume covers (stencil: exactly the
+// virtual-surface bit): the sun at full strength.
 @fragment
-fn fs_main(in: ShadeVertex, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
+fn fs_lit(in: ShadeVertex, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
+    return shade(in, front, 1.0);
+}
+
+// The samples of the fragment inside a real or virtual shadow volume: no direct sun.
+@fragment
+fn fs_shadowed(in: ShadeVertex, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
+    return shade(in, front, 0.0);
+}
+
+// The fragment's radiance with the sun's visibility `visible` (0 or 1) on its samples.
+fn shade(in: ShadeVertex, front: bool, visible: f32) -> vec4<f32> {
     let n = facing_normal(in.normal, front);
     let v = normalize(camera.eye_world.xyz - in.world);
     let s = object_surface(in.uv);
@@ -229,9 +240,7 @@ fn fs_main(in: ShadeVertex, @builtin(front_facing) front: bool) -> @location(0) 
         let ao = multi_bounce_ao(textureLoad(ambient_occlusion, px, 0).r, s.base_color);
         radiance = ao * ambient_radiance(s, nv, probe_irradiance(in.world, n), probe_irradiance(in.world, r));
     }
-    if (sun_on) {
-        let m = textureLoad(shadow_masks, px, 0);
-        let visible = 1.0 - clamp(m.b / max(m.a, 1e-3), 0.0, 1.0);
+    if (sun_on && visible > 0.0) {
         radiance += visible * lighting.pd.rgb * brdf_cos(s, n, v, lighting.sun_dir.xyz);
     }
     return vec4<f32>(radiance, 1.0);

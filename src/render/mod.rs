@@ -11,7 +11,7 @@
 //! | [`depth_prepass`] | real proxy and virtual objects into depth (never in colour) |
 //! | [`shadow_volume`] + [`stencil`] | z-fail shadow volumes of the directional sun, real parts down, virtual up, each resolved to a flag |
 //! | [`shadow_mask`] | samples in virtual but not real shadow, real surfaces in real shadow, and virtual-surface samples in any shadow, as MSAA coverage |
-//! | [`virtual_shading`] | glTF metallic–roughness sun term times the unshadowed fraction; ambient from the per-pixel [`object_transfer`] (`R_a·Pa + R_d·Pd`), or SH ambient per pixel times self-occlusion where it has no entry |
+//! | [`virtual_shading`] | glTF metallic–roughness sun term on the samples no shadow volume covers (two stencil-split draws); ambient from the per-pixel [`object_transfer`] (`R_a·Pa + R_d·Pd`), or SH ambient per pixel times self-occlusion where it has no entry |
 //! | [`lamps`] | the scene's lamps on the virtual objects (Granier §3.2, §4): one additive draw over every lit spot (far-field lamps, light-field filter positions) inside the shading pass, with perspective shadow maps in the VEM atlas |
 //! | [`composite`] | in the footage's own pixel grid: lens warp of the canvas layers, footage darkened with the proxy's normal and `c` (and `c_v`, `b_v` with the objects present: contact shadows) |
 //!

@@ -2,7 +2,7 @@
 //!
 //! `r`: virtual shadow on a real surface where no real shadow is, the samples the composite
 //! darkens; `g`: a real surface in real shadow; `b`: a virtual surface in some shadow, and `a`: a
-//! virtual surface, whose ratio is the sun visibility the shading pass uses. The MSAA resolve
+//! virtual surface (the debug masks; the shading pass tests the stencil per sample itself). The MSAA resolve
 //! turns per-sample classes into per-pixel coverage; tests compare all four with ray-traced
 //! references. The composite's differential model divides `r` by the real-surface samples out
 //! of real shadow, `1 − a − g`: the share of the pixel's sunlit real surface that the virtual

@@ -231,7 +231,7 @@ impl Compositor {
     }
 
     /// Group 0 of the shading pass: camera, lighting, probes, the objects' occlusion, the
-    /// resolved masks, the transfer textures and the per-vertex cut ambient.
+    /// transfer textures and the per-vertex cut ambient.
     pub(super) fn shading_bind_group(
         d: &wgpu::Device,
         shading: &VirtualShading,
@@ -251,7 +251,6 @@ impl Compositor {
                 wgpu::BindGroupEntry { binding: 3, resource: probes.coeffs.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 4, resource: probes.valid.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::TextureView(&res.occlusion.view) },
-                wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&res.masks.resolved.view) },
                 wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::TextureView(&res.transfer_sky.view) },
                 wgpu::BindGroupEntry { binding: 8, resource: wgpu::BindingResource::TextureView(&res.transfer_sun.view) },
                 wgpu::BindGroupEntry { binding: 9, resource: wgpu::BindingResource::TextureView(&res.transfer_point.view) },
