@@ -214,6 +214,10 @@ mod tests {
         // Without a sun term the sky's shape still follows the sun's direction.
         assert_eq!(c.sky_sun(), Some(Vec3::Y));
         assert_eq!(context(Some("none"), None).sky_sun(), None);
+        // The stages that trace paths: a shaped sky keeps the direction, the uniform one (whose
+        // paths do not depend on the sun) takes the sun term's, none.
+        let shaped = crate::sky::radiance::SkyModel { hosek_turbidity: Some(3.0), terrain_albedo: [0.2; 3] };
+        assert_eq!((c.traced_sun(&shaped), c.traced_sun(&crate::sky::radiance::SkyModel::uniform())), (Some(Vec3::Y), None));
         let c = context(None, None);
         assert!(c.begin_report().skipped.is_empty() && c.sun() == Some(Vec3::Y) && c.begin_report().sun);
     }
