@@ -141,6 +141,10 @@ mod imp {
         // times in seconds count from the first frame. The visibility cuts of all of them are
         // loaded from `baked/cuts.bin` or computed there (`heliar precompute --draggable`).
         let start = input.clock.time(0, Some(0.0), None)?;
+        let cuts = heliar::run::precompute::cuts_path(&scene);
+        if !scene.virtual_objects.is_empty() && !cuts.exists() {
+            eprintln!("computing the objects' visibility cuts for dragging them (once: cached in {}; `heliar precompute --draggable` takes finer settings)", cuts.display());
+        }
         session.follow_live(&scene, start);
         // The uniform sky is always at hand as the other choice of the volume.
         let other: Option<Box<dyn ProbeSource + Send>> =
