@@ -120,8 +120,12 @@ pub(crate) fn scratch_courtyard(tag: &str) -> PathBuf {
 fn statue_window(scene: &Scene) -> Vec<usize> {
     let (lo, hi) = scene.virtual_objects[0].mesh.bounds().unwrap();
     let c = ((lo + hi) / 2.0).as_dvec3();
-    let uv = scene.camera.project_world(c).unwrap();
-    let w = scene.camera.intrinsics.width as i64;
+    window_at(scene.camera.project_world(c).unwrap(), scene.camera.intrinsics.width)
+}
+
+/// The 5×5 pixels (row-major indices) around pixel coordinates `uv` of a frame `width` wide.
+pub(crate) fn window_at(uv: glam::DVec2, width: u32) -> Vec<usize> {
+    let w = width as i64;
     let (u, v) = (uv.x.round() as i64, uv.y.round() as i64);
     (-2..=2).flat_map(|dy| (-2..=2).map(move |dx| ((v + dy) * w + u + dx) as usize)).collect()
 }

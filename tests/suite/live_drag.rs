@@ -4,7 +4,7 @@
 //! pointer and wheel events (egui_kittest, headless).
 #![cfg(feature = "opencv")]
 
-use crate::live::{Script, bundled, gpu, harness, ldr_frame, scratch_courtyard};
+use crate::live::{Script, bundled, gpu, harness, ldr_frame, scratch_courtyard, window_at};
 use egui_kittest::kittest::Queryable;
 use glam::{DVec2, DVec3, Vec3};
 use heliar::estimate::Estimator;
@@ -58,11 +58,7 @@ fn grab(scene: &Scene, b: (Vec3, Vec3)) -> (DVec2, DVec3) {
 
 /// Sum over a 5×5 window around `uv` of the absolute code differences of two 8-bit frames.
 fn window_diff(a: &[u8], b: &[u8], width: usize, uv: DVec2) -> i32 {
-    let (u, v) = (uv.x.round() as i64, uv.y.round() as i64);
-    (-2..=2)
-        .flat_map(|dy| (-2..=2).map(move |dx| ((v + dy) * width as i64 + u + dx) as usize))
-        .map(|i| (0..3).map(|c| (a[3 * i + c] as i32 - b[3 * i + c] as i32).abs()).sum::<i32>())
-        .sum()
+    window_at(uv, width as u32).into_iter().map(|i| (0..3).map(|c| (a[3 * i + c] as i32 - b[3 * i + c] as i32).abs()).sum::<i32>()).sum()
 }
 
 /// The yaw of object 0's move by hand, degrees.
