@@ -7,16 +7,23 @@
 //! surplus to `Pd`; and terrain beyond the proxy (snow, a street) lights surfaces from below,
 //! which the fit hands to `Pa`. Here the ambient column becomes
 //!
-//! `a = ρ/π · (c + E_shape − E_uniform + ρ_t/π · E_below)`,  and the direct column gains
+//! `a = ρ/π · (c + E_shape − E_uniform + Δc_ir + ρ_t/π · E_below)`,  and the direct column gains
 //! `ρ/π · ρ_t/π · max(l_y, 0) · E_below`,
 //!
 //! with, over a fixed cosine-weighted set of directions from the surface ([`CosineSet`]) that
 //! leave the proxy: `E_shape` the irradiance of the Hosek–Wilkie sky for the frame's sun
 //! normalised per channel to unit irradiance on an unoccluded horizontal surface (so its weight is
 //! still `Pa`, the crate's definition), `E_uniform` the same for the uniform sky (the direct part
-//! of `c`, which it replaces; the interreflected part of `c` keeps the uniform sky), and
+//! of `c`, which it replaces), and
 //! `E_below` the irradiance per unit radiance from directions below the horizon (the terrain,
-//! `L_t = ρ_t/π·(Pa + max(l_y,0)·Pd)`, [`crate::sky::terrain`]). Both unknowns stay linear, so the
+//! `L_t = ρ_t/π·(Pa + max(l_y,0)·Pd)`, [`crate::sky::terrain`]). `Δc_ir` is the interreflected
+//! part of `c` (paths that leave the proxy after at least one surface) under the sky and terrain
+//! minus under the uniform sky: the light the shaped sky puts on a sunward wall that the wall
+//! passes on. It is traced along the sun bounce's paths in [`super::rebuild`] (the same paths,
+//! no extra ray; sliced like the bounce after a sun move) and added by [`SunSky::add_bounced`];
+//! the sunlit terrain seen after a bounce joins the sun bounce `b` the same way. Before it was
+//! added, `c`'s interreflected part kept the uniform sky, and at a 10° winter sun the fit handed
+//! the missing sunward-wall light to `Pa` (red +8%). Both unknowns stay linear, so the
 //! solver is unchanged. Visibility along the set is traced once per pool entry; a new sun only
 //! re-evaluates the sky, once per distinct normal of the pool ([`SkyTerms::ambient`]): ≈ 11 ms
 //! for the courtyard's 4096 entries instead of ≈ 330 ms per entry (`estimate::rebuild`).
@@ -37,7 +44,7 @@ use crate::geometry::raycast::RayScene;
 use crate::scene::settings::{FIT_TURBIDITIES, SkyShape, SkyTermsConfig, Turbidity};
 use crate::sky::SkyError;
 use crate::sky::quadrature::CosineSet;
-use crate::sky::radiance::ShapedSky;
+use crate::sky::radiance::{ShapedSky, SkyModel};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::f32::consts::PI;
@@ -66,6 +73,26 @@ pub struct SunSky {
     pub b: Vec<[f32; 3]>,
     /// Under `turbidity = "fit"`: `a` for each candidate turbidity (empty otherwise).
     pub by_turbidity: Vec<(f64, Vec<[f32; 3]>)>,
+}
+
+impl SunSky {
+    /// Adds each entry's `ρ/π·Δc_ir` (the interreflected part of `c` under the sky minus under
+    /// the uniform one, per unit `Pa`, traced along the sun bounce's paths by
+    /// [`super::rebuild`]) to the ambient column `a`, and each candidate turbidity's own to that
+    /// candidate's column (`fit`, by turbidity). Nothing when `bounced` is empty (no such trace).
+    pub fn add_bounced(&mut self, pool: &Pool, bounced: &[Vec3], fit: &[(f64, Vec<Vec3>)]) {
+        let add = |a: &mut Vec<[f32; 3]>, bounced: &[Vec3]| {
+            for (k, (a, d)) in a.iter_mut().zip(bounced).enumerate() {
+                *a = (Vec3::from(*a) + pool.albedo[k] / PI * *d).to_array();
+            }
+        };
+        add(&mut self.a, bounced);
+        for (t, a) in &mut self.by_turbidity {
+            if let Some((_, b)) = fit.iter().find(|(u, _)| u == t) {
+                add(a, b);
+            }
+        }
+    }
 }
 
 /// The sky's radiance for one sun, normalised to unit irradiance on an open horizontal surface.
@@ -159,6 +186,13 @@ impl SkyTerms {
             })
             .unzip();
         Ok(Some(Self { config: config.clone(), set, open, e_uniform, terrain }))
+    }
+
+    /// The renderer's description of the same sky (`crate::sky::radiance`), for paths that see
+    /// it after a bounce ([`super::rebuild`]).
+    pub fn model(&self) -> SkyModel {
+        let hosek_turbidity = (self.config.shape == SkyShape::HosekWilkie).then(|| self.config.turbidity.value());
+        SkyModel { hosek_turbidity, terrain_albedo: self.config.terrain_rgb() }
     }
 
     /// The sky's shape for the sun toward `l` (a sun below the horizon: the shape for a sun on

@@ -79,9 +79,57 @@ pub fn transport(scene: &RayScene, p: Vec3, n: Vec3, sun: Option<Vec3>, quality:
 /// direction toward the sun, or `None` to compute `c` only (`sky`'s light per unit `Pd` from
 /// the terrain is added to `b` either way). Deterministic for a given `seed`.
 pub fn transport_under(scene: &RayScene, p: Vec3, n: Vec3, sun: Option<Vec3>, sky: &impl Escape, quality: TransportQuality, seed: u64) -> Transport {
+    let mut c = Vec3::ZERO;
+    let (k, b) = trace_paths(scene, p, n, sun, quality, seed, |_, throughput, dir| {
+        let (pa, pd) = sky.escape(dir)?;
+        c += throughput * pa;
+        Some(throughput * pd)
+    });
+    Transport { c: c / k as f32, b: b / k as f32 }
+}
+
+/// [`transport_under`] `sky`, and along the same paths what each sky of `bounced` brings back
+/// through paths that left the proxy after at least one surface hit: its `c` and `b` parts per
+/// unit `Pa` and `Pd` (the interreflected light of that sky), one [`Transport`] per sky. The
+/// first [`Transport`] equals [`transport_under`]'s bit for bit; the other skies cost their
+/// evaluations, no ray.
+pub fn transport_with_bounced<E: Escape>(
+    scene: &RayScene,
+    p: Vec3,
+    n: Vec3,
+    sun: Option<Vec3>,
+    sky: &impl Escape,
+    bounced: &[E],
+    quality: TransportQuality,
+    seed: u64,
+) -> (Transport, Vec<Transport>) {
+    let mut c = Vec3::ZERO;
+    let mut extra = vec![(Vec3::ZERO, Vec3::ZERO); bounced.len()];
+    let (k, b) = trace_paths(scene, p, n, sun, quality, seed, |hits, throughput, dir| {
+        if hits > 0 {
+            for (sum, sky) in extra.iter_mut().zip(bounced) {
+                if let Some((pa, pd)) = sky.escape(dir) {
+                    sum.0 += throughput * pa;
+                    sum.1 += throughput * pd;
+                }
+            }
+        }
+        let (pa, pd) = sky.escape(dir)?;
+        c += throughput * pa;
+        Some(throughput * pd)
+    });
+    let k = k as f32;
+    (Transport { c: c / k, b: b / k }, extra.into_iter().map(|(c2, b2)| Transport { c: c2 / k, b: b2 / k }).collect())
+}
+
+/// The paths of [`transport_under`]: every path that leaves the proxy calls
+/// `escape(hits, throughput, direction)`, `hits` the surfaces it passed, which returns what it
+/// adds to `b`; next-event estimation toward `sun` adds to `b` too. Returns the number of paths
+/// and the sum of `b` (not divided).
+fn trace_paths(scene: &RayScene, p: Vec3, n: Vec3, sun: Option<Vec3>, quality: TransportQuality, seed: u64, mut escape: impl FnMut(u32, Vec3, Vec3) -> Option<Vec3>) -> (u32, Vec3) {
+    let mut b = Vec3::ZERO;
     let mut rng = SmallRng::seed_from_u64(seed ^ 0x9e37_79b9_7f4a_7c15);
     let k = quality.paths.max(1);
-    let (mut c, mut b) = (Vec3::ZERO, Vec3::ZERO);
     for i in 0..k {
         // First bounce: stratified.
         let mut dir = sample_cosine_around(n, sample_stratified_2d(i, k, &mut rng));
@@ -90,9 +138,8 @@ pub fn transport_under(scene: &RayScene, p: Vec3, n: Vec3, sun: Option<Vec3>, sk
         for bounce in 0..=quality.max_bounces {
             let hit = scene.intersect(origin + normal * RAY_EPSILON_M, dir, f32::MAX);
             let Some(hit) = hit else {
-                if let Some((pa, pd)) = sky.escape(dir) {
-                    c += throughput * pa;
-                    b += throughput * pd;
+                if let Some(add) = escape(bounce, throughput, dir) {
+                    b += add;
                 }
                 break;
             };
@@ -115,7 +162,7 @@ pub fn transport_under(scene: &RayScene, p: Vec3, n: Vec3, sun: Option<Vec3>, sk
             dir = sample_cosine_around(normal, Vec2::new(rng.random(), rng.random()));
         }
     }
-    Transport { c: c / k as f32, b: b / k as f32 }
+    (k, b)
 }
 
 #[cfg(test)]
@@ -184,5 +231,43 @@ mod tests {
         // Sun straight overhead: the floor is lit with cos = 1, reflected to the wall: b = ½·ρ.
         let t = transport(&s, Vec3::new(0.0, 1.0, 0.0), Vec3::X, Some(Vec3::Y), q, 3);
         assert!((t.b.x - 0.5 * rho).abs() < 0.015, "{:?}", t.b);
+    }
+
+    /// A sky that is brighter toward +x above the horizon and has a bright terrain below (per
+    /// unit `Pa` and `Pd`), for the split test.
+    struct Lopsided;
+
+    impl Escape for Lopsided {
+        fn escape(&self, d: Vec3) -> Option<(Vec3, Vec3)> {
+            Some(if d.y > 0.0 { (Vec3::splat(1.0 + d.x), Vec3::ZERO) } else { (Vec3::splat(0.7), Vec3::splat(0.3)) })
+        }
+    }
+
+    #[test]
+    fn the_bounced_split_keeps_the_transport_and_counts_only_paths_that_hit_a_surface() {
+        let rho = 0.6;
+        let s = scene_of(&[(Vec3::new(-200.0, 0.0, -200.0), Vec3::Z * 400.0, Vec3::X * 400.0, [rho; 3])]);
+        let q = TransportQuality { paths: 4096, max_bounces: 4 };
+        let (p, sun) = (Vec3::new(0.0, 1.0, 0.0), Some(Vec3::new(0.3, 0.8, 0.1).normalize()));
+        for n in [Vec3::X, -Vec3::Y, Vec3::Y] {
+            let (t, bounced) = transport_with_bounced(&s, p, n, sun, &UniformSky, &[Lopsided], q, 11);
+            let bounced = bounced[0];
+            // The first part is the plain transport, bit for bit.
+            assert_eq!(t, transport_under(&s, p, n, sun, &UniformSky, q, 11));
+            if n == Vec3::Y {
+                // Facing up over the floor, nothing is hit: no bounced light at all.
+                assert_eq!(bounced, Transport { c: Vec3::ZERO, b: Vec3::ZERO });
+            }
+            if n == -Vec3::Y {
+                // Facing down, every path hits the floor once and leaves it upward (nothing above):
+                // the bounced sky is ρ times the sky's cosine-weighted mean over the upper
+                // hemisphere, ρ·(1 + E[d.x]) = ρ, since the cosine lobe is symmetric in x. The
+                // second direction is random: d.x has a standard deviation of 0.5 over the lobe,
+                // so over 4096 paths the mean's is 0.8% of ρ; 3% is nearly 4 of them. Nothing
+                // reaches the terrain, so no `b`.
+                assert!((bounced.c.x - rho).abs() < 0.03 * rho, "{:?}", bounced.c);
+                assert_eq!(bounced.b, Vec3::ZERO);
+            }
+        }
     }
 }
