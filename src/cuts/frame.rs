@@ -29,6 +29,11 @@
 //!   other objects' fields (looked up at the vertex taken into *their* frames) and the proxy
 //!   field remapped into it. An object that is not turned uses none of this: translated scenes
 //!   compute exactly what they did.
+//! - **Other objects' reflected light** (`FrameCuts::add_bounce`, [`super::bounce`]): a second
+//!   pass adds to each vertex the light the other objects reflect into the directions their
+//!   fields close, from their own first-pass ambient and the sun (an extension of Eq. 3; the
+//!   frame loop runs it, `crate::run::motion_cuts`). [`FrameCuts::object_ambient_posed`] alone
+//!   is Eq. 3 as the paper has it.
 //! - **Receivers** ([`ReceiverCuts`], `super::receivers`): a real surface point's share of its
 //!   sky light that the objects leave ([`super::lighting::sky_visibility`], weights from the sky
 //!   per unit `Pa` and the receiver's cosine); the compositor sets `c_v = c·V` and `b_v = b·V`
