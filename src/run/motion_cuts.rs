@@ -144,9 +144,8 @@ impl CutState {
     /// the box is warned of by `super::motion`.
     pub fn evaluate(&mut self, poses: &[Pose], relighter: Option<&Relighter>, eye: Vec3) -> Result<(ObjectAmbient, ReceiverCuts), CutsError> {
         let light = self.lighting(relighter);
-        let mut ambient = self.frame.object_ambient_posed(&light, poses, eye)?;
         let sun = relighter.and_then(Relighter::sun_dir);
-        self.frame.add_bounce(&mut ambient, poses, eye, &Bounce { surfaces: &self.surfaces, sun })?;
+        let ambient = self.frame.object_ambient_bounced(&light, poses, eye, &Bounce { surfaces: &self.surfaces, sun })?;
         let receivers = self.frame.receivers_posed(light, poses.to_vec());
         Ok((ambient, receivers))
     }
