@@ -29,6 +29,11 @@
 //!   other objects' fields (looked up at the vertex taken into *their* frames) and the proxy
 //!   field remapped into it. An object that is not turned uses none of this: translated scenes
 //!   compute exactly what they did.
+//! - **Other objects' reflected light** (`FrameCuts::add_bounce`, [`super::bounce`]): a second
+//!   pass adds to each vertex the light the other objects reflect into the directions their
+//!   fields close, from their own first-pass ambient and the sun (an extension of Eq. 3; the
+//!   frame loop runs it, `crate::run::motion_cuts`). [`FrameCuts::object_ambient_posed`] alone
+//!   is Eq. 3 as the paper has it.
 //! - **Receivers** ([`ReceiverCuts`], `super::receivers`): a real surface point's share of its
 //!   sky light that the objects leave ([`super::lighting::sky_visibility`], weights from the sky
 //!   per unit `Pa` and the receiver's cosine); the compositor sets `c_v = c·V` and `b_v = b·V`
@@ -157,6 +162,10 @@ pub struct FrameCuts {
     pub index: Arc<LeafIndex>,
 }
 
+/// The other objects' fields at one vertex, culled (§V-B): `(object, cut)` in the vertex's
+/// object's frame.
+pub(super) type Occluders = Vec<(usize, Cut)>;
+
 /// The per-vertex ambient of every object, and how many vertices fell outside the proxy box.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ObjectAmbient {
@@ -217,21 +226,33 @@ impl FrameCuts {
     /// own frame: its self-visibility cut as stored, the lighting clustered in its frame, the
     /// other fields and the proxy field remapped into it (module docs of `super::rotate`).
     pub fn object_ambient_posed(&self, lighting: &Arc<UnitLighting>, poses: &[Pose], eye: Vec3) -> Result<ObjectAmbient, CutsError> {
+        Ok(self.object_ambient_kept(lighting, poses, eye, false)?.0)
+    }
+
+    /// [`Self::object_ambient_posed`], and with `keep` the other objects' fields at every vertex
+    /// as the product used them (object `b`, its cut in the vertex's object's frame), per
+    /// object and vertex, for the bounce (`super::bounce`).
+    pub(super) fn object_ambient_kept(&self, lighting: &Arc<UnitLighting>, poses: &[Pose], eye: Vec3, keep: bool) -> Result<(ObjectAmbient, Vec<Vec<Occluders>>), CutsError> {
         self.check_poses(poses)?;
         let mut out = ObjectAmbient::default();
+        let mut kept = Vec::new();
         for (k, obj) in self.cuts.objects.iter().enumerate() {
             let frame = self.object_frame(lighting, poses, k)?;
-            let rows: Vec<(VertexAmbient, bool)> =
+            let rows: Vec<(VertexAmbient, bool, Occluders)> =
                 (0..obj.positions.len().min(obj.svc.cuts.len())).into_par_iter().map(|v| self.vertex_ambient(&frame, poses, k, v, eye)).collect::<Result<_, _>>()?;
             out.outside_proxy_box += rows.iter().filter(|r| r.1).count();
-            out.vertices.push(rows.into_iter().map(|r| r.0).collect());
+            let (amb, others): (Vec<VertexAmbient>, Vec<Occluders>) = rows.into_iter().map(|r| (r.0, r.2)).unzip();
+            out.vertices.push(amb);
+            if keep {
+                kept.push(others);
+            }
         }
-        Ok(out)
+        Ok((out, kept))
     }
 
     /// The other objects' fields at `x` (world) with normal `n` (world), culled as
     /// `CutScene::occluder_cuts` does (§V-B) and remapped into the frame of `frame`.
-    fn occluders(&self, frame: &ObjectFrame, poses: &[Pose], x: Vec3, n: Vec3, skip: usize) -> Result<Vec<Cut>, CutsError> {
+    fn occluders(&self, frame: &ObjectFrame, poses: &[Pose], x: Vec3, n: Vec3, skip: usize) -> Result<Occluders, CutsError> {
         let mut cuts = Vec::new();
         for (b, obj) in self.cuts.objects.iter().enumerate() {
             if b == skip {
@@ -242,16 +263,16 @@ impl FrameCuts {
                 continue;
             }
             let (cut, _region) = obj.vcf.lookup(poses[b].local_point(x))?;
-            cuts.push(match &frame.others[b] {
+            cuts.push((b, match &frame.others[b] {
                 Some(remap) => remap.cut(cut.view())?,
                 None => cut,
-            });
+            }));
         }
         Ok(cuts)
     }
 
     /// One vertex of [`Self::object_ambient_posed`], and whether its proxy lookup was clamped.
-    fn vertex_ambient(&self, frame: &ObjectFrame, poses: &[Pose], object: usize, v: usize, eye: Vec3) -> Result<(VertexAmbient, bool), CutsError> {
+    fn vertex_ambient(&self, frame: &ObjectFrame, poses: &[Pose], object: usize, v: usize, eye: Vec3) -> Result<(VertexAmbient, bool, Occluders), CutsError> {
         let obj = &self.cuts.objects[object];
         let pose = poses[object];
         let x = pose.point(obj.positions[v]);
@@ -279,7 +300,7 @@ impl FrameCuts {
         let lighting = &*frame.lighting;
         let mut views: Vec<CutView> = Vec::with_capacity(others.len() + 2);
         views.push(obj.svc.cuts.view(v));
-        views.extend(others.iter().map(Cut::view));
+        views.extend(others.iter().map(|(_, c)| c.view()));
         let surface: Vec<&ClusteredLighting> = [lighting.surface_pa.as_ref(), lighting.surface_pd.as_ref()].into_iter().flatten().collect();
         let surf = irradiance_sums(&self.tree, &surface, &views, n, r)?;
         let zero = (Vec3::ZERO, Vec3::ZERO);
@@ -288,7 +309,7 @@ impl FrameCuts {
         views.extend(proxy.iter().map(Cut::view));
         let sky = irradiance_sums(&self.tree, &[&lighting.sky_pa], &views, n, r)?[0];
         let amb = [rgbw(sky.0 + surf_pa.0, 1.0), rgbw(sky.1 + surf_pa.1, 0.0), rgbw(surf_pd.0, 0.0), rgbw(surf_pd.1, 0.0)];
-        Ok((amb, outside))
+        Ok((amb, outside, others))
     }
 
     /// The receivers' visibility for the objects at `translations` under `lighting`'s sky.

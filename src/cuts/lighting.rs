@@ -106,6 +106,13 @@ impl ClusteredLighting {
         Self { levels: tree.levels(), nodes: sum_up(tree.levels(), leaves) }
     }
 
+    /// Clusters per-leaf radiances `L_j` (leaf order; a missing leaf is black).
+    pub fn from_leaf_radiance(tree: &DirectionTree, leaves: Vec<Vec3>) -> Self {
+        let dw = tree.leaf_solid_angle_sr();
+        let leaves = (0..tree.leaf_count()).map(|j| leaves.get(j).copied().unwrap_or(Vec3::ZERO) * dw).collect();
+        Self { levels: tree.levels(), nodes: sum_up(tree.levels(), leaves) }
+    }
+
     /// Depth of the tree.
     pub fn levels(&self) -> u32 {
         self.levels

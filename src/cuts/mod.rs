@@ -26,6 +26,14 @@
 //!   node `l_k` (mean radiance × solid angle); a vertex's outgoing radiance is
 //!   `B(x, ω_o) ≈ Σ_k l_k v_k f_r(ω_k, ω_o)` over the nodes of the product cut
 //!   `V = V_s · Π_i V_i` (Eqs. 3 and 4).
+//! - **Interreflection between objects** ([`bounce`]; *not in the paper*: an extension of
+//!   Eq. 3, which carries no interreflection and so takes another object as a black occluder).
+//!   The directions another object `b` closes at a vertex (the product without `b`'s field
+//!   times `1 − V_b`, one walk) get `b`'s outgoing radiance instead of nothing: per vertex of
+//!   `b`, `ρ/π` times its own ambient from the cuts plus the direct sun (its SVC at the sun's
+//!   leaf times the proxy's and the other fields' values there), seen along each direction as the
+//!   projected-area mean of `b`'s vertices facing back, clustered on the tree as `l_k`; split
+//!   per unit `Pa` and `Pd` like the rest. One object alone is unchanged bit for bit.
 //! - **Files and sweeps**: [`mod@file`] stores a scene's cuts with a hash of their inputs;
 //!   [`sweep`] measures error against cost.
 //! - **Frames** ([`frame`], [`receivers`]): the objects' ambient per vertex and the receivers'
@@ -43,6 +51,7 @@
 //! relative RMSE 4.9% over the statue and 6.3% over the contact region at 90° against the statue
 //! placed and turned there and traced (translation alone: 4.9% and 6.2%).
 
+pub mod bounce;
 pub mod cut;
 pub mod eval;
 pub mod file;

@@ -13,11 +13,15 @@
 //!   (a turning sign, a turning statue: the products then run in the turned objects' frames,
 //!   `crate::cuts::rotate`). A pose that is not rigid (scaled or mirrored since the first key)
 //!   falls back to the re-trace, and the frame says which object.
+//! - **Bounce** ([`CutState::evaluate`]): the light the objects reflect onto each other is added
+//!   to the cuts' ambient (`crate::cuts::bounce`, an extension of Eq. 3), with each object's
+//!   reflectance from its mesh's materials and the relighter's sun.
 //! - **Lighting** ([`CutState::lighting`]): the relighter's map split per unit `Pa` and `Pd`
 //!   (`crate::envmap::relight::Relighter::unit_maps`), clustered again only when its sun planes
 //!   change; the uniform sky without a bake.
 
 use super::precompute::{self, PrecomputeOptions};
+use crate::cuts::bounce::{Bounce, BounceSurface};
 use crate::cuts::file::{self, PrecomputedCuts};
 use crate::cuts::frame::{FrameCuts, ObjectAmbient, ReceiverCuts, UnitLighting};
 use crate::cuts::rotate::Pose;
@@ -52,6 +56,8 @@ pub struct CutState {
     /// Per object, the pose its cuts were computed at (`None`: a static object).
     origin: Vec<Option<Mat4>>,
     lighting: Option<(LightKey, Arc<UnitLighting>)>,
+    /// Per object, what it reflects onto the others (`crate::cuts::bounce`).
+    surfaces: Vec<BounceSurface>,
     /// This frame's outcome.
     pub outcome: CutOutcome,
 }
@@ -80,7 +86,8 @@ impl CutState {
         };
         let frame = FrameCuts::new(cuts).map_err(|e| format!("{}: {e}: every move is re-traced", path.display()))?;
         let origin = scene.virtual_objects.iter().map(|o| o.motion.as_ref().map(|m| m.motion.world_from_rest(m.motion.start_seconds()))).collect();
-        Ok(Self { frame, origin, lighting: None, outcome: CutOutcome::Skipped("no object has moved yet: the traced per-pixel transfer serves".into()) })
+        let surfaces = scene.virtual_objects.iter().map(|o| BounceSurface::from_mesh(&o.mesh)).collect();
+        Ok(Self { frame, origin, lighting: None, surfaces, outcome: CutOutcome::Skipped("no object has moved yet: the traced per-pixel transfer serves".into()) })
     }
 
     /// Each object's pose since its cuts were computed (`crate::cuts::rotate::Pose`), from its
@@ -137,7 +144,8 @@ impl CutState {
     /// the box is warned of by `super::motion`.
     pub fn evaluate(&mut self, poses: &[Pose], relighter: Option<&Relighter>, eye: Vec3) -> Result<(ObjectAmbient, ReceiverCuts), CutsError> {
         let light = self.lighting(relighter);
-        let ambient = self.frame.object_ambient_posed(&light, poses, eye)?;
+        let sun = relighter.and_then(Relighter::sun_dir);
+        let ambient = self.frame.object_ambient_bounced(&light, poses, eye, &Bounce { surfaces: &self.surfaces, sun })?;
         let receivers = self.frame.receivers_posed(light, poses.to_vec());
         Ok((ambient, receivers))
     }

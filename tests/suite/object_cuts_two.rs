@@ -4,7 +4,8 @@
 //! each object's ambient is its own self-visibility times the other's field remapped through the
 //! other's turn, and the ground's contact shadows come from both fields, nothing traced. Checked
 //! against both objects placed and turned there from the start, traced (per-pixel transfer and
-//! `c_v`, `b_v`), as `object_cuts_turned` does for one object.
+//! `c_v`, `b_v`), as `object_cuts_turned` does for one object. Each statue also gets the light
+//! the other reflects onto it (`cuts::bounce`), which the traced reference has.
 
 use crate::common::*;
 use crate::object_cuts::{augment3, block, edit, lum, object_hits, object_pixels, rel_rmse};
@@ -92,6 +93,8 @@ fn two_objects_turned_differently_take_ambient_and_contact_shadows_from_the_cuts
         passes["timings"]["cuts_ms"].as_f64().unwrap()
     );
     assert!(contact.len() > 100, "{} contact pixels", contact.len());
+    let err_a = rel_rmse(&a[2], &b[2], &only_a);
+    assert!(err_a <= STATUE_A_TOLERANCE, "relative RMSE {err_a:.4} over statue A's pixels");
     assert!(err <= TWO_OBJECTS_TOLERANCE, "relative RMSE {err:.4} over the objects' pixels");
     assert!(err_b <= OBJECT_TOLERANCE, "relative RMSE {err_b:.4} over statue B's pixels");
     assert!(contact_err <= CONTACT_TOLERANCE, "relative RMSE {contact_err:.4} over the contact region");
@@ -102,15 +105,18 @@ fn two_objects_turned_differently_take_ambient_and_contact_shadows_from_the_cuts
 
 /// Relative RMSE allowed over one object's pixels: the one-object bound (`object_cuts_turned`,
 /// 6.5%; its known errors, the pedestal's two-triangle top and the missing interreflection, are
-/// the same here). Measured on statue B: 6.0%.
+/// the same here). Measured on statue B: 6.0% (6.2% with the light A reflects onto it).
 const OBJECT_TOLERANCE: f64 = 0.065;
-/// Relative RMSE allowed over both objects' pixels. Measured 8.1% (statue A alone 7.8%, its
-/// mean 6.6% below the trace's; A alone without B: 4.9%): the cuts (cyberworlds Eqs. 3–4) take
-/// statue B as a black occluder of A's sky, while the traced reference also carries the sunlit B's
-/// light reflected onto A. Finer fields (`heliar precompute --levels 10 --vcf 32x32x32`) give
-/// 7.5% (A 7.0%, mean 5.6% below): the rest is that interreflection, which the cuts do not
-/// model. Issue 15's 5% is met for one object, not for two this close (1.2 m apart).
-const TWO_OBJECTS_TOLERANCE: f64 = 0.09;
+/// Relative RMSE allowed over statue A's pixels. The cuts alone (cyberworlds Eqs. 3–4) took the
+/// sunlit statue B as a black occluder of A's sky: 7.8%, A's mean 6.7% below the trace's (A
+/// without B: 4.9%). With the light B reflects onto A (`cuts::bounce`, an extension of Eq. 3):
+/// measured 5.3%, A's mean 2.2% below.
+const STATUE_A_TOLERANCE: f64 = 0.06;
+/// Relative RMSE allowed over both objects' pixels (711; A's 496 and B's 176 interior pixels
+/// are counted each without the other, and the statues meet on screen). Measured 6.3% with the bounce (8.1% without it; finer fields without it,
+/// `heliar precompute --levels 10 --vcf 32x32x32`, gave 7.5%). Issue 15's 5% is met for one
+/// object and nearly for statue A here, not over both statues 1.2 m apart.
+const TWO_OBJECTS_TOLERANCE: f64 = 0.07;
 /// Relative RMSE allowed over the contact region (issue 15 §3 asks ≤ 8%). Measured 6.3% (5.1% with
 /// the finer fields above).
 const CONTACT_TOLERANCE: f64 = 0.08;
