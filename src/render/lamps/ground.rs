@@ -14,6 +14,10 @@
 //!   and with `c_v`, `b_v` and the virtual sun shadow). The footage is multiplied by `L₁ / L₀`;
 //!   where only a lamp is blocked this is the issue's `E_rest / (E_rest + k·E·V)`. The
 //!   estimator's lamp column is the same `k·E·V^proxy` (issue 16 §3), so the two agree.
+//! - **The lamps' light after a bounce** ([`super::ground_bounce`]): `L₀` also holds
+//!   `Σ_i k_i·B_i` and `L₁` `Σ_i k_i·B_{v,i}`, the irradiance the lamps' light reaches `x` with
+//!   off the lit ground, walls (and, in `L₁`, the objects), as the sun's `b`, `b_v` do for `Pd`.
+//!   In a lamp shadow it is all the lamp light left; without it the ratio was too dark there.
 //! - **Visibility from the maps the lamp term already draws.** The lamp shadow atlas holds the
 //!   objects and the proxy (`V^proxy·V^objects` in one lookup); a second atlas of the same views
 //!   holds the proxy alone (`V^proxy`). Both are perspective maps fitted to the objects' bounds:
