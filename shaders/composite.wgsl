@@ -22,7 +22,10 @@
 //                 With lamps (issue 16 §3; src/render/lamps/ground.rs), each lit spot j adds
 //                 k*E_j*V_j^proxy to L_without and k*E_j*V_j^proxy*V_j^objects to L_with, the
 //                 visibilities from the lamp shadow maps with and without the objects: where an
-//                 object blocks only a lamp, video * E_rest / (E_rest + k*E*V).
+//                 object blocks only a lamp, video * E_rest / (E_rest + k*E*V). The lamps'
+//                 light after a bounce, sum of k*B and of k*B_v (src/render/lamps/
+//                 ground_bounce.rs), joins L_without and L_with in the same way, as b and b_v
+//                 do for the sun.
 // Clipped video pixels (true value unknown) get the model's radiance rho/pi*L instead.
 // Paired with src/render/composite.rs.
 
@@ -56,6 +59,11 @@
 @group(0) @binding(11) var<storage, read> lighting: Lighting;
 // xyz: the proxy point seen by the pixel (world); w: 1 if any.
 @group(0) @binding(12) var surface_point: texture_2d<f32>;
+// rgb: the lamps' light after a bounce, sum of k*B (without the objects) and of k*B_v (with
+// them) over the lamps (src/render/lamps/ground_bounce.rs); zero where not traced and without
+// lamps.
+@group(0) @binding(13) var surface_lamp_bounce: texture_2d<f32>;
+@group(0) @binding(14) var surface_lamp_bounce_with: texture_2d<f32>;
 
 @vertex
 fn vs_main(@builtin(vertex_index) index: u32) -> FullscreenOut {
@@ -196,8 +204,8 @@ fn differential(px: vec2<i32>, v: vec4<f32>, n: vec3<f32>, coverage: f32, q: f32
     var l0 = a.rgb * lighting.pa.rgb + (a.w * cos_l + use_b * b) * pd;
     var l1 = c_v * lighting.pa.rgb + (a.w * (1.0 - q) * cos_l + use_b * b_v) * pd;
     if (lamps_on()) {
-        l0 += lamps.without;
-        l1 += lamps.with_objects;
+        l0 += lamps.without + textureLoad(surface_lamp_bounce, px, 0).rgb;
+        l1 += lamps.with_objects + textureLoad(surface_lamp_bounce_with, px, 0).rgb;
     }
     if (v.a > 0.5) {
         return select(v.rgb, v.rgb * l1 / l0, l0 > vec3<f32>(0.0));

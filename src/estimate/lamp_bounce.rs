@@ -16,7 +16,8 @@
 //!   lamp bounce shares it): the lamp model's irradiance `E(p, n)` when a shadow ray
 //!   from `p` reaches the lamp (stopping [`LAMP_CLEARANCE_M`] short of it, so the luminaire's own
 //!   housing in the proxy does not shadow it); zero behind the surface.
-//! - **Bounce** ([`bounce_irradiance`]): the paths of the sun's `b` (cosine-weighted from `p`,
+//! - **Bounce** ([`bounce_irradiance`], in [`crate::lamps::visibility`] as well: the renderer's
+//!   lamp bounce on the real receivers, `render::lamps::ground_bounce`, shares it): the paths of the sun's `b` (cosine-weighted from `p`,
 //!   stratified on the first bounce, up to `max_bounces` proxy hits, the proxy's albedo at each),
 //!   with next-event estimation toward the lamp at every vertex `y`: a path adds
 //!   `ρ₁⋯ρ_k · E(y, n_y)·V(y)`. With the pdf `cos θ/π` that is an unbiased estimate of the
@@ -26,46 +27,15 @@
 //!
 //! Both are linear in the lamp's scale, so `k_i` stays one NNLS column.
 
-use crate::geometry::ambient::TransportQuality;
-use crate::geometry::raycast::{RAY_EPSILON_M, RayScene};
-pub use crate::lamps::visibility::{LAMP_CLEARANCE_M, direct_irradiance};
-use crate::geometry::sampling::{sample_cosine_around, sample_stratified_2d};
-use crate::lamps::Lamp;
-use glam::{Vec2, Vec3};
-use rand::{Rng, SeedableRng, rngs::SmallRng};
-
-/// The irradiance at `p` (facing unit normal `n`) from the lamp's light reflected by the proxy
-/// (module docs), per channel in model units, with `quality.paths` paths of up to
-/// `quality.max_bounces` proxy hits.
-pub fn bounce_irradiance(lamp: &Lamp, scene: &RayScene, p: Vec3, n: Vec3, quality: TransportQuality, seed: u64) -> [f64; 3] {
-    let mut rng = SmallRng::seed_from_u64(seed ^ 0x1a3b_5c7d_9e0f_2468);
-    let k = quality.paths.max(1);
-    let mut sum = [0.0f64; 3];
-    for i in 0..k {
-        let mut dir = sample_cosine_around(n, sample_stratified_2d(i, k, &mut rng));
-        let (mut origin, mut normal) = (p, n);
-        let mut throughput = Vec3::ONE;
-        for _ in 0..quality.max_bounces {
-            let Some(hit) = scene.intersect(origin + normal * RAY_EPSILON_M, dir, f32::MAX) else { break };
-            throughput *= scene.albedo(&hit);
-            let e = direct_irradiance(lamp, scene, hit.point, hit.normal);
-            for c in 0..3 {
-                sum[c] += throughput[c] as f64 * e[c];
-            }
-            if throughput.max_element() < 1e-4 {
-                break;
-            }
-            origin = hit.point;
-            normal = hit.normal;
-            dir = sample_cosine_around(normal, Vec2::new(rng.random(), rng.random()));
-        }
-    }
-    sum.map(|s| s / k as f64)
-}
+pub use crate::lamps::visibility::{LAMP_CLEARANCE_M, bounce_irradiance, direct_irradiance};
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::ambient::TransportQuality;
+    use crate::geometry::raycast::RayScene;
+    use crate::lamps::Lamp;
+    use glam::Vec3;
     use crate::geometry::{Material, Mesh};
     use crate::scene::lights::world_from_lamp;
     use crate::scene::{Light, LightKind, Schedule};

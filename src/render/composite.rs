@@ -15,6 +15,9 @@ const TEXTURE_BINDINGS: u32 = 10;
 const POINT_BINDING: u32 = TEXTURE_BINDINGS + 2;
 /// The first of the bindings sampled bilinearly (the canvas layers).
 const FIRST_FILTERED: u32 = 8;
+/// The lamps' bounce at the real receivers, without and with the objects (after the point;
+/// `render::lamps::ground_bounce`).
+const LAMP_BOUNCE_BINDINGS: [u32; 2] = [POINT_BINDING + 1, POINT_BINDING + 2];
 
 /// The composite pipelines for one target format.
 pub struct Composite {
@@ -37,6 +40,7 @@ pub fn layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     });
     entries.push(storage_entry(TEXTURE_BINDINGS + 1));
     entries.push(texture_entry(POINT_BINDING, false));
+    entries.extend(LAMP_BOUNCE_BINDINGS.map(|b| texture_entry(b, false)));
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("composite"), entries: &entries })
 }
 

@@ -2,15 +2,17 @@
 //! telling which light a renderer gets wrong on the statue (issue 16, the missing light at dusk).
 //!
 //! The generator's radiance is linear in `Pa` (per channel), `Pd` and the lamp's scale, and its
-//! tracer returns the three bases separately (`sky_render::trace_with_lamp`). This renders the
+//! tracer returns the three bases separately (`sky_render::trace_split`). This renders the
 //! same crop, camera, world, statue and lights as `reference/` (`dusk::write_references`) and
 //! writes, for every reference frame `i`, `frame_{i:03}_sky.exr` (the sky basis times the
 //! frame's `Pa`), `_sun.exr` (times `Pd`) and `_lamp.exr` (times `k`): they add up to the
-//! reference frame, up to Monte Carlo noise. `--spp` sets the samples per pixel (the references
+//! reference frame, up to Monte Carlo noise. `_lamp_direct.exr` is the part of `_lamp.exr` that
+//! the lamp gives the first surface seen directly (the disc's penumbrae included); the rest is
+//! the lamp's light after one or more bounces. `--spp` sets the samples per pixel (the references
 //! have 1024). Nothing in the scene folder is written.
 
 use super::dusk::{LAMP_CENTRE, LAMP_ON_FRAME, REFERENCE_FRAMES, START, INTERVAL_S, TERRAIN_ALBEDO, lamp, moment_at};
-use super::sky_render::{Lighting, render_region_with_lamp};
+use super::sky_render::{Lighting, render_region_split};
 use super::statue::WithStatue;
 use super::{Args, Courtyard, STATUE_ROTATION_Y_DEG, STATUE_TRANSLATION};
 use anyhow::{Context, Result};
@@ -47,9 +49,10 @@ pub fn run(args: &Args, out: &Path) -> Result<()> {
         let time = t0 + chrono::Duration::seconds((i as f64 * INTERVAL_S) as i64);
         let f = moment_at(time, &observer, &geo, if i >= LAMP_ON_FRAME { 1.0 } else { 0.0 })?;
         let light = Lighting { sun: f.sun, sky: &f.sky, terrain_albedo: Vec3::splat(TERRAIN_ALBEDO), lamp: Some(lamp()) };
-        let px = render_region_with_lamp(&scene, &surfaces, &cam, &light, args.spp, 9100 + i as u64, region);
-        let image = |part: &dyn Fn(&(Vec3, Vec3, Vec3)) -> Vec3| LinearImage { width: region.2, height: region.3, data: px.iter().map(|p| part(p).to_array()).collect() };
-        for (name, img) in [("sky", image(&|p| p.0 * f.pa)), ("sun", image(&|p| p.1 * f.pd)), ("lamp", image(&|p| p.2 * f.lamp_k))] {
+        let px = render_region_split(&scene, &surfaces, &cam, &light, args.spp, 9100 + i as u64, region);
+        let image = |part: &dyn Fn(&[Vec3; 4]) -> Vec3| LinearImage { width: region.2, height: region.3, data: px.iter().map(|p| part(p).to_array()).collect() };
+        let parts = [("sky", image(&|p| p[0] * f.pa)), ("sun", image(&|p| p[1] * f.pd)), ("lamp", image(&|p| p[2] * f.lamp_k)), ("lamp_direct", image(&|p| p[3] * f.lamp_k))];
+        for (name, img) in parts {
             let path = out.join(format!("frame_{i:03}_{name}.exr"));
             img.write_exr(&path, ExrPrecision::Float).with_context(|| format!("writing {}", path.display()))?;
         }

@@ -201,7 +201,16 @@ pub fn trace(scene: &RayScene, albedo: &dyn TrueAlbedo, origin: Vec3, dir: Vec3,
 /// [`trace`] with the lamp's basis as well: `(sky, sun, lamp)`, the last per unit lamp scale. The
 /// lamp draws random numbers only when there is one, so the winter renders are unchanged.
 pub fn trace_with_lamp(scene: &RayScene, albedo: &dyn TrueAlbedo, origin: Vec3, dir: Vec3, light: &Lighting, rng: &mut SmallRng) -> (Vec3, Vec3, Vec3) {
-    let (mut sky, mut sun_l, mut lamp_l) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
+    let [sky, sun, lamp, _] = trace_split(scene, albedo, origin, dir, light, rng);
+    (sky, sun, lamp)
+}
+
+/// [`trace_with_lamp`] with the lamp's basis split as well: `[sky, sun, lamp, lamp_first]`, where
+/// `lamp_first` is the lamp's light at the first surface the ray meets (its direct light there,
+/// part of `lamp`); `lamp − lamp_first` is the lamp's light after one or more bounces. The same
+/// random numbers as [`trace_with_lamp`].
+pub fn trace_split(scene: &RayScene, albedo: &dyn TrueAlbedo, origin: Vec3, dir: Vec3, light: &Lighting, rng: &mut SmallRng) -> [Vec3; 4] {
+    let (mut sky, mut sun_l, mut lamp_l, mut lamp_first) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
     let mut throughput = Vec3::ONE;
     let (mut o, mut d) = (origin, dir);
     let mut offset = Vec3::ZERO;
@@ -237,7 +246,11 @@ pub fn trace_with_lamp(scene: &RayScene, albedo: &dyn TrueAlbedo, origin: Vec3, 
         {
             let o = hit.point + n * RAY_EPSILON_M;
             if !scene.occluded(o, wi, dist - 2.0 * RAY_EPSILON_M) {
-                lamp_l += throughput * brdf(wi) * e * n.dot(wi);
+                let add = throughput * brdf(wi) * e * n.dot(wi);
+                lamp_l += add;
+                if depth == 0 {
+                    lamp_first += add;
+                }
             }
         }
         let (ls, ps) = light.sky.sample(Vec2::new(rng.random(), rng.random()), Vec2::new(rng.random(), rng.random()));
@@ -260,7 +273,7 @@ pub fn trace_with_lamp(scene: &RayScene, albedo: &dyn TrueAlbedo, origin: Vec3, 
         offset = n * RAY_EPSILON_M;
         d = next;
     }
-    (sky, sun_l, lamp_l)
+    [sky, sun_l, lamp_l, lamp_first]
 }
 
 /// `(sky, sun)` basis images of `camera` over the pixels `(x0, y0, width, height)` with `spp`
@@ -286,26 +299,40 @@ pub fn render_region_with_lamp(
     light: &Lighting,
     spp: u32,
     seed: u64,
-    (x0, y0, w, h): (u32, u32, u32, u32),
+    region: (u32, u32, u32, u32),
 ) -> Vec<(Vec3, Vec3, Vec3)> {
-    let rows: Vec<Vec<(Vec3, Vec3, Vec3)>> = (y0..y0 + h)
+    render_region_split(scene, albedo, camera, light, spp, seed, region).into_iter().map(|[a, b, c, _]| (a, b, c)).collect()
+}
+
+/// [`render_region_with_lamp`] with the lamp's first-surface light as well ([`trace_split`]):
+/// `[sky, sun, lamp, lamp_first]` per pixel, the same samples.
+pub fn render_region_split(
+    scene: &RayScene,
+    albedo: &dyn TrueAlbedo,
+    camera: &Camera,
+    light: &Lighting,
+    spp: u32,
+    seed: u64,
+    (x0, y0, w, h): (u32, u32, u32, u32),
+) -> Vec<[Vec3; 4]> {
+    let rows: Vec<Vec<[Vec3; 4]>> = (y0..y0 + h)
         .into_par_iter()
         .map(|y| {
             (x0..x0 + w)
                 .map(|x| {
                     let mut rng = SmallRng::seed_from_u64(seed ^ ((y as u64) << 32 | x as u64).wrapping_mul(0x2545_f491_4f6c_dd1d));
-                    let (mut a, mut b, mut c) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
+                    let mut sum = [Vec3::ZERO; 4];
                     for _ in 0..spp {
                         let uv = DVec2::new(x as f64 + rng.random::<f64>() - 0.5, y as f64 + rng.random::<f64>() - 0.5);
                         if let Some((o, d)) = camera.ray_at(uv) {
-                            let (s, l, m) = trace_with_lamp(scene, albedo, o.as_vec3(), d.as_vec3(), light, &mut rng);
-                            a += s;
-                            b += l;
-                            c += m;
+                            let t = trace_split(scene, albedo, o.as_vec3(), d.as_vec3(), light, &mut rng);
+                            for (s, v) in sum.iter_mut().zip(t) {
+                                *s += v;
+                            }
                         }
                     }
                     let k = 1.0 / spp as f32;
-                    (a * k, b * k, c * k)
+                    sum.map(|s| s * k)
                 })
                 .collect()
         })

@@ -3,6 +3,7 @@
 //! in the virtual shading's render pass (`units.rs`); see [`crate::render::lamps`].
 
 use super::Compositor;
+use super::ground_bounce::GroundBounceUnit;
 use super::lamp_bounce::LampBouncePass;
 use super::context::FrameContext;
 use crate::lamps::Lamp;
@@ -18,6 +19,8 @@ impl Compositor {
     pub fn set_lamps(&mut self, lamps: &[Lamp], options: LampOptions) -> Result<(), RenderError> {
         self.lamps = if lamps.is_empty() { None } else { Some(LampPass::new(&self.gpu, lamps, options, &self.camera_buf, &self.mat_layout, &self.lamp_layout)?) };
         self.lamp_bounce = (!lamps.is_empty() && options.bounce).then(|| LampBouncePass::new(lamps));
+        self.ground_bounce = (!lamps.is_empty() && options.ground && options.ground_bounce).then(|| GroundBounceUnit::new(lamps));
+        self.clear_ground_bounce();
         // A bounce of earlier lamps must not stay in the shading's texture.
         self.res.transfer_lamp.write(&self.gpu.queue, &vec![[0.0f32; 4]; (self.canvas.intrinsics.width * self.canvas.intrinsics.height) as usize]);
         Ok(())
@@ -31,7 +34,8 @@ impl Compositor {
     /// Plans the frame's lamps, draws their shadow maps when they must be, uploads the frame's
     /// spots (zero spots when the term does not run, so the composite's lamp loop stays idle),
     /// and decides the objects' lamp shadows on the real receivers (`lamp_ground`, run with
-    /// the differential darkening); true when the lamp term runs. Nothing at all without lamps.
+    /// the differential darkening, with the lamps' bounce at the receivers, `ground_bounce.rs`);
+    /// true when the lamp term runs. Nothing at all without lamps.
     pub(super) fn prepare_lamps(&mut self, ctx: &FrameContext, lighting: &Lighting, encoder: &mut wgpu::CommandEncoder, report: &mut PassReport) -> bool {
         let Some(lamps) = self.lamps.as_mut() else { return false };
         let bounds = self.virtual_bounds.iter().copied().reduce(|(a, b), (c, d)| (a.min(c), b.max(d)));
@@ -47,6 +51,9 @@ impl Compositor {
             lamps.upload(&self.gpu.queue, report);
         } else {
             lamps.clear(&self.gpu.queue);
+        }
+        if ground {
+            self.prepare_ground_bounce(&lighting.lamps, report);
         }
         run
     }

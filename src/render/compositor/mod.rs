@@ -62,6 +62,7 @@
 mod config;
 mod context;
 mod encode;
+mod ground_bounce;
 mod lamp_bounce;
 mod lamps;
 mod motion;
@@ -161,6 +162,8 @@ pub struct Compositor {
     lamps: Option<super::lamps::LampPass>,
     /// The lamps' bounce on the objects (`None`: no lamps, or its option off).
     lamp_bounce: Option<lamp_bounce::LampBouncePass>,
+    /// The lamps' bounce at the real receivers (`None`: no lamps, or its option off).
+    ground_bounce: Option<ground_bounce::GroundBounceUnit>,
 }
 
 impl Compositor {

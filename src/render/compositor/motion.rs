@@ -81,6 +81,9 @@ impl Compositor {
         let near_radius_m = self.virtual_bounds.iter().map(|(lo, hi)| (*hi - *lo).length() / 2.0 * NEAR_RADIUS_HALF_DIAGONALS).fold(MIN_NEAR_RADIUS_M, f32::max);
         self.transfer.drop_traced(reason);
         self.receivers.forget_objects();
+        if let Some(g) = self.ground_bounce.as_mut() {
+            g.forget();
+        }
         self.receiver_pixels = self.receiver_pixels.rebuilt(near_radius_m);
         self.invalidate();
         Ok(meshes)

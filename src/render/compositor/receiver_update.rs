@@ -24,7 +24,7 @@ use glam::Vec3;
 
 /// Pixels added around the region a virtual shadow can reach when computing `c` and `b` (the
 /// bilinear warp reads one pixel beyond a mask edge).
-const RECEIVER_GROW_PX: u32 = 2;
+pub(super) const RECEIVER_GROW_PX: u32 = 2;
 
 /// The sun and model a pixel list was chosen for.
 type PixelKey = (Option<Vec3>, bool);
@@ -55,6 +55,11 @@ impl ReceiverPixels {
     /// The same, keeping the motion's reach of `self` (a move rebuilds the pixel lists).
     pub(super) fn rebuilt(&mut self, near_radius_m: f32) -> Self {
         Self { reach: self.reach.take(), ..Self::new(near_radius_m) }
+    }
+
+    /// Radius of the differential model's region around the objects, metres.
+    pub(super) fn near_radius_m(&self) -> f32 {
+        self.near_radius_m
     }
 
     /// The pixels for `sun` (`None`: no sun term) and the model, rebuilt past `rebuild_deg`.

@@ -32,6 +32,11 @@ pub struct Resources {
     /// Proxy point per footage pixel, `w = 1` where there is one (the lamps' shadows on real
     /// receivers, `render::lamps::ground`).
     pub point: Tex,
+    /// The lamps' bounce `Σ k_i·B_i` at the real receivers, zero without lamps
+    /// (`render::lamps::ground_bounce`).
+    pub lamp_bounce: Tex,
+    /// `Σ k_i·B_{v,i}`: the same with the objects present.
+    pub lamp_bounce_with: Tex,
     /// Lens warp and footprint ([`crate::gpu::canvas::Canvas::warp_footprint`]).
     pub warp: Tex,
     /// Offscreen output (`Rgba32Float`).
@@ -75,6 +80,8 @@ impl Resources {
             bounce_with: Tex::new(d, "proxy b with objects", out, f32x4, 1, input),
             warp: Tex::new(d, "lens warp", out, f32x4, 1, input),
             point: Tex::new(d, "proxy point", out, f32x4, 1, input),
+            lamp_bounce: Tex::new(d, "proxy lamp bounce", out, f32x4, 1, input),
+            lamp_bounce_with: Tex::new(d, "proxy lamp bounce with objects", out, f32x4, 1, input),
             output: Tex::new(d, "output", out, gpu.output_format, 1, target),
             output_masks: Tex::new(d, "output masks", out, MASK_FORMAT, 1, target),
             occlusion: Tex::new(d, "virtual occlusion", canvas, wgpu::TextureFormat::R32Float, 1, input),
@@ -112,6 +119,8 @@ impl Resources {
         entries.push(wgpu::BindGroupEntry { binding: n, resource: wgpu::BindingResource::Sampler(&self.sampler) });
         entries.push(wgpu::BindGroupEntry { binding: n + 1, resource: lighting.as_entire_binding() });
         entries.push(wgpu::BindGroupEntry { binding: n + 2, resource: wgpu::BindingResource::TextureView(&self.point.view) });
+        entries.push(wgpu::BindGroupEntry { binding: n + 3, resource: wgpu::BindingResource::TextureView(&self.lamp_bounce.view) });
+        entries.push(wgpu::BindGroupEntry { binding: n + 4, resource: wgpu::BindingResource::TextureView(&self.lamp_bounce_with.view) });
         device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("composite"), layout, entries: &entries })
     }
 

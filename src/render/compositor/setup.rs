@@ -226,6 +226,7 @@ impl Compositor {
             cuts: None,
             lamps: None,
             lamp_bounce: None,
+            ground_bounce: None,
             gpu,
         })
     }

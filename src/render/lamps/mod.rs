@@ -30,6 +30,7 @@
 //!   output is bit for bit what it was before lamps existed.
 
 pub mod ground;
+pub mod ground_bounce;
 pub mod spots;
 
 pub use spots::{GpuSpot, SpotSet};
@@ -68,13 +69,16 @@ pub struct LampOptions {
     /// Add the lamps' light bounced off the proxy and the objects to the objects' per-pixel
     /// ambient (`render::object_transfer::lamps`; the compositor's `lamp_bounce`).
     pub bounce: bool,
+    /// Add the lamps' light bounced off the proxy and the objects to the real receivers'
+    /// irradiance in the ground shadows' ratio ([`ground_bounce`], with [`Self::ground`]).
+    pub ground_bounce: bool,
 }
 
 impl Default for LampOptions {
     /// One point per cell (16 lookups per spot), up to 81 maps (a 9×9 light field) of 256²,
-    /// shadows on real receivers and the lamps' bounce on.
+    /// shadows on real receivers and the lamps' bounce on (on the objects and on the receivers).
     fn default() -> Self {
-        Self { support_points: 1, shadows: true, shadow_maps: 81, tile: DEFAULT_TILE, ground: true, bounce: true }
+        Self { support_points: 1, shadows: true, shadow_maps: 81, tile: DEFAULT_TILE, ground: true, bounce: true, ground_bounce: true }
     }
 }
 

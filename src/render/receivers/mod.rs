@@ -28,7 +28,7 @@
 mod retrace;
 mod sweep;
 
-pub use sweep::swept_box_contains;
+pub use sweep::{box_between, swept_box_contains};
 
 use crate::geometry::ambient::{TransportQuality, transport_under};
 use crate::lighting::FrameSky;
@@ -474,8 +474,20 @@ impl Receivers {
     /// Pixels whose surface point lies in the region swept from the boxes `bounds` away from
     /// the sun `l` (where their shadows can fall), grown by `grow_px` pixels.
     pub fn in_shadow_reach(&self, bounds: &[(Vec3, Vec3)], l: Vec3, grow_px: u32) -> Vec<u32> {
-        let (w, h) = (self.width as i64, self.height as i64);
         let hit: Vec<bool> = self.point.par_iter().map(|p| p.is_some_and(|p| bounds.iter().any(|b| swept_box_contains(*b, l, p)))).collect();
+        self.grown(&hit, grow_px)
+    }
+
+    /// Pixels whose surface point lies where the boxes `bounds` can shadow one of the point
+    /// lamps at `lamps` (the segment toward the lamp crosses a box), grown by `grow_px` pixels.
+    pub fn in_lamp_reach(&self, bounds: &[(Vec3, Vec3)], lamps: &[Vec3], grow_px: u32) -> Vec<u32> {
+        let hit: Vec<bool> = self.point.par_iter().map(|p| p.is_some_and(|p| bounds.iter().any(|b| lamps.iter().any(|&at| box_between(*b, at, p))))).collect();
+        self.grown(&hit, grow_px)
+    }
+
+    /// The pixels within `grow_px` pixels (a square) of one where `hit` holds.
+    fn grown(&self, hit: &[bool], grow_px: u32) -> Vec<u32> {
+        let (w, h) = (self.width as i64, self.height as i64);
         let g = grow_px as i64;
         (0..(w * h) as u32)
             .into_par_iter()

@@ -4,7 +4,9 @@
 //! `E` from `lamps::model` (the CPU core) and the visibilities by shadow rays against the proxy
 //! and the objects — at night (sun below the horizon, `Pd = 0`) with some sky light `Pa`, so
 //! the lamp's share decides the darkening. `c` and `c_v` are the compositor's own (the
-//! receivers' path-traced factors, tested elsewhere), so what is compared is the lamp's part.
+//! receivers' path-traced factors, tested elsewhere), and so are the lamp's light after a bounce
+//! `k·B`, `k·B_v` (`render::lamps::ground_bounce`, against a quadrature in its unit tests) that
+//! join `L₀` and `L₁`, so what is compared is the lamp's direct part and the sum.
 
 use super::lamps::{K, SHADOW_EDGE_PX, config, setup, spot};
 use super::support::*;
@@ -67,6 +69,7 @@ fn a_spot_lamps_object_shadow_darkens_the_ground_by_its_share() {
     let rec = comp.receivers();
     let to = lamp.light.position.as_vec3();
     let k = Vec3::from(K);
+    let gb = comp.ground_bounce().expect("the lamps' bounce at the receivers is traced with lamp_ground");
     let mut exp = Vec::new();
     for (i, p) in r.iter().enumerate().filter(|(_, p)| p.kind == 1) {
         let d = to - p.point;
@@ -80,10 +83,18 @@ fn a_spot_lamps_object_shadow_darkens_the_ground_by_its_share() {
         let share = k * Vec3::new(e[0] as f32, e[1] as f32, e[2] as f32) * if v_proxy { 1.0 } else { 0.0 };
         let c = Vec3::from_slice(&rec.ambient[i][..3]);
         let c_v = if rec.ambient_with[i][3] > 0.5 { Vec3::from_slice(&rec.ambient_with[i][..3]) } else { c };
-        let l0 = c * PA + share;
-        let l1 = c_v * PA + if v_objects { share } else { Vec3::ZERO };
+        let (bounce, bounce_v) = (Vec3::from_slice(&gb.without[i][..3]), Vec3::from_slice(&gb.with[i][..3]));
+        let l0 = c * PA + share + bounce;
+        let l1 = c_v * PA + if v_objects { share } else { Vec3::ZERO } + bounce_v;
         exp.push(Expected { index: i, ratio: l1 / l0, shadowed: v_proxy && !v_objects && share.max_element() > 0.0 });
     }
+    // The objects' lamp shadow is where the bounce was traced, and the lit wall and ground send
+    // it some light: in the shadow, `k·B_v` is what is left of the lamp.
+    let shadowed: Vec<&Expected> = exp.iter().filter(|e| e.shadowed).collect();
+    let traced = shadowed.iter().filter(|e| gb.with[e.index][3] > 0.5).count();
+    assert_eq!(traced, shadowed.len(), "lamp-shadowed pixels without the lamps' bounce");
+    let lit_bounce = shadowed.iter().filter(|e| gb.with[e.index][1] > 0.0).count();
+    assert!(lit_bounce * 10 >= shadowed.len() * 9, "{lit_bounce} of {} shadowed pixels get bounced lamp light", shadowed.len());
 
     // Left out: pixels next to a change of surface (real/virtual, triangle) or within
     // SHADOW_EDGE_PX of a change of the lamp's visibility.
