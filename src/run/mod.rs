@@ -18,6 +18,7 @@
 //! | [`motion_cuts`] | their visibility cuts, loaded or computed, evaluated for the objects' translations |
 //! | [`session`] | the outdoor stage joined to the compositor: one frame end to end |
 //! | [`vem`] | the VEM stage (capture → decomposer) and its renderer's side; the `heliar vem` loop |
+//! | [`vem_motion`] | the VEM mode's moving objects on its frame clock (the footage's times) |
 //! | [`sink`] | output frames (folder or video), contact sheets, per-stage timings |
 //! | [`precompute`] | `heliar precompute`: the visibility cuts of a scene with moving objects, cached beside the bake |
 //! | [`augment`] | recorded footage in, augmented footage out: resume, interrupts, report, summary |
@@ -36,6 +37,7 @@ pub mod session;
 pub mod sink;
 pub mod source;
 pub mod vem;
+pub mod vem_motion;
 
 use crate::estimate::Status;
 use crate::render::PassReport;

@@ -6,9 +6,15 @@
 //! decomposed. [`VemScene`] is the renderer's side: the background of each frame (the scene's
 //! footage frame, or the VEM seen through the camera) and the GPU render, tone mapped, written
 //! as PNG. [`run_vem`] drives both over a sequence, one JSON line per frame.
+//!
+//! Objects with a motion follow it on the frame clock (the footage's frame times,
+//! [`super::vem_motion`]): each frame's line names the objects that moved (`render.motion`), and
+//! the renderer re-uploads their vertex buffer and bounds. A scene where nothing moves renders
+//! and reports exactly as before.
 
 use super::Observer;
 use super::sink::Thumbs;
+use super::vem_motion::{MotionRecord, VemMotion};
 use crate::gpu::{Gpu, GpuOptions};
 use crate::io::frames::Frame;
 use crate::io::image::{LinearImage, Rgb8};
@@ -147,6 +153,11 @@ impl VemOverlay {
         &self.renderer
     }
 
+    /// Moves the virtual objects to `objects` (every object, set-up order, world coordinates).
+    pub fn move_objects(&mut self, objects: &[&crate::geometry::Mesh]) -> Result<()> {
+        Ok(self.renderer.move_objects(objects)?)
+    }
+
     /// Renders the stage's current lights (of `status`) over `background` (linear radiance in
     /// the camera's pixel grid); `dt_s` is the time since the previous frame.
     pub fn render(&mut self, stage: &VemStage, status: Status, background: &LinearImage, dt_s: f64) -> Result<VemOutput> {
@@ -161,6 +172,9 @@ pub struct FrameRender {
     pub png: String,
     /// "footage" or "environment".
     pub background: &'static str,
+    /// The frame's time and the objects that moved (only in scenes where some object moves).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub motion: Option<MotionRecord>,
     /// Passes, lights, shadow maps, tone parameters, timings.
     #[serde(flatten)]
     pub report: VemReport,
@@ -177,6 +191,8 @@ pub struct VemScene {
     sheet: Thumbs,
     reports: Vec<VemReport>,
     backgrounds: BTreeMap<&'static str, usize>,
+    /// The moving objects (`None`: nothing moves, `super::vem_motion`).
+    motion: Option<VemMotion>,
 }
 
 #[derive(Serialize)]
@@ -212,6 +228,9 @@ struct RenderSummary<'a> {
     median_ms: BTreeMap<&'static str, f64>,
     mean_list_fraction: f64,
     contact_sheet: String,
+    /// Frames each object moved in (only in scenes where some object moves).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    moved_frames: Option<BTreeMap<String, usize>>,
 }
 
 impl VemScene {
@@ -229,6 +248,7 @@ impl VemScene {
         let gpu = Arc::new(Gpu::new(GpuOptions { samples: 1 })?);
         let adapter = gpu.describe();
         let overlay = VemOverlay::new(gpu, &scene, cfg)?;
+        let motion = VemMotion::for_scene(&scene, rate_hz);
         Ok(Self {
             scene,
             overlay,
@@ -238,6 +258,7 @@ impl VemScene {
             sheet: Thumbs::new(SHEET_KEEP, SHEET_TILE_WIDTH),
             reports: Vec::new(),
             backgrounds: BTreeMap::new(),
+            motion,
         })
     }
 
@@ -265,8 +286,19 @@ impl VemScene {
         Ok((environment_background(map, &self.scene.camera, ground), "environment"))
     }
 
-    /// Renders frame `i` (its polar map `map`) with the stage's current lights and writes its PNG.
+    /// Renders frame `i` (its polar map `map`) with the stage's current lights and writes its PNG;
+    /// moving objects are posed for the frame's time first (`super::vem_motion`).
     pub fn frame(&mut self, i: usize, stage: &VemStage, map: &PolarMap, status: Status) -> Result<FrameRender> {
+        let motion = match &mut self.motion {
+            Some(m) => {
+                let (record, meshes) = m.advance(i);
+                if let Some(meshes) = meshes {
+                    self.overlay.move_objects(&meshes).with_context(|| format!("moving the objects at frame {i}"))?;
+                }
+                Some(record)
+            }
+            None => None,
+        };
         let (bg, kind) = self.background(i, stage, map)?;
         let out = self.overlay.render(stage, status, &bg, self.dt_s)?;
         let (w, h) = (bg.width, bg.height);
@@ -281,7 +313,7 @@ impl VemScene {
         }
         *self.backgrounds.entry(kind).or_default() += 1;
         self.reports.push(out.report.clone());
-        Ok(FrameRender { png: png.display().to_string(), background: kind, report: out.report })
+        Ok(FrameRender { png: png.display().to_string(), background: kind, motion, report: out.report })
     }
 
     /// Writes the contact sheet and `report.json`; returns the report's path.
@@ -324,6 +356,7 @@ impl VemScene {
             median_ms,
             mean_list_fraction: self.reports.iter().map(|r| r.list_fraction).sum::<f64>() / self.reports.len().max(1) as f64,
             contact_sheet: sheet_path.display().to_string(),
+            moved_frames: self.motion.as_ref().map(VemMotion::moved_frames),
         };
         let path = self.out_dir.join("report.json");
         crate::io::write_atomic(&path, serde_json::to_string_pretty(&summary)?.as_bytes()).with_context(|| format!("writing {}", path.display()))?;

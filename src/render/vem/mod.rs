@@ -115,6 +115,11 @@ pub struct VemRenderer {
     receivers: ProxyBuffers,
     receivers_kind: &'static str,
     objects: VirtualBuffers,
+    /// The material bind-group layout (the objects' buffers are rebuilt when they move).
+    mat_layout: wgpu::BindGroupLayout,
+    /// Per object, which triangles belong to closed parts (back faces culled); a rigid move
+    /// keeps it.
+    closed: Vec<Vec<bool>>,
     bounds: Option<(Vec3, Vec3)>,
     prepass: DepthPrepass,
     shading: ShadingPass,
@@ -178,8 +183,31 @@ impl VemRenderer {
             receivers,
             receivers_kind,
             objects: objects_buf,
+            mat_layout,
+            closed,
             bounds,
         })
+    }
+
+    /// Moves the virtual objects to `objects` (every object, in set-up order, world
+    /// coordinates): their vertex buffer and bounds (the shadow maps' casters) follow; the
+    /// shadow atlas is drawn every frame anyway. The receivers stay: the proxy is static, and
+    /// the ground plane of a scene without one stays where the objects' first bounds put it.
+    /// An object whose triangle count changed gets its closed parts found again.
+    pub fn move_objects(&mut self, objects: &[&Mesh]) -> Result<(), RenderError> {
+        for (k, m) in objects.iter().enumerate() {
+            if self.closed.get(k).is_none_or(|c| c.len() != m.triangles.len()) {
+                let c = crate::render::occluder::Occluder::new(m, "virtual object").closed_triangles(m.triangles.len());
+                match self.closed.get_mut(k) {
+                    Some(slot) => *slot = c,
+                    None => self.closed.push(c),
+                }
+            }
+        }
+        self.closed.truncate(objects.len());
+        self.objects = VirtualBuffers::new(&self.gpu.device, &self.gpu.queue, &self.mat_layout, objects, &self.closed)?;
+        self.bounds = bounds_of(objects);
+        Ok(())
     }
 
     /// The canvas (size, pose, warp).
