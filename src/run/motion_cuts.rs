@@ -137,8 +137,24 @@ impl CutState {
     /// the box is warned of by `super::motion`.
     pub fn evaluate(&mut self, poses: &[Pose], relighter: Option<&Relighter>, eye: Vec3) -> Result<(ObjectAmbient, ReceiverCuts), CutsError> {
         let light = self.lighting(relighter);
+        self.evaluate_with(poses, light, eye)
+    }
+
+    /// [`Self::evaluate`] under a lighting given on the cuts' tree ([`Self::tree`]) instead of
+    /// the relighter's: the captured-VEM mode's frame (`super::vem_cuts`).
+    pub fn evaluate_with(&self, poses: &[Pose], light: Arc<UnitLighting>, eye: Vec3) -> Result<(ObjectAmbient, ReceiverCuts), CutsError> {
         let ambient = self.frame.object_ambient_posed(&light, poses, eye)?;
         let receivers = self.frame.receivers_posed(light, poses.to_vec());
         Ok((ambient, receivers))
+    }
+
+    /// The cuts' direction tree.
+    pub fn tree(&self) -> &crate::cuts::DirectionTree {
+        &self.frame.tree
+    }
+
+    /// The cuts themselves (per object: vertices, fields' centres and radii).
+    pub fn cuts(&self) -> &PrecomputedCuts {
+        &self.frame.cuts
     }
 }

@@ -88,6 +88,11 @@ impl VemMotion {
         (MotionRecord { time: time.to_rfc3339(), moved: moved_names, warnings }, meshes)
     }
 
+    /// Every object's pose as of the last [`Self::advance`] (`MovingObjects::poses`).
+    pub fn poses(&self) -> Vec<Option<glam::Mat4>> {
+        self.objects.poses()
+    }
+
     /// Frames each object moved in so far (objects that never moved are listed with 0).
     pub fn moved_frames(&self) -> BTreeMap<String, usize> {
         let mut out: BTreeMap<String, usize> = self.objects.names().into_iter().map(|n| (n.to_owned(), 0)).collect();

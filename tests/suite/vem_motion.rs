@@ -20,7 +20,14 @@ const FRAMES: usize = 7;
 const MIN_MEAN_CODE_DIFF: f64 = 10.0;
 
 fn vem_scene(scene: &Path, frames: &Path, out: &Path) -> Vec<serde_json::Value> {
-    let (ok, err) = heliar_status(&["vem", "--scene", s(scene), "--input", s(&frames.join("frames")), "--calib", s(&frames.join("calib/fisheye.toml")), "--lights", "64", "--output", s(out)]);
+    vem_scene_with(scene, frames, out, &[])
+}
+
+fn vem_scene_with(scene: &Path, frames: &Path, out: &Path, extra: &[&str]) -> Vec<serde_json::Value> {
+    let (input, calib) = (frames.join("frames"), frames.join("calib/fisheye.toml"));
+    let mut args = vec!["vem", "--scene", s(scene), "--input", s(&input), "--calib", s(&calib), "--lights", "64", "--output", s(out)];
+    args.extend_from_slice(extra);
+    let (ok, err) = heliar_status(&args);
     assert!(ok, "{err}");
     std::fs::read_to_string(out.join("frames.jsonl")).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect()
 }
@@ -95,6 +102,27 @@ fn a_moving_statue_follows_its_keys_in_the_vem_mode() {
     let d_placed = mean_diff(&m, &png(&dir.join("placed"), last), &arrived);
     eprintln!("frame {last}: mean code difference from the statue placed there {d_placed:.2}");
     assert!(d_placed < 1.0, "{d_placed} codes (the static scene: {d_arrived})");
+
+    // The same motion with the objects' light from the visibility cuts (computed into the
+    // scene's baked/cuts.bin): no shadow maps, the receivers' ratio and the statue's light from
+    // the cuts every frame; the statue still moves, and its new place differs from the static
+    // scene's by as much as with the lights.
+    let cut_lines = vem_scene_with(&moving, &vem, &dir.join("cuts"), &["--object-light", "cuts"]);
+    for (i, v) in cut_lines.iter().enumerate() {
+        let r = &v["render"];
+        assert!(r["cuts"]["cuts_ms"].as_f64().is_some_and(|t| t > 0.0) && r["cuts"]["receivers"].as_u64().is_some_and(|n| n > 100), "frame {i}: {r}");
+        let skipped = r["skipped"].as_array().unwrap();
+        assert!(skipped.iter().any(|k| k["pass"] == "shadow_atlas" && k["reason"].as_str().unwrap().contains("visibility cuts")), "frame {i}: {r}");
+        let ran: Vec<&str> = r["ran"].as_array().unwrap().iter().map(|p| p.as_str().unwrap()).collect();
+        assert_eq!(ran, ["depth_prepass", "receivers", "shading", "composite", "tonemap"], "frame {i}");
+        assert!(r["tone"].as_object().unwrap().values().all(|x| x.as_f64().is_some_and(f64::is_finite)), "frame {i}");
+    }
+    let moved_cuts: Vec<bool> = cut_lines.iter().map(|v| !v["render"]["motion"]["moved"].as_array().unwrap().is_empty()).collect();
+    assert_eq!(moved_cuts, moved);
+    let c = png(&dir.join("cuts"), last);
+    let (c_left, c_arrived) = (mean_diff(&c, &st, &left), mean_diff(&c, &st, &arrived));
+    eprintln!("cuts, frame {last}: mean code difference from the static scene where the statue was {c_left:.1}, where it now stands {c_arrived:.1}; from the lights' frame over the statue {:.1}", mean_diff(&c, &m, &arrived));
+    assert!(c_left >= MIN_MEAN_CODE_DIFF && c_arrived >= MIN_MEAN_CODE_DIFF, "{c_left} {c_arrived}");
     for d in [&dir, &moving, &still, &placed] {
         std::fs::remove_dir_all(d).ok();
     }
