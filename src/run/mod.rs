@@ -40,6 +40,7 @@ pub mod source;
 pub mod vem;
 pub mod vem_cuts;
 pub mod vem_motion;
+mod vem_summary;
 
 #[cfg(test)]
 mod vem_cuts_tests;

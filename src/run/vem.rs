@@ -19,6 +19,7 @@ use super::Observer;
 use super::sink::Thumbs;
 use super::vem_cuts::VemCuts;
 use super::vem_motion::{MotionRecord, VemMotion};
+use super::vem_summary::{ConfigOut, RenderSummary, SkipCount};
 use crate::gpu::{Gpu, GpuOptions};
 use crate::io::frames::Frame;
 use crate::io::image::{LinearImage, Rgb8};
@@ -219,50 +220,6 @@ pub struct VemScene {
     cuts: Option<VemCuts>,
     /// Time of the cuts' evaluation per frame, ms.
     cut_ms: Vec<f64>,
-}
-
-#[derive(Serialize)]
-struct SkipCount {
-    pass: &'static str,
-    reason: String,
-    frames: usize,
-}
-
-#[derive(Serialize)]
-struct ConfigOut {
-    shadow_slots: usize,
-    tile: u32,
-    culling: bool,
-    shadows: bool,
-}
-
-#[derive(Serialize)]
-struct RenderSummary<'a> {
-    scene: String,
-    adapter: String,
-    frames: usize,
-    receivers: &'static str,
-    virtual_objects: usize,
-    backgrounds: &'a BTreeMap<&'static str, usize>,
-    /// Lights in H and L, and shadow maps, per frame (median over the run).
-    median_lights: f64,
-    median_glossy_lights: f64,
-    median_shadow_maps: f64,
-    config: ConfigOut,
-    passes_run: BTreeMap<&'static str, usize>,
-    passes_skipped: Vec<SkipCount>,
-    median_ms: BTreeMap<&'static str, f64>,
-    mean_list_fraction: f64,
-    contact_sheet: String,
-    /// Frames each object moved in (only in scenes where some object moves).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    moved_frames: Option<BTreeMap<String, usize>>,
-    /// "cuts" with `--object-light cuts` (absent with the lights).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    object_light: Option<&'static str>,
-    /// Median time of the cuts' evaluation per frame, ms (with `--object-light cuts`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    median_cuts_ms: Option<f64>,
 }
 
 impl VemScene {

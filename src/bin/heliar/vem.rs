@@ -212,13 +212,7 @@ pub fn run(a: VemArgs) -> Result<()> {
     };
     let mut scene = match (&a.scene, &a.output) {
         (Some(scene), Some(dir)) => {
-            let rcfg = VemRenderConfig { shadow_slots: a.shadow_maps, tile: a.shadow_tile, culling: !a.no_culling, shadows: !a.no_shadows,
-                object_light: match a.object_light {
-                    ObjectLightArg::Lights => ObjectLight::Lights,
-                    ObjectLightArg::Cuts => ObjectLight::Cuts,
-                },
-                ..Default::default()
-            };
+            let rcfg = render_config(&a);
             let s = VemScene::from_scene(crate::common::read_scene(scene)?, dir, rcfg, a.rate_hz)?;
             eprintln!("GPU: {}", s.adapter());
             Some(s)
@@ -275,6 +269,21 @@ pub fn run(a: VemArgs) -> Result<()> {
         eprintln!("wrote {}", path.display());
     }
     Ok(())
+}
+
+/// The renderer's settings from the options.
+fn render_config(a: &VemArgs) -> VemRenderConfig {
+    VemRenderConfig {
+        shadow_slots: a.shadow_maps,
+        tile: a.shadow_tile,
+        culling: !a.no_culling,
+        shadows: !a.no_shadows,
+        object_light: match a.object_light {
+            ObjectLightArg::Lights => ObjectLight::Lights,
+            ObjectLightArg::Cuts => ObjectLight::Cuts,
+        },
+        ..Default::default()
+    }
 }
 
 /// The options' own consistency and the outputs' guards, before anything is read.
