@@ -20,7 +20,8 @@ struct VemLight {
 struct VemFrame {
     // x: lights in H, y: H regions, z: H LUT size per face, w: flags (VEM_*).
     h: vec4<u32>,
-    // x: lights in L, y: L regions, z: L LUT size per face, w: unused.
+    // x: lights in L, y: L regions, z: L LUT size per face, w: canvas width in pixels with the
+    // visibility cuts' light (the index of `cut_ratio`, shaders/vem/shading.wgsl), else 0.
     l: vec4<u32>,
     // x: atlas tiles per side, y: tile size in texels, z: shadow maps this frame, w: unused.
     atlas: vec4<u32>,

@@ -10,6 +10,8 @@
 // lights c (one per shadow map) that darkens the background where the objects shadow it.
 // Both passes write two targets: the objects' premultiplied radiance (alpha 1 where covered) and
 // the ratio (1 where there is no receiver). Paired with src/render/vem/shading.rs.
+// With the visibility cuts' light (--object-light cuts, src/run/vem_cuts.rs) the objects and the
+// receivers are drawn by the *_cut_* entry points instead: no light loop, no shadow maps.
 
 #include "common/object.wgsl"
 #include "common/vem_lights.wgsl"
@@ -29,6 +31,14 @@
 @group(0) @binding(8) var<storage, read> shadow_lights: array<VemLight>;
 // Nearest-texel comparison (LessEqual): a depth texture cannot be read with textureLoad on GL.
 @group(0) @binding(9) var shadow_sampler: sampler_comparison;
+
+// The visibility cuts' light (--object-light cuts; src/run/vem_cuts.rs over src/cuts/frame.rs):
+// per object vertex (the order of the vertex buffer), two entries: the irradiance about the
+// normal (w = 1 where the cuts serve the vertex) and about the reflected view direction; per
+// canvas pixel (row-major, frame.l.w wide), the receivers' share of the captured sky that the
+// objects leave. One zero entry each without the cuts.
+@group(0) @binding(10) var<storage, read> cut_ambient: array<vec4<f32>>;
+@group(0) @binding(11) var<storage, read> cut_ratio: array<f32>;
 
 struct ReceiverOut {
     @invariant @builtin(position) position: vec4<f32>,
@@ -189,5 +199,63 @@ fn fs_receiver(in: ReceiverOut) -> FragOut {
     var out: FragOut;
     out.virtual_layer = vec4<f32>(0.0);
     out.ratio = vec4<f32>(select(vec3<f32>(1.0), lit / total, total > vec3<f32>(0.0)), 1.0);
+    return out;
+}
+
+// VertexOut (common/object.wgsl) with the vertex's light from the cuts, interpolated over the
+// triangle.
+struct CutVertex {
+    @invariant @builtin(position) position: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+    @location(3) e_n: vec4<f32>,
+    @location(4) e_r: vec3<f32>,
+}
+
+// vs_object's invariant position arithmetic, plus the vertex's light from the cuts.
+@vertex
+fn vs_cut_object(v: VertexIn, @builtin(vertex_index) index: u32) -> CutVertex {
+    var out: CutVertex;
+    out.position = clip_from_world_point(camera, vec4<f32>(v.position, 1.0));
+    out.world = v.position;
+    out.normal = v.normal;
+    out.uv = v.uv;
+    out.e_n = vec4<f32>(0.0);
+    out.e_r = vec3<f32>(0.0);
+    let i = index * 2u;
+    if (i + 1u < arrayLength(&cut_ambient)) {
+        out.e_n = cut_ambient[i];
+        out.e_r = cut_ambient[i + 1u].xyz;
+    }
+    return out;
+}
+
+// The objects under the cuts' light: B = Σ_k l_k v_k f_r as the glTF BRDF's split sum of the
+// irradiance about the normal and about the mirror direction (ambient_radiance,
+// common/brdf.wgsl; the outdoor mode's cut_ambient path in virtual_shading.wgsl).
+@fragment
+fn fs_cut_object(in: CutVertex, @builtin(front_facing) front: bool) -> FragOut {
+    let s = object_surface(in.uv);
+    let n = facing_normal(in.normal, front);
+    let v = normalize(camera.eye_world.xyz - in.world);
+    var out: FragOut;
+    out.virtual_layer = vec4<f32>(ambient_radiance(s, dot(n, v), in.e_n.xyz, in.e_r), 1.0);
+    out.ratio = vec4<f32>(1.0);
+    return out;
+}
+
+// The receivers under the cuts' light: the ratio of the fragment's canvas pixel.
+@fragment
+fn fs_cut_receiver(in: ReceiverOut) -> FragOut {
+    let px = vec2<u32>(max(in.position.xy, vec2<f32>(0.0)));
+    let i = px.y * frame.l.w + px.x;
+    var r = 1.0;
+    if (frame.l.w > 0u && px.x < frame.l.w && i < arrayLength(&cut_ratio)) {
+        r = cut_ratio[i];
+    }
+    var out: FragOut;
+    out.virtual_layer = vec4<f32>(0.0);
+    out.ratio = vec4<f32>(vec3<f32>(r), 1.0);
     return out;
 }

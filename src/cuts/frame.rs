@@ -106,6 +106,20 @@ impl UnitLighting {
         })
     }
 
+    /// A captured environment (the VEM mode): `radiance(ω)` sampled at the texel centres of an
+    /// equirect map `width × width/2` (the crate's convention) and clustered as
+    /// [`Self::from_maps`] with `Pa = 1`, `Pd = 0`: the texels above the horizon are the sky
+    /// part (the proxy field hides them), those below the surface part (the ground as the
+    /// capture point sees it, hidden by the objects only; module docs). A sun-like peak narrower
+    /// than a texel is averaged over its texel, so `width` should resolve it.
+    pub fn from_radiance(tree: &DirectionTree, width: u32, radiance: impl Fn(Vec3) -> [f32; 3]) -> Result<Self, CutsError> {
+        let (w, h) = (width.max(2), (width / 2).max(1));
+        let dir = |i: u32, j: u32| crate::geometry::equirect::dir_from_texel_centre(i, j, w, h);
+        let sky = LinearImage::from_fn(w, h, |i, j| if dir(i, j).y >= 0.0 { radiance(dir(i, j)) } else { [0.0; 3] });
+        let ground = LinearImage::from_fn(w, h, |i, j| if dir(i, j).y < 0.0 { radiance(dir(i, j)) } else { [0.0; 3] });
+        Self::from_maps(tree, &sky, &ground, None)
+    }
+
     /// The same lighting in the frame of an object turned by `rotation` (object → world): the
     /// maps clustered again with every texel turned into the object's frame
     /// (`crate::cuts::rotate`); the uniform sky turned analytically.

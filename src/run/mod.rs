@@ -18,6 +18,8 @@
 //! | [`motion_cuts`] | their visibility cuts, loaded or computed, evaluated for the objects' translations |
 //! | [`session`] | the outdoor stage joined to the compositor: one frame end to end |
 //! | [`vem`] | the VEM stage (capture → decomposer) and its renderer's side; the `heliar vem` loop |
+//! | [`vem_motion`] | the VEM mode's moving objects on its frame clock (the footage's times) |
+//! | [`vem_cuts`] | the VEM mode's objects lit through the visibility cuts under the VEM frame (`--object-light cuts`) |
 //! | [`sink`] | output frames (folder or video), contact sheets, per-stage timings |
 //! | [`precompute`] | `heliar precompute`: the visibility cuts of a scene with moving objects, cached beside the bake |
 //! | [`augment`] | recorded footage in, augmented footage out: resume, interrupts, report, summary |
@@ -36,6 +38,12 @@ pub mod session;
 pub mod sink;
 pub mod source;
 pub mod vem;
+pub mod vem_cuts;
+pub mod vem_motion;
+mod vem_summary;
+
+#[cfg(test)]
+mod vem_cuts_tests;
 
 use crate::estimate::Status;
 use crate::render::PassReport;

@@ -188,6 +188,13 @@ impl MovingObjects {
         self.objects.get(k).map(|o| &o.mesh)
     }
 
+    /// Every object's pose as of the last [`Self::advance`] (world from its rest frame with a
+    /// motion, from its placement without one; `None`: as placed), for
+    /// `super::motion_cuts::CutState::poses`.
+    pub fn poses(&self) -> Vec<Option<Mat4>> {
+        self.objects.iter().map(|o| o.pose).collect()
+    }
+
     /// Object `k`'s move by hand (world from where its own pose puts it).
     pub fn user(&self, k: usize) -> Option<Mat4> {
         self.objects.get(k).map(|o| o.user)

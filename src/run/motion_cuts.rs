@@ -145,8 +145,27 @@ impl CutState {
     pub fn evaluate(&mut self, poses: &[Pose], relighter: Option<&Relighter>, eye: Vec3) -> Result<(ObjectAmbient, ReceiverCuts), CutsError> {
         let light = self.lighting(relighter);
         let sun = relighter.and_then(Relighter::sun_dir);
+        self.evaluate_with(poses, light, eye, sun)
+    }
+
+    /// [`Self::evaluate`] under a lighting given on the cuts' tree ([`Self::tree`]) instead of
+    /// the relighter's: the captured-VEM mode's frame (`super::vem_cuts`). `sun`: the sun's
+    /// direction when the lighting leaves it out (the outdoor mode's sun planes), for the light
+    /// the objects reflect onto each other (`crate::cuts::bounce`); `None` when the lighting holds
+    /// all of it (a VEM frame).
+    pub fn evaluate_with(&self, poses: &[Pose], light: Arc<UnitLighting>, eye: Vec3, sun: Option<Vec3>) -> Result<(ObjectAmbient, ReceiverCuts), CutsError> {
         let ambient = self.frame.object_ambient_bounced(&light, poses, eye, &Bounce { surfaces: &self.surfaces, sun })?;
         let receivers = self.frame.receivers_posed(light, poses.to_vec());
         Ok((ambient, receivers))
+    }
+
+    /// The cuts' direction tree.
+    pub fn tree(&self) -> &crate::cuts::DirectionTree {
+        &self.frame.tree
+    }
+
+    /// The cuts themselves (per object: vertices, fields' centres and radii).
+    pub fn cuts(&self) -> &PrecomputedCuts {
+        &self.frame.cuts
     }
 }

@@ -6,14 +6,25 @@
 //! decomposed. [`VemScene`] is the renderer's side: the background of each frame (the scene's
 //! footage frame, or the VEM seen through the camera) and the GPU render, tone mapped, written
 //! as PNG. [`run_vem`] drives both over a sequence, one JSON line per frame.
+//!
+//! Objects with a motion follow it on the frame clock (the footage's frame times,
+//! [`super::vem_motion`]): each frame's line names the objects that moved (`render.motion`), and
+//! the renderer re-uploads their vertex buffer and bounds. A scene where nothing moves renders
+//! and reports exactly as before. With `--object-light cuts` ([`super::vem_cuts`]) every frame's
+//! polar map lights the objects through the visibility cuts (per vertex, and the receivers'
+//! contact shadows) instead of the lights and shadow maps; each line then has `render.cuts`
+//! (time, receivers evaluated) and `report.json` the median cut time.
 
 use super::Observer;
 use super::sink::Thumbs;
+use super::vem_cuts::VemCuts;
+use super::vem_motion::{MotionRecord, VemMotion};
+use super::vem_summary::{ConfigOut, RenderSummary, SkipCount};
 use crate::gpu::{Gpu, GpuOptions};
 use crate::io::frames::Frame;
 use crate::io::image::{LinearImage, Rgb8};
 use crate::render::frame::Skipped;
-use crate::render::vem::{VemLights, VemOutput, VemRenderConfig, VemRenderer, VemReport, environment_background, ground_radiance};
+use crate::render::vem::{ObjectLight, VemLights, VemOutput, VemRenderConfig, VemRenderer, VemReport, environment_background, ground_radiance};
 use crate::report::{JsonLines, median};
 use crate::scene::Scene;
 use crate::vem::capture::input::VemInput;
@@ -147,6 +158,16 @@ impl VemOverlay {
         &self.renderer
     }
 
+    /// Sets the visibility cuts' light for the next renders (`VemRenderer::set_cut_light`).
+    pub fn set_cut_light(&mut self, vertices: &[Vec<[[f32; 4]; 2]>], ratio: &[f32]) {
+        self.renderer.set_cut_light(vertices, ratio);
+    }
+
+    /// Moves the virtual objects to `objects` (every object, set-up order, world coordinates).
+    pub fn move_objects(&mut self, objects: &[&crate::geometry::Mesh]) -> Result<()> {
+        Ok(self.renderer.move_objects(objects)?)
+    }
+
     /// Renders the stage's current lights (of `status`) over `background` (linear radiance in
     /// the camera's pixel grid); `dt_s` is the time since the previous frame.
     pub fn render(&mut self, stage: &VemStage, status: Status, background: &LinearImage, dt_s: f64) -> Result<VemOutput> {
@@ -161,9 +182,25 @@ pub struct FrameRender {
     pub png: String,
     /// "footage" or "environment".
     pub background: &'static str,
+    /// The frame's time and the objects that moved (only in scenes where some object moves).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub motion: Option<MotionRecord>,
+    /// The visibility cuts' evaluation (only with `--object-light cuts`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cuts: Option<CutRecord>,
     /// Passes, lights, shadow maps, tone parameters, timings.
     #[serde(flatten)]
     pub report: VemReport,
+}
+
+/// What the visibility cuts did in a frame (`--object-light cuts`).
+#[derive(Clone, Debug, Serialize)]
+pub struct CutRecord {
+    /// The lighting clustered, the objects' vertices and the receivers evaluated, ms (CPU,
+    /// before the render; not in `timings.total_ms`).
+    pub cuts_ms: f64,
+    /// Receiver pixels near an object whose ratio came from the cuts.
+    pub receivers: usize,
 }
 
 /// The renderer's side of a VEM run over a scene: backgrounds, GPU render, PNG frames, the
@@ -177,41 +214,12 @@ pub struct VemScene {
     sheet: Thumbs,
     reports: Vec<VemReport>,
     backgrounds: BTreeMap<&'static str, usize>,
-}
-
-#[derive(Serialize)]
-struct SkipCount {
-    pass: &'static str,
-    reason: String,
-    frames: usize,
-}
-
-#[derive(Serialize)]
-struct ConfigOut {
-    shadow_slots: usize,
-    tile: u32,
-    culling: bool,
-    shadows: bool,
-}
-
-#[derive(Serialize)]
-struct RenderSummary<'a> {
-    scene: String,
-    adapter: String,
-    frames: usize,
-    receivers: &'static str,
-    virtual_objects: usize,
-    backgrounds: &'a BTreeMap<&'static str, usize>,
-    /// Lights in H and L, and shadow maps, per frame (median over the run).
-    median_lights: f64,
-    median_glossy_lights: f64,
-    median_shadow_maps: f64,
-    config: ConfigOut,
-    passes_run: BTreeMap<&'static str, usize>,
-    passes_skipped: Vec<SkipCount>,
-    median_ms: BTreeMap<&'static str, f64>,
-    mean_list_fraction: f64,
-    contact_sheet: String,
+    /// The moving objects (`None`: nothing moves, `super::vem_motion`).
+    motion: Option<VemMotion>,
+    /// The visibility cuts (`--object-light cuts`, `super::vem_cuts`).
+    cuts: Option<VemCuts>,
+    /// Time of the cuts' evaluation per frame, ms.
+    cut_ms: Vec<f64>,
 }
 
 impl VemScene {
@@ -228,7 +236,16 @@ impl VemScene {
         std::fs::create_dir_all(out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
         let gpu = Arc::new(Gpu::new(GpuOptions { samples: 1 })?);
         let adapter = gpu.describe();
+        let (object_light, ground_albedo) = (cfg.object_light, cfg.ground_albedo);
         let overlay = VemOverlay::new(gpu, &scene, cfg)?;
+        let motion = VemMotion::for_scene(&scene, rate_hz);
+        let cuts = match object_light {
+            ObjectLight::Cuts => {
+                let r = overlay.renderer();
+                Some(VemCuts::load(&scene, r.canvas(), Some(r.receiver_mesh()), ground_albedo).map_err(anyhow::Error::msg).context("--object-light cuts")?)
+            }
+            ObjectLight::Lights => None,
+        };
         Ok(Self {
             scene,
             overlay,
@@ -238,6 +255,9 @@ impl VemScene {
             sheet: Thumbs::new(SHEET_KEEP, SHEET_TILE_WIDTH),
             reports: Vec::new(),
             backgrounds: BTreeMap::new(),
+            motion,
+            cuts,
+            cut_ms: Vec::new(),
         })
     }
 
@@ -265,8 +285,31 @@ impl VemScene {
         Ok((environment_background(map, &self.scene.camera, ground), "environment"))
     }
 
-    /// Renders frame `i` (its polar map `map`) with the stage's current lights and writes its PNG.
+    /// Renders frame `i` (its polar map `map`) with the stage's current lights and writes its PNG;
+    /// moving objects are posed for the frame's time first (`super::vem_motion`).
     pub fn frame(&mut self, i: usize, stage: &VemStage, map: &PolarMap, status: Status) -> Result<FrameRender> {
+        let motion = match &mut self.motion {
+            Some(m) => {
+                let (record, meshes) = m.advance(i);
+                if let Some(meshes) = meshes {
+                    self.overlay.move_objects(&meshes).with_context(|| format!("moving the objects at frame {i}"))?;
+                }
+                Some(record)
+            }
+            None => None,
+        };
+        let cuts = match &self.cuts {
+            Some(c) => {
+                let t = std::time::Instant::now();
+                let poses = self.motion.as_ref().map(VemMotion::poses).unwrap_or_default();
+                let f = c.evaluate(map, &poses).map_err(anyhow::Error::msg).with_context(|| format!("the visibility cuts at frame {i}"))?;
+                self.overlay.set_cut_light(&f.vertices, &f.ratio);
+                let cuts_ms = t.elapsed().as_secs_f64() * 1e3;
+                self.cut_ms.push(cuts_ms);
+                Some(CutRecord { cuts_ms, receivers: f.receivers_evaluated })
+            }
+            None => None,
+        };
         let (bg, kind) = self.background(i, stage, map)?;
         let out = self.overlay.render(stage, status, &bg, self.dt_s)?;
         let (w, h) = (bg.width, bg.height);
@@ -281,7 +324,7 @@ impl VemScene {
         }
         *self.backgrounds.entry(kind).or_default() += 1;
         self.reports.push(out.report.clone());
-        Ok(FrameRender { png: png.display().to_string(), background: kind, report: out.report })
+        Ok(FrameRender { png: png.display().to_string(), background: kind, motion, cuts, report: out.report })
     }
 
     /// Writes the contact sheet and `report.json`; returns the report's path.
@@ -324,6 +367,9 @@ impl VemScene {
             median_ms,
             mean_list_fraction: self.reports.iter().map(|r| r.list_fraction).sum::<f64>() / self.reports.len().max(1) as f64,
             contact_sheet: sheet_path.display().to_string(),
+            moved_frames: self.motion.as_ref().map(VemMotion::moved_frames),
+            object_light: self.cuts.as_ref().map(|_| "cuts"),
+            median_cuts_ms: self.cuts.as_ref().map(|_| median(&self.cut_ms)),
         };
         let path = self.out_dir.join("report.json");
         crate::io::write_atomic(&path, serde_json::to_string_pretty(&summary)?.as_bytes()).with_context(|| format!("writing {}", path.display()))?;

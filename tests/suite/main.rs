@@ -36,6 +36,7 @@ mod uniform_branches;
 mod vem_allocation;
 mod vem_cli;
 mod vem_coherent_cut;
+mod vem_motion;
 mod vem_render;
 mod vem_sequences;
 mod vem_stiff;

@@ -5,7 +5,7 @@
 use crate::common::BarObserver;
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
-use heliar::render::vem::VemRenderConfig;
+use heliar::render::vem::{ObjectLight, VemRenderConfig};
 use heliar::report::{JsonLines, Series, Table, line_plot_svg, median};
 use heliar::run::vem::{VemScene, VemStage, run_vem};
 use heliar::vem::VemConfig;
@@ -63,6 +63,16 @@ impl From<TemporalArg> for Temporal {
     }
 }
 
+/// Where the objects' light comes from, as named on the command line.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum ObjectLightArg {
+    /// The frame's directional lights with the shadow-map atlas (Havran §4; default).
+    Lights,
+    /// The visibility cuts under the VEM frame (cyberworlds §V): light and shadows per vertex,
+    /// the receivers' contact shadows from the objects' fields.
+    Cuts,
+}
+
 #[derive(Args)]
 pub struct VemArgs {
     /// Folder of frames (.exr/.png, sorted by name) or one frame file.
@@ -104,6 +114,11 @@ pub struct VemArgs {
     /// No shadow maps.
     #[arg(long)]
     no_shadows: bool,
+    /// Where the objects' light comes from (with --scene): the frame's lights and shadow maps,
+    /// or the visibility cuts under the VEM frame (read from SCENE/baked/cuts.bin, computed there
+    /// for every object when missing, as `heliar precompute --draggable` does).
+    #[arg(long, value_enum, default_value = "lights")]
+    object_light: ObjectLightArg,
     /// Capture rate in Hz (designs the temporal filter; the paper's taps at 21).
     #[arg(long, default_value_t = 21.0)]
     rate_hz: f64,
@@ -197,7 +212,7 @@ pub fn run(a: VemArgs) -> Result<()> {
     };
     let mut scene = match (&a.scene, &a.output) {
         (Some(scene), Some(dir)) => {
-            let rcfg = VemRenderConfig { shadow_slots: a.shadow_maps, tile: a.shadow_tile, culling: !a.no_culling, shadows: !a.no_shadows, ..Default::default() };
+            let rcfg = render_config(&a);
             let s = VemScene::from_scene(crate::common::read_scene(scene)?, dir, rcfg, a.rate_hz)?;
             eprintln!("GPU: {}", s.adapter());
             Some(s)
@@ -254,6 +269,21 @@ pub fn run(a: VemArgs) -> Result<()> {
         eprintln!("wrote {}", path.display());
     }
     Ok(())
+}
+
+/// The renderer's settings from the options.
+fn render_config(a: &VemArgs) -> VemRenderConfig {
+    VemRenderConfig {
+        shadow_slots: a.shadow_maps,
+        tile: a.shadow_tile,
+        culling: !a.no_culling,
+        shadows: !a.no_shadows,
+        object_light: match a.object_light {
+            ObjectLightArg::Lights => ObjectLight::Lights,
+            ObjectLightArg::Cuts => ObjectLight::Cuts,
+        },
+        ..Default::default()
+    }
 }
 
 /// The options' own consistency and the outputs' guards, before anything is read.

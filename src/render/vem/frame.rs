@@ -48,6 +48,9 @@ pub struct VemFrame {
     pub no_shadows: Option<String>,
     /// The scene has virtual objects.
     pub has_objects: bool,
+    /// The objects and receivers take their light from the visibility cuts
+    /// (`super::ObjectLight::Cuts`), not from the lights and shadow maps.
+    pub cuts: bool,
     /// The lights of `H`, each with its shadow slot (grouped by slot when there are maps).
     pub h_lights: Vec<GpuLight>,
     /// The lights of `L`, likewise (empty without the glossy set).
@@ -68,7 +71,9 @@ pub struct VemFrame {
 /// Why a frame gets no shadow maps, or `None`.
 fn no_shadows(cfg: &VemRenderConfig, has_objects: bool, h: &[GpuLight], status: Status) -> Option<String> {
     let power: f32 = h.iter().map(|l| l.rgb.iter().sum::<f32>()).sum();
-    if !cfg.shadows {
+    if cfg.object_light == super::ObjectLight::Cuts {
+        Some("the objects' light and shadows come from the visibility cuts (--object-light cuts)".to_owned())
+    } else if !cfg.shadows {
         Some("shadows are off".to_owned())
     } else if !has_objects {
         Some("the scene has no virtual objects".to_owned())
@@ -139,7 +144,8 @@ impl VemFrame {
                 group_by_slot(&mut l_lights, &mut l_words, g.regions.lut.texels.len(), g.regions.len());
             }
         }
-        Self { no_shadows, has_objects, h_lights, l_lights, views, shadow_lights, h_words, l_words, uniform }
+        let cuts = cfg.object_light == super::ObjectLight::Cuts;
+        Self { no_shadows, has_objects, cuts, h_lights, l_lights, views, shadow_lights, h_words, l_words, uniform }
     }
 }
 
@@ -187,6 +193,8 @@ impl VemRenderer {
                 wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::TextureView(&self.targets.atlas.view) },
                 buffer(8, &shadow_lights),
                 wgpu::BindGroupEntry { binding: 9, resource: wgpu::BindingResource::Sampler(&self.targets.shadow_sampler) },
+                buffer(10, &self.cut_light.0),
+                buffer(11, &self.cut_light.1),
             ],
         });
         let bg: Vec<[f32; 4]> = background.data.iter().map(|p| [p[0], p[1], p[2], 1.0]).collect();

@@ -31,6 +31,16 @@
 //!
 //! Not modelled: shadows of the real proxy on the virtual objects (the atlas holds the objects
 //! only), MSAA (one sample per pixel), and the paper's cap on the number of glossy cone lights.
+//!
+//! # Moving objects and the visibility cuts (issue 15)
+//! [`VemRenderer::move_objects`] re-uploads the objects' vertex buffer and bounds when they move
+//! (`crate::run::vem_motion`); the atlas is drawn every frame anyway. With
+//! [`ObjectLight::Cuts`] (cyberworlds §V, `../shared/papers/cyberworlds-captured-lighting-cuts.txt`)
+//! the objects and receivers are drawn by the cut entry points of `shaders/vem/shading.wgsl`
+//! instead: each vertex's irradiance about the normal and the mirror direction from the cuts
+//! under the VEM frame (set per frame with [`VemRenderer::set_cut_light`], computed by
+//! `crate::run::vem_cuts`) through the glTF split sum, and the receivers' ratio per canvas pixel
+//! from the objects' visibility cut fields; the shadow atlas is skipped with that reason.
 
 pub mod background;
 pub mod frame;
@@ -84,6 +94,17 @@ pub mod pass {
 /// Default albedo of the ground plane used when the scene has no proxy.
 pub const GROUND_ALBEDO: f32 = 0.3;
 
+/// Where the objects' light comes from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ObjectLight {
+    /// The frame's directional lights with the shadow-map atlas (Havran §4).
+    #[default]
+    Lights,
+    /// The visibility cuts under the VEM frame (`crate::run::vem_cuts`, cyberworlds §V): per
+    /// vertex light and the receivers' ratio, set with [`VemRenderer::set_cut_light`].
+    Cuts,
+}
+
 /// Settings of the VEM renderer.
 #[derive(Clone, Debug, PartialEq)]
 pub struct VemRenderConfig {
@@ -97,11 +118,13 @@ pub struct VemRenderConfig {
     pub shadows: bool,
     /// Albedo of the ground plane (scenes without a proxy).
     pub ground_albedo: f32,
+    /// Where the objects' light comes from.
+    pub object_light: ObjectLight,
 }
 
 impl Default for VemRenderConfig {
     fn default() -> Self {
-        Self { shadow_slots: shadow_atlas::DEFAULT_SLOTS, tile: shadow_atlas::DEFAULT_TILE, culling: true, shadows: true, ground_albedo: GROUND_ALBEDO }
+        Self { shadow_slots: shadow_atlas::DEFAULT_SLOTS, tile: shadow_atlas::DEFAULT_TILE, culling: true, shadows: true, ground_albedo: GROUND_ALBEDO, object_light: ObjectLight::Lights }
     }
 }
 
@@ -115,6 +138,18 @@ pub struct VemRenderer {
     receivers: ProxyBuffers,
     receivers_kind: &'static str,
     objects: VirtualBuffers,
+    /// The material bind-group layout (the objects' buffers are rebuilt when they move).
+    mat_layout: wgpu::BindGroupLayout,
+    /// Per object, which triangles belong to closed parts (back faces culled); a rigid move
+    /// keeps it.
+    closed: Vec<Vec<bool>>,
+    /// Per object, the mesh vertex of each vertex-buffer vertex (`crate::gpu::mesh::vertex_sources`).
+    vertex_sources: Vec<Vec<u32>>,
+    /// The cuts' light per vertex-buffer vertex and the receivers' ratio per canvas pixel
+    /// (bindings 10 and 11 of the shading pass; one zero entry each until set).
+    cut_light: (wgpu::Buffer, wgpu::Buffer),
+    /// The receivers' mesh as drawn (the proxy, or the ground plane).
+    receiver_mesh: Mesh,
     bounds: Option<(Vec3, Vec3)>,
     prepass: DepthPrepass,
     shading: ShadingPass,
@@ -122,6 +157,11 @@ pub struct VemRenderer {
     composite: overlay::CompositePass,
     tonemap: tonemap::TonemapPass,
     targets: Targets,
+}
+
+/// A read-only storage buffer holding `data`.
+fn storage_buffer<T: bytemuck::Pod>(device: &wgpu::Device, label: &str, data: &[T]) -> wgpu::Buffer {
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: bytemuck::cast_slice(data), usage: wgpu::BufferUsages::STORAGE })
 }
 
 /// Union of the bounds of `meshes`.
@@ -155,17 +195,19 @@ impl VemRenderer {
         let closed: Vec<Vec<bool>> = objects.iter().map(|m| crate::render::occluder::Occluder::new(m, "virtual object").closed_triangles(m.triangles.len())).collect();
         let objects_buf = VirtualBuffers::new(device, &gpu.queue, &mat_layout, objects, &closed)?;
         let bounds = bounds_of(objects);
-        let (receivers, receivers_kind) = match proxy {
-            Some(p) if !p.triangles.is_empty() => (ProxyBuffers::new(device, p), "proxy"),
+        let (receiver_mesh, receivers_kind) = match proxy {
+            Some(p) if !p.triangles.is_empty() => (p.clone(), "proxy"),
             _ => {
                 let (c, y) = bounds.map_or((Vec3::ZERO, 0.0), |(lo, hi)| (0.5 * (lo + hi), lo.y));
-                (ProxyBuffers::new(device, &ground_plane(c, y, cfg.ground_albedo)), "ground plane")
+                (ground_plane(c, y, cfg.ground_albedo), "ground plane")
             }
         };
+        let receivers = ProxyBuffers::new(device, &receiver_mesh);
+        let cut_light = (storage_buffer(device, "vem cut light", &[[0.0f32; 4]]), storage_buffer(device, "vem cut ratio", &[1.0f32]));
         let stride = std::mem::size_of::<VirtualVertex>() as u64;
         Ok(Self {
             prepass: DepthPrepass::new(device, &cam_layout, shading::DEPTH_FORMAT, 1, stride)?,
-            shading: ShadingPass::new(device, &mat_layout, stride)?,
+            shading: ShadingPass::new(device, &mat_layout, stride, cfg.object_light == ObjectLight::Cuts)?,
             atlas_pass: ShadowAtlasPass::new(device, stride)?,
             composite: overlay::CompositePass::new(device, gpu.output_format)?,
             tonemap: tonemap::TonemapPass::new(device)?,
@@ -178,8 +220,58 @@ impl VemRenderer {
             receivers,
             receivers_kind,
             objects: objects_buf,
+            mat_layout,
+            closed,
+            vertex_sources: objects.iter().map(|m| crate::gpu::mesh::vertex_sources(m)).collect(),
+            cut_light,
+            receiver_mesh,
             bounds,
         })
+    }
+
+    /// The receivers as drawn: the proxy, or the ground plane under the objects without one.
+    pub fn receiver_mesh(&self) -> &Mesh {
+        &self.receiver_mesh
+    }
+
+    /// Sets the visibility cuts' light for the next frames (with [`ObjectLight::Cuts`]):
+    /// `vertices[k][v]`, the irradiance about the normal (`w = 1`) and about the reflected view
+    /// direction of vertex `v` of object `k`'s mesh; `ratio`, the receivers' ratio per canvas
+    /// pixel (row-major).
+    pub fn set_cut_light(&mut self, vertices: &[Vec<[[f32; 4]; 2]>], ratio: &[f32]) {
+        let mut data: Vec<[f32; 4]> = Vec::with_capacity(2 * self.vertex_sources.iter().map(Vec::len).sum::<usize>() + 1);
+        for (k, sources) in self.vertex_sources.iter().enumerate() {
+            let obj = vertices.get(k);
+            data.extend(sources.iter().flat_map(|&v| obj.and_then(|a| a.get(v as usize)).copied().unwrap_or([[0.0; 4]; 2])));
+        }
+        if data.is_empty() {
+            data.push([0.0; 4]);
+        }
+        let ratio: &[f32] = if ratio.is_empty() { &[1.0] } else { ratio };
+        let device = &self.gpu.device;
+        self.cut_light = (storage_buffer(device, "vem cut light", &data), storage_buffer(device, "vem cut ratio", ratio));
+    }
+
+    /// Moves the virtual objects to `objects` (every object, in set-up order, world
+    /// coordinates): their vertex buffer and bounds (the shadow maps' casters) follow; the
+    /// shadow atlas is drawn every frame anyway. The receivers stay: the proxy is static, and
+    /// the ground plane of a scene without one stays where the objects' first bounds put it.
+    /// An object whose triangle count changed gets its closed parts found again.
+    pub fn move_objects(&mut self, objects: &[&Mesh]) -> Result<(), RenderError> {
+        for (k, m) in objects.iter().enumerate() {
+            if self.closed.get(k).is_none_or(|c| c.len() != m.triangles.len()) {
+                let c = crate::render::occluder::Occluder::new(m, "virtual object").closed_triangles(m.triangles.len());
+                match self.closed.get_mut(k) {
+                    Some(slot) => *slot = c,
+                    None => self.closed.push(c),
+                }
+            }
+        }
+        self.closed.truncate(objects.len());
+        self.vertex_sources = objects.iter().map(|m| crate::gpu::mesh::vertex_sources(m)).collect();
+        self.objects = VirtualBuffers::new(&self.gpu.device, &self.gpu.queue, &self.mat_layout, objects, &self.closed)?;
+        self.bounds = bounds_of(objects);
+        Ok(())
     }
 
     /// The canvas (size, pose, warp).
@@ -210,7 +302,11 @@ impl VemRenderer {
         if (background.width, background.height) != (ow, oh) {
             return Err(RenderError::FrameSize { got: (background.width, background.height), want: (ow, oh) });
         }
-        let frame = VemFrame::prepare(lights, &self.cfg, self.objects.index_count > 0, self.bounds);
+        let mut frame = VemFrame::prepare(lights, &self.cfg, self.objects.index_count > 0, self.bounds);
+        if frame.cuts {
+            // The cut ratio's row length (shaders/vem/shading.wgsl, fs_cut_receiver).
+            frame.uniform.l[3] = self.canvas.intrinsics.width;
+        }
         let mut report = VemReport::begin(lights, &frame, self.cfg.culling);
         let prepare_ms = ms_since(t_start);
 
@@ -229,7 +325,7 @@ impl VemRenderer {
         }
         let receivers = report.admit(&frame, &self.shading.receivers);
         let objects = report.admit(&frame, &self.shading.objects);
-        self.record_shading(&mut enc, &bind.shading, receivers, objects);
+        self.record_shading(&mut enc, &bind.shading, receivers, objects, frame.cuts);
         if report.admit(&frame, &self.composite) {
             self.composite.record(&mut enc, &bind.composite, &self.targets.hdr.view);
         }
@@ -270,7 +366,7 @@ impl VemRenderer {
 
     /// The shading render pass: both layers cleared (no object, ratio 1), then the receivers and
     /// the objects that run.
-    fn record_shading(&self, enc: &mut wgpu::CommandEncoder, frame_bg: &wgpu::BindGroup, receivers: bool, objects: bool) {
+    fn record_shading(&self, enc: &mut wgpu::CommandEncoder, frame_bg: &wgpu::BindGroup, receivers: bool, objects: bool, cuts: bool) {
         let clear = |view, c: wgpu::Color| wgpu::RenderPassColorAttachment {
             view,
             depth_slice: None,
@@ -290,10 +386,10 @@ impl VemRenderer {
         });
         pa.set_bind_group(0, frame_bg, &[]);
         if receivers {
-            self.shading.receivers.record(&mut pa, &self.receivers);
+            self.shading.receivers.record(&mut pa, &self.receivers, cuts);
         }
         if objects {
-            self.shading.objects.record(&mut pa, &self.objects);
+            self.shading.objects.record(&mut pa, &self.objects, cuts);
         }
     }
 

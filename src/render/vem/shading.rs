@@ -50,7 +50,7 @@ pub const FLAG_GLOSSY: u32 = 4;
 pub struct VemFrameUniform {
     /// Lights in `H`, `H` regions, `H` LUT size, flags.
     pub h: [u32; 4],
-    /// Lights in `L`, `L` regions, `L` LUT size, unused.
+    /// Lights in `L`, `L` regions, `L` LUT size, the canvas width with the cuts' light (else 0).
     pub l: [u32; 4],
     /// Atlas tiles per side, tile size, shadow maps this frame, unused.
     pub atlas: [u32; 4],
@@ -64,15 +64,23 @@ pub struct ObjectShading {
     pub closed: wgpu::RenderPipeline,
     /// Open meshes.
     pub open: wgpu::RenderPipeline,
+    /// Closed and open meshes under the visibility cuts' light (`fs_cut_object`), when the
+    /// renderer was set up for it.
+    pub cut: Option<[wgpu::RenderPipeline; 2]>,
 }
 
 impl ObjectShading {
-    /// Draws the objects (group 0 already set) with each draw's material.
-    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, objects: &VirtualBuffers) {
+    /// Draws the objects (group 0 already set) with each draw's material; `cuts`: under the
+    /// visibility cuts' light (when set up for it).
+    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, objects: &VirtualBuffers, cuts: bool) {
         pass.set_vertex_buffer(0, objects.vertices.slice(..));
         pass.set_index_buffer(objects.indices.slice(..), wgpu::IndexFormat::Uint32);
+        let [closed, open] = match (&self.cut, cuts) {
+            (Some([c, o]), true) => [c, o],
+            _ => [&self.closed, &self.open],
+        };
         for d in &objects.draws {
-            pass.set_pipeline(if d.closed { &self.closed } else { &self.open });
+            pass.set_pipeline(if d.closed { closed } else { open });
             pass.set_bind_group(1, &d.bind_group, &[]);
             pass.draw_indexed(d.indices.clone(), 0, 0..1);
         }
@@ -91,12 +99,17 @@ impl Pass<VemFrame> for ObjectShading {
 pub struct ReceiverRatio {
     /// Positions only (12-byte stride).
     pub pipeline: wgpu::RenderPipeline,
+    /// The ratio from the visibility cuts (`fs_cut_receiver`), when set up for it.
+    pub cut: Option<wgpu::RenderPipeline>,
 }
 
 impl ReceiverRatio {
-    /// Draws the receivers (group 0 already set).
-    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, receivers: &ProxyBuffers) {
-        pass.set_pipeline(&self.pipeline);
+    /// Draws the receivers (group 0 already set); `cuts`: their ratio from the visibility cuts.
+    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, receivers: &ProxyBuffers, cuts: bool) {
+        pass.set_pipeline(match (&self.cut, cuts) {
+            (Some(c), true) => c,
+            _ => &self.pipeline,
+        });
         pass.set_vertex_buffer(0, receivers.vertices.slice(..));
         pass.set_index_buffer(receivers.indices.slice(..), wgpu::IndexFormat::Uint32);
         pass.draw_indexed(0..receivers.index_count, 0, 0..1);
@@ -106,9 +119,9 @@ impl ReceiverRatio {
 impl Pass<VemFrame> for ReceiverRatio {
     const NAME: &'static str = pass::RECEIVERS;
 
-    /// Without shadow maps every ratio is 1: the cleared value.
+    /// Without shadow maps every ratio is 1: the cleared value (unless the visibility cuts give it).
     fn plan(&self, frame: &VemFrame) -> Plan {
-        if frame.views.is_empty() { Plan::skip("no shadow maps this frame: the ratio is 1 everywhere") } else { Plan::Run }
+        if frame.views.is_empty() && !frame.cuts { Plan::skip("no shadow maps this frame: the ratio is 1 everywhere") } else { Plan::Run }
     }
 }
 
@@ -132,7 +145,7 @@ pub struct ShadingPass {
 }
 
 /// Group 0: camera, frame uniform, lights and lists of `H` and `L`, shadow views, atlas, shadow
-/// lights, comparison sampler.
+/// lights, comparison sampler, the cuts' light per vertex and ratio per pixel.
 fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("vem shading frame"),
@@ -152,14 +165,17 @@ fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             },
             storage_entry(8),
             wgpu::BindGroupLayoutEntry { binding: 9, visibility: wgpu::ShaderStages::FRAGMENT, ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison), count: None },
+            // Read by the cut objects' vertex stage.
+            wgpu::BindGroupLayoutEntry { visibility: wgpu::ShaderStages::VERTEX_FRAGMENT, ..storage_entry(10) },
+            storage_entry(11),
         ],
     })
 }
 
 impl ShadingPass {
     /// Builds the pipelines; `object_stride` is the byte stride of the objects' vertices
-    /// (`VirtualVertex`).
-    pub fn new(device: &wgpu::Device, material_layout: &wgpu::BindGroupLayout, object_stride: u64) -> Result<Self, RenderError> {
+    /// (`VirtualVertex`); `cuts`: also those of the visibility cuts' light.
+    pub fn new(device: &wgpu::Device, material_layout: &wgpu::BindGroupLayout, object_stride: u64, cuts: bool) -> Result<Self, RenderError> {
         let module = shaders::module(device, "vem/shading.wgsl")?;
         let frame_layout = frame_layout(device);
         let object_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -200,8 +216,17 @@ impl ShadingPass {
             objects: ObjectShading {
                 closed: make("vem shading closed", &object_layout, "vs_object", "fs_object", obj_vb(), Some(wgpu::Face::Back)),
                 open: make("vem shading open", &object_layout, "vs_object", "fs_object", obj_vb(), None),
+                cut: cuts.then(|| {
+                    [
+                        make("vem cut shading closed", &object_layout, "vs_cut_object", "fs_cut_object", obj_vb(), Some(wgpu::Face::Back)),
+                        make("vem cut shading open", &object_layout, "vs_cut_object", "fs_cut_object", obj_vb(), None),
+                    ]
+                }),
             },
-            receivers: ReceiverRatio { pipeline: make("vem shading receivers", &receiver_layout, "vs_receiver", "fs_receiver", rec_vb, None) },
+            receivers: ReceiverRatio {
+                pipeline: make("vem shading receivers", &receiver_layout, "vs_receiver", "fs_receiver", rec_vb.clone(), None),
+                cut: cuts.then(|| make("vem cut receivers", &receiver_layout, "vs_receiver", "fs_cut_receiver", rec_vb.clone(), None)),
+            },
             frame_layout,
         })
     }
