@@ -1,5 +1,6 @@
 //! Tests of the cuts against references: leaf-level operations, closed forms, ray casting.
 
+mod bounce;
 mod fields;
 mod files;
 mod ops;

@@ -487,17 +487,9 @@ impl Receivers {
 
     /// The pixels within `grow_px` pixels (a square) of one where `hit` holds.
     fn grown(&self, hit: &[bool], grow_px: u32) -> Vec<u32> {
-        let (w, h) = (self.width as i64, self.height as i64);
-        let g = grow_px as i64;
-        (0..(w * h) as u32)
-            .into_par_iter()
-            .filter(|&i| {
-                let (x, y) = (i as i64 % w, i as i64 / w);
-                (-g..=g).any(|dy| (-g..=g).any(|dx| {
-                    let (xx, yy) = (x + dx, y + dy);
-                    xx >= 0 && yy >= 0 && xx < w && yy < h && hit[(yy * w + xx) as usize]
-                }))
-            })
-            .collect()
+        let (w, h, g) = (self.width as i64, self.height as i64, grow_px as i64);
+        let at = |x: i64, y: i64| (0..w).contains(&x) && (0..h).contains(&y) && hit[(y * w + x) as usize];
+        let near = |x: i64, y: i64| (-g..=g).any(|dy| (-g..=g).any(|dx| at(x + dx, y + dy)));
+        (0..(w * h) as u32).into_par_iter().filter(|&i| near(i as i64 % w, i as i64 / w)).collect()
     }
 }
