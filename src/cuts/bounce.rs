@@ -39,8 +39,8 @@
 //! objects at once count for neither (each is taken against the others' fields). No light
 //! reaches the real ground from the objects, and none goes back from `a` to `b` again.
 
-use super::frame::{FrameCuts, ObjectAmbient, Occluders, UnitLighting, VertexAmbient};
-use super::lighting::{ClusteredLighting, MIN_BRDF_COS};
+use super::frame::{FrameCuts, ObjectAmbient, Occluders, UnitLighting, VertexAmbient, add_node};
+use super::lighting::ClusteredLighting;
 use super::packed::{CutView, PackedCuts};
 use super::rotate::{LeafRemap, Pose, relative};
 use super::tree::{DirectionTree, node_index};
@@ -163,14 +163,7 @@ pub fn blocked_sums(tree: &DirectionTree, lights: &[&ClusteredLighting], open: &
         if blocked == 0.0 {
             return;
         }
-        let k = node_index(levels, h, first);
-        let d = tree.node_dir(k);
-        let spec = r.dot(d).max(0.0) / n.dot(d).max(MIN_BRDF_COS);
-        for (o, l) in out.iter_mut().zip(lights) {
-            let lv = l.node(k) * blocked;
-            o.0 += lv;
-            o.1 += lv * spec;
-        }
+        add_node(&mut out, tree, lights, node_index(levels, h, first), blocked, n, r);
     })?;
     Ok(out)
 }

@@ -149,16 +149,21 @@ fn irradiance_sums(tree: &DirectionTree, lights: &[&ClusteredLighting], views: &
         if value == 0.0 {
             return;
         }
-        let k = node_index(levels, h, first);
-        let d = tree.node_dir(k);
-        let spec = r.dot(d).max(0.0) / n.dot(d).max(MIN_BRDF_COS);
-        for (o, l) in out.iter_mut().zip(lights) {
-            let lv = l.node(k) * value;
-            o.0 += lv;
-            o.1 += lv * spec;
-        }
+        add_node(&mut out, tree, lights, node_index(levels, h, first), value, n, r);
     })?;
     Ok(out)
+}
+
+/// Adds node `k`'s light of each of `lights` times `weight` to `out`: about the normal `n`, and
+/// with the reflected direction `r`'s lobe (one node's share of Eqs. 3–4's sum).
+pub(super) fn add_node(out: &mut [(Vec3, Vec3)], tree: &DirectionTree, lights: &[&ClusteredLighting], k: usize, weight: f32, n: Vec3, r: Vec3) {
+    let d = tree.node_dir(k);
+    let spec = r.dot(d).max(0.0) / n.dot(d).max(MIN_BRDF_COS);
+    for (o, l) in out.iter_mut().zip(lights) {
+        let lv = l.node(k) * weight;
+        o.0 += lv;
+        o.1 += lv * spec;
+    }
 }
 
 fn rgbw(v: Vec3, w: f32) -> [f32; 4] {
