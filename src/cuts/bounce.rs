@@ -327,15 +327,8 @@ impl FrameCuts {
     /// directions `b`'s field closes among those the vertex's SVC and the other fields leave.
     fn vertex_bounce(&self, poses: &[Pose], a: usize, v: usize, eye: Vec3, lights: &[Option<(ClusteredLighting, ClusteredLighting)>], fields: &[(usize, Cut)]) -> Result<VertexAmbient, CutsError> {
         let obj = &self.cuts.objects[a];
-        let pose = poses[a];
-        let x = pose.point(obj.positions[v]);
-        if !x.is_finite() {
-            return Err(CutsError::NonFinitePoint(x.to_array()));
-        }
-        let n_local = obj.svc.normals[v];
-        let n = pose.dir(n_local);
-        let view = (eye - x).normalize_or(Vec3::Y);
-        let r = pose.local_dir((2.0 * n.dot(view) * n - view).normalize_or(n));
+        let (_, n_local, _, r) = self.vertex_geometry(poses, a, v, eye)?;
+        let r = poses[a].local_dir(r);
         let mut out: VertexAmbient = [[0.0; 4]; 4];
         for (i, (b, shut)) in fields.iter().enumerate() {
             let Some((pa, pd)) = &lights[*b] else { continue };

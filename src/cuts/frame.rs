@@ -290,8 +290,9 @@ impl FrameCuts {
         Ok(cuts)
     }
 
-    /// One vertex of [`Self::object_ambient_posed`], and whether its proxy lookup was clamped.
-    fn vertex_ambient(&self, frame: &ObjectFrame, poses: &[Pose], object: usize, v: usize, eye: Vec3) -> Result<(VertexAmbient, bool, Occluders), CutsError> {
+    /// Vertex `v` of `object` placed by its pose: the world point, the normal in the object's
+    /// frame and in the world, and the view direction's mirror about the normal (world) for `eye`.
+    pub(super) fn vertex_geometry(&self, poses: &[Pose], object: usize, v: usize, eye: Vec3) -> Result<(Vec3, Vec3, Vec3, Vec3), CutsError> {
         let obj = &self.cuts.objects[object];
         let pose = poses[object];
         let x = pose.point(obj.positions[v]);
@@ -301,7 +302,13 @@ impl FrameCuts {
         let n_local = obj.svc.normals[v];
         let n = pose.dir(n_local);
         let view = (eye - x).normalize_or(Vec3::Y);
-        let r = (2.0 * n.dot(view) * n - view).normalize_or(n);
+        Ok((x, n_local, n, (2.0 * n.dot(view) * n - view).normalize_or(n)))
+    }
+
+    /// One vertex of [`Self::object_ambient_posed`], and whether its proxy lookup was clamped.
+    fn vertex_ambient(&self, frame: &ObjectFrame, poses: &[Pose], object: usize, v: usize, eye: Vec3) -> Result<(VertexAmbient, bool, Occluders), CutsError> {
+        let (obj, pose) = (&self.cuts.objects[object], poses[object]);
+        let (x, n_local, n, r) = self.vertex_geometry(poses, object, v, eye)?;
         let others = self.occluders(frame, poses, x, n, object)?;
         let (proxy, outside) = match &self.cuts.proxy {
             Some(field) => {
