@@ -229,6 +229,12 @@ impl Estimator {
         &self.map
     }
 
+    /// The last frame's usable rows, for diagnostics: the pool entry of each row and the rows of
+    /// each channel (`a` the sky's column, `b` the sun's, `y` the observations as fitted).
+    pub fn frame_rows(&self) -> (&[u32], &[ChannelRows; 3]) {
+        (&self.entries, &self.rows)
+    }
+
     /// The current sun state, after the first frame.
     pub fn sun_state(&self) -> Option<&SunState> {
         self.sun.as_ref()

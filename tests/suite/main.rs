@@ -18,6 +18,7 @@ mod cli;
 mod cloud_lag;
 mod estimate_courtyard;
 mod estimate_dusk;
+mod estimate_dusk_rows;
 mod estimate_slices;
 mod estimator_stiff;
 mod interrupt_resume;

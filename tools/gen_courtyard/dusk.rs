@@ -4,9 +4,14 @@
 //!
 //! - **Time and sun**: Aalborg (57.05° N) on 2024-09-22 from 19:00 to 19:50 CEST, a frame every
 //!   10 min; the sun's apparent elevation falls from ≈ +1.6° to ≈ −5° (civil twilight).
-//! - **Sky**: while the sun is up, a Hosek–Wilkie sky of turbidity 3; once it has set, the same
-//!   shape frozen at 2° (the model is not defined for a sun below the horizon; a real twilight sky
-//!   is brightest toward the set sun as this one is). `Pa` (the sky's irradiance on an unoccluded
+//! - **Sky**: a Hosek–Wilkie sky of turbidity 3 for a sun at least 2° up; below 2° (frames 0–1,
+//!   the sun 1.6° and 0.75° up, as well as after sunset) the shape of a sun 2° up at the sun's
+//!   azimuth (the model is not defined for a sun below the horizon; a real twilight sky is
+//!   brightest toward the set sun as this one is). heliar's estimator uses the sun's own shape,
+//!   lifted onto the horizon once it has set: on frames 1–5 the two skies differ (the walls get
+//!   2–11% more sky light than the estimator's model says, the paving 2–3% less), which is most
+//!   of the estimator's low lamp scale on this scene (`docs/measurements.md`, "Why the dusk
+//!   lamp's `k` came out low"). `Pa` (the sky's irradiance on an unoccluded
 //!   horizontal surface) falls as `10^(h/3)` with the elevation `h` in degrees — about a factor of
 //!   100 over civil twilight, as measured twilight illuminance does — and turns bluer.
 //!   `Pd` follows the winter scenes' Beer–Lambert sun (`winter::sun_irradiance`) while `h > 0` and
@@ -44,7 +49,7 @@ use std::time::Instant;
 pub(super) const START: &str = "2024-09-22T19:00:00+02:00";
 /// When the environment map was captured: the same afternoon, the lamp off.
 const CAPTURE: &str = "2024-09-22T15:00:00+02:00";
-const FRAMES: usize = 6;
+pub(super) const FRAMES: usize = 6;
 /// Seconds between frames (10 min).
 pub(super) const INTERVAL_S: f64 = 600.0;
 /// The lamp is on from this frame on.
@@ -64,7 +69,9 @@ const PA_GREEN_CAPTURE: f32 = 0.45;
 pub(super) const LAMP_CENTRE: [f32; 3] = [0.0, 4.0, 2.0];
 const LAMP_RADIUS_M: f32 = 0.15;
 const LAMP_INTENSITY: f32 = 0.8;
-const FRAME_SPP: u32 = 64;
+pub(super) const FRAME_SPP: u32 = 64;
+/// Seed of frame `i`'s render: `FRAME_SEED + i` (its sensor noise draws from `3000 + i`).
+pub(super) const FRAME_SEED: u64 = 300;
 const ENV_SPP: u32 = 32;
 const ENV_WIDTH: u32 = 256;
 const ENV_CENTRE: [f32; 3] = [0.0, 1.5, 2.0];
@@ -95,7 +102,8 @@ fn twilight_pa(h_deg: f64) -> Vec3 {
     Vec3::from(PA_TINT_SUNSET).lerp(Vec3::from(PA_TINT_DEEP), t) * green
 }
 
-/// The sky's shape for a sun at `sun`: its own while it is up, frozen at 2° once it has set.
+/// The sky's shape for a sun at `sun`: its own while it is at least 2° up, else that of a sun 2° up
+/// at its azimuth (module docs).
 fn sky_for(sun: Vec3) -> Result<SkyLight> {
     let floor = TWILIGHT_SHAPE_ELEVATION_DEG.to_radians().sin() as f32;
     let shape_sun = if sun.y >= floor {
@@ -180,7 +188,7 @@ pub fn run(args: &Args, out: &Path) -> Result<()> {
     let mut previews = Vec::new();
     for (i, f) in frames.iter().enumerate() {
         let light = Lighting { sun: f.sun, sky: &f.sky, terrain_albedo: terrain, lamp: Some(lamp()) };
-        let px = render_region_with_lamp(&scene, &truth_albedo, &cam, &light, FRAME_SPP, 300 + i as u64, (0, 0, w, h));
+        let px = render_region_with_lamp(&scene, &truth_albedo, &cam, &light, FRAME_SPP, FRAME_SEED + i as u64, (0, 0, w, h));
         let mut rng = SmallRng::seed_from_u64(3000 + i as u64);
         let data = px
             .iter()

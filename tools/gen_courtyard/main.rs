@@ -89,6 +89,11 @@ struct Args {
     /// --spp samples per pixel (`dusk_parts.rs`); nothing else is written.
     #[arg(long, value_name = "DIR")]
     dusk_parts: Option<PathBuf>,
+    /// Write the dusk frames (frames/hdr, the whole view, no statue) split by light (sky, sun,
+    /// lamp) into DIR with the frames' own seeds and samples, so that the parts add up to each
+    /// frame before its sensor noise (`dusk_parts.rs`); nothing else is written.
+    #[arg(long, value_name = "DIR")]
+    dusk_frame_parts: Option<PathBuf>,
 }
 
 const START: &str = "2024-06-21T15:30:00+02:00";
@@ -213,6 +218,9 @@ fn write(path: &Path, text: &str) -> Result<()> {
 
 fn main() -> Result<()> {
     let args = Args::parse();
+    if let Some(dir) = &args.dusk_frame_parts {
+        return dusk_parts::run_frames(&args, dir);
+    }
     if let Some(dir) = &args.dusk_parts {
         return dusk_parts::run(&args, dir);
     }
