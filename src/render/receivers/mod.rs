@@ -64,6 +64,9 @@ pub struct Receivers {
     have_ambient: Vec<bool>,
     /// `c_v`, `b_v` are known.
     have_with: Vec<bool>,
+    /// `c_v`, `b_v` belong to the visibility cuts: a moved object can reach the pixel
+    /// ([`Receivers::forget_objects_at`]); the others keep their traced values.
+    by_cuts: Vec<bool>,
     /// The steps replayed frames decided on but did not do, in order (see [`Receivers::replay`]).
     owed: Vec<Owed>,
     /// Pixels whose `b` has been computed for `bounce_sun`.
@@ -108,6 +111,8 @@ enum Owed {
     Visibility { pixels: Vec<u32>, visibility: Vec<f32> },
     /// The objects moved: `c_v`, `b_v` forgotten ([`Receivers::forget_objects`]).
     Forget,
+    /// Some objects moved: `c_v`, `b_v` forgotten at these pixels ([`Receivers::forget_objects_at`]).
+    ForgetAt(Vec<u32>),
 }
 
 /// The fraction of pixel `p` (footage grid) whose first proxy surface sees the sun `l`.
@@ -165,6 +170,7 @@ impl Receivers {
             bounce_with: vec![[0.0; 4]; n],
             have_ambient: vec![false; n],
             have_with: vec![false; n],
+            by_cuts: vec![false; n],
             owed: Vec::new(),
             have_bounce: vec![false; n],
             bounce_sun: None,
@@ -299,10 +305,44 @@ impl Receivers {
     /// objects computes them again where they are needed.
     /// Computations owed by replayed frames before the move are forgotten after them, in order.
     pub fn forget_objects(&mut self) {
+        self.by_cuts.fill(false);
         self.clear_with();
         if !self.owed.is_empty() {
             self.owed.push(Owed::Forget);
         }
+    }
+
+    /// Forgets `c_v` and `b_v` at `pixels` only (objects moved that can reach them, the others
+    /// keep theirs: `compositor::kept`): from now on they belong to the visibility cuts
+    /// ([`Self::by_cuts`]) and are not traced again with the objects. Owed in order while
+    /// replayed frames owe computations, as [`Self::forget_objects`].
+    pub fn forget_objects_at(&mut self, pixels: &[u32]) {
+        for &p in pixels {
+            let Some(b) = self.by_cuts.get_mut(p as usize) else { continue };
+            *b = true;
+            self.have_with[p as usize] = true;
+        }
+        if self.owed.is_empty() {
+            self.clear_with_at(pixels);
+        } else {
+            self.owed.push(Owed::ForgetAt(pixels.to_vec()));
+        }
+    }
+
+    fn clear_with_at(&mut self, pixels: &[u32]) {
+        for &p in pixels {
+            let i = p as usize;
+            if i < self.ambient_with.len() {
+                self.ambient_with[i] = [1.0, 1.0, 1.0, 0.0];
+                self.bounce_with[i] = [0.0; 4];
+            }
+        }
+    }
+
+    /// Those of `pixels` whose `c_v`, `b_v` belong to the visibility cuts
+    /// ([`Self::forget_objects_at`]).
+    pub fn by_cuts(&self, pixels: &[u32]) -> Vec<u32> {
+        pixels.iter().copied().filter(|&p| self.by_cuts.get(p as usize).copied().unwrap_or(false)).collect()
     }
 
     fn clear_with(&mut self) {
@@ -359,6 +399,7 @@ impl Receivers {
                     self.bounce_with.iter_mut().for_each(|b| *b = [0.0; 4]);
                 }
                 Owed::Forget => self.clear_with(),
+                Owed::ForgetAt(pixels) => self.clear_with_at(&pixels),
                 Owed::Visibility { pixels, visibility } => self.set_with_from_visibility(&pixels, &visibility),
                 Owed::Compute { todo, bounce_sun, with: with_on, sky } => {
                     let q = if bounce_sun.is_some() { bounce_quality } else { ambient_quality };
