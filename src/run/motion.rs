@@ -298,7 +298,8 @@ impl MovingObjects {
                 // The objects' part; the receivers' part is timed where it runs (the compositor's
                 // receiver step) and added to the same `cuts_ms`.
                 cuts.outcome = CutOutcome::Ran(t.elapsed().as_secs_f64() * 1e3);
-                compositor.move_objects_with_cuts(&list, &frame.moved, &ambient.vertices, Box::new(move |s: &[(Vec3, Vec3)]| receivers.visibility(s)))
+                let reach_m = cuts.reach_m();
+                compositor.move_objects_with_cuts(&list, &frame.moved, &ambient.vertices, Box::new(move |s: &[(Vec3, Vec3)]| receivers.visibility(s)), &reach_m)
             }
             Err(e) => {
                 cuts.outcome = CutOutcome::Skipped(format!("the cuts could not be evaluated ({e}): re-traced"));

@@ -159,6 +159,13 @@ impl CutState {
         Ok((ambient, receivers))
     }
 
+    /// Per object, how far its visibility cut field reaches beyond its bounding sphere's centre:
+    /// the outermost sphere's radius, m (`crate::cuts::vcf`; the compositor measures it from the
+    /// object's box, `render::compositor`'s `kept`, which reaches a little farther).
+    pub fn reach_m(&self) -> Vec<f32> {
+        self.frame.cuts.objects.iter().map(|o| o.vcf.radius_m * o.vcf.sampling.outer_factor).collect()
+    }
+
     /// The cuts' direction tree.
     pub fn tree(&self) -> &crate::cuts::DirectionTree {
         &self.frame.tree

@@ -27,6 +27,7 @@ mod lamps_estimate;
 mod live;
 mod live_drag;
 mod object_cuts;
+mod object_cuts_far;
 mod object_cuts_turned;
 mod object_cuts_two;
 mod object_motion;

@@ -17,7 +17,8 @@
 //!    per frame while the previous one serves), or SH ambient from the probe grid times the
 //!    objects' own ambient occlusion where the transfer has no entry (or is off); after the
 //!    objects moved by translation, the per-vertex ambient of the visibility cuts instead
-//!    (`motion`, issue 15 §2).
+//!    (`motion`, issue 15 §2), except for the unmoved objects no moved one reaches, which keep
+//!    the transfer (`kept`, issue 15 §5).
 //!
 //! Then, in the footage's pixel grid, the composite warps the canvas layers through the lens
 //! model and darkens the footage: under the virtual shadow with the proxy's normal and `c`, and,
@@ -63,6 +64,7 @@ mod config;
 mod context;
 mod encode;
 mod ground_bounce;
+mod kept;
 mod lamp_bounce;
 mod lamps;
 mod motion;
@@ -158,6 +160,8 @@ pub struct Compositor {
     vertex_sources: Vec<Vec<u32>>,
     /// The receivers' sky visibility from the visibility cuts, while they serve (see `motion`).
     cuts: Option<motion::ReceiverVisibility>,
+    /// The objects that keep their traced transfer while others move under the cuts (`kept`).
+    kept: kept::KeptTrace,
     /// The lamp stage (`None`: the scene has no lamps).
     lamps: Option<super::lamps::LampPass>,
     /// The lamps' bounce on the objects (`None`: no lamps, or its option off).

@@ -7,11 +7,16 @@
 //!   rigidly, translated and turned, since the cuts were computed, cyberworlds §V and
 //!   `cuts::rotate`). Each moved object's shadow-volume occluder is
 //!   rebuilt (the sun keeps its exact stencil shadow volumes) and the vertex buffer and bounds
-//!   follow; the ambient of every object comes from the per-vertex ambient of the cuts
-//!   (`cuts::frame`, uploaded for `shaders/virtual_shading.wgsl`), and the receivers'
-//!   `c_v`, `b_v` from their sky visibility with the objects present (`c·V`, `b·V`, set where
-//!   the next frame needs them, `receiver_update`) instead of a re-trace. Nothing is traced
-//!   against the objects: no BVH with them, no ambient occlusion, no transfer.
+//!   follow. The objects that moved, and those a moved object's cut field reaches, take their
+//!   ambient from the per-vertex ambient of the cuts (`cuts::frame`, uploaded for
+//!   `shaders/virtual_shading.wgsl`); an object that did not move and that no moved object
+//!   reaches keeps its traced per-pixel transfer (its vertices are not served by the cuts,
+//!   `w = 0`), and so do the receivers no moved object reaches (`kept`, issue 15 §5). The
+//!   receivers a moved object reaches take `c_v`, `b_v` from their sky visibility with the
+//!   objects present (`c·V`, `b·V`, set where the next frame needs them, `receiver_update`)
+//!   instead of a re-trace. Nothing is traced against the moved objects: no BVH with them, no
+//!   ambient occlusion, no transfer. With one object, or when every object moved or is reached,
+//!   all take the cuts.
 //! - **The re-trace** ([`Compositor::move_objects`]; an object scaled along its motion, or a scene
 //!   without cuts):
 //!   the objects' buffers, bounds, the combined proxy-and-objects BVH and the objects' own
@@ -19,8 +24,9 @@
 //!   where the next frame needs them). The shading falls back to the probe grid times the
 //!   objects' ambient occlusion.
 //!
-//! Either way the per-pixel transfer traced for the objects' old places is stale: it is dropped
-//! (reported as the `object_transfer` pass's reason) and the stored stencil is dropped.
+//! Unless an object keeps it, the per-pixel transfer traced for the objects' old places is
+//! stale: it is dropped (reported as the `object_transfer` pass's reason, which names the
+//! objects that keep it or why each takes the cuts); the stored stencil is dropped.
 
 use super::setup::{MIN_NEAR_RADIUS_M, NEAR_RADIUS_HALF_DIAGONALS, object_occlusion};
 use super::Compositor;
@@ -65,10 +71,12 @@ impl Compositor {
         self.cuts.is_some()
     }
 
-    /// Rebuilds the moved objects' occluders and the objects' vertex buffer and bounds; the
-    /// transfer is dropped with `reason`, the receivers forget `c_v`, `b_v`, the stencil is
-    /// dropped. Returns the meshes.
-    fn follow<'a>(&mut self, objects: &'a [(String, &'a Mesh)], moved: &[bool], reason: &str) -> Result<Vec<&'a Mesh>, RenderError> {
+    /// Rebuilds the moved objects' occluders and the objects' vertex buffer and bounds, and
+    /// decides which objects keep the traced transfer (`kept`; `reach_m`: each moved object's
+    /// cut-field reach under the cuts, `None` for a re-trace). Those that do not: the transfer
+    /// is dropped with `reason` and the receivers forget `c_v`, `b_v`; otherwise only the
+    /// receivers a moved object reaches do. The stencil is dropped. Returns the meshes.
+    fn follow<'a>(&mut self, objects: &'a [(String, &'a Mesh)], moved: &[bool], reason: &str, reach_m: Option<&[f32]>) -> Result<Vec<&'a Mesh>, RenderError> {
         let meshes: Vec<&Mesh> = objects.iter().map(|(_, m)| *m).collect();
         for (k, (name, mesh)) in objects.iter().enumerate() {
             if moved.get(k).copied().unwrap_or(false) {
@@ -79,8 +87,24 @@ impl Compositor {
         self.virt = VirtualBuffers::new(&self.gpu.device, &self.gpu.queue, &self.mat_layout, &meshes, &closed)?;
         self.virtual_bounds = meshes.iter().filter_map(|m| m.bounds()).collect();
         let near_radius_m = self.virtual_bounds.iter().map(|(lo, hi)| (*hi - *lo).length() / 2.0 * NEAR_RADIUS_HALF_DIAGONALS).fold(MIN_NEAR_RADIUS_M, f32::max);
-        self.transfer.drop_traced(reason);
-        self.receivers.forget_objects();
+        let names: Vec<&str> = objects.iter().map(|(n, _)| n.as_str()).collect();
+        let traced = self.transfer.transfer().is_some();
+        match reach_m {
+            Some(reach) if self.kept.decide(&self.canvas, &names, &self.virtual_bounds, moved, reach_m, traced) => {
+                let reached = self.reached_pixels(moved, reach);
+                self.receivers.forget_objects_at(&reached);
+                self.transfer.set_note(Some(self.kept.note()));
+            }
+            _ => {
+                if reach_m.is_none() {
+                    self.kept.decide(&self.canvas, &names, &self.virtual_bounds, moved, None, traced);
+                }
+                let all_moved = self.kept.displaced().iter().all(|d| *d);
+                let why = if traced && !all_moved { format!("{reason} ({})", self.kept.note()) } else { reason.to_owned() };
+                self.transfer.drop_traced(&why);
+                self.receivers.forget_objects();
+            }
+        }
         if let Some(g) = self.ground_bounce.as_mut() {
             g.forget();
         }
@@ -96,7 +120,7 @@ impl Compositor {
         if !moved.iter().any(|m| *m) {
             return Ok(());
         }
-        let meshes = self.follow(objects, moved, TRANSFER_DROPPED)?;
+        let meshes = self.follow(objects, moved, TRANSFER_DROPPED, None)?;
         if self.cuts.take().is_some() {
             self.write_cut_ambient(&[]);
         }
@@ -109,9 +133,12 @@ impl Compositor {
     /// Moves the virtual objects (as [`Self::move_objects`]) with their ambient and the
     /// receivers' visibility from the visibility cuts: `ambient[k][v]` for vertex `v` of object
     /// `k`'s mesh. See the module docs.
-    pub fn move_objects_with_cuts(&mut self, objects: &[(String, &Mesh)], moved: &[bool], ambient: &[Vec<VertexAmbient>], receivers: ReceiverVisibility) -> Result<(), RenderError> {
+    /// `reach_m[k]`: how far object `k`'s visibility cut field reaches from its box (its
+    /// outermost sphere's radius), which decides the objects and receivers that keep their trace
+    /// (`kept`).
+    pub fn move_objects_with_cuts(&mut self, objects: &[(String, &Mesh)], moved: &[bool], ambient: &[Vec<VertexAmbient>], receivers: ReceiverVisibility, reach_m: &[f32]) -> Result<(), RenderError> {
         if moved.iter().any(|m| *m) {
-            self.follow(objects, moved, TRANSFER_BY_CUTS)?;
+            self.follow(objects, moved, TRANSFER_BY_CUTS, Some(reach_m))?;
         }
         self.set_cuts(ambient, receivers);
         Ok(())
@@ -124,11 +151,13 @@ impl Compositor {
         self.cuts = Some(receivers);
     }
 
-    /// Uploads `ambient` in the vertex buffer's order (zero where missing: not served).
+    /// Uploads `ambient` in the vertex buffer's order (zero where missing, and for the objects
+    /// that keep the traced transfer: not served).
     fn write_cut_ambient(&self, ambient: &[Vec<VertexAmbient>]) {
         let mut data: Vec<VertexAmbient> = Vec::with_capacity(self.vertex_sources.iter().map(Vec::len).sum::<usize>().max(1));
         for (k, sources) in self.vertex_sources.iter().enumerate() {
-            let obj = ambient.get(k);
+            let keeps = self.kept.keeps().get(k).copied().unwrap_or(false) && self.transfer.transfer().is_some();
+            let obj = ambient.get(k).filter(|_| !keeps);
             data.extend(sources.iter().map(|&v| obj.and_then(|a| a.get(v as usize)).copied().unwrap_or([[0.0; 4]; 4])));
         }
         if data.is_empty() {

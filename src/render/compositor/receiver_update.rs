@@ -143,8 +143,8 @@ impl Compositor {
         }
         let warmed = differential && !ctx.reuses() && self.warm_reach(ctx, report);
         let c = &self.config;
-        // With the visibility cuts serving, `c_v`, `b_v` come from them, not from a trace.
-        let with = if differential && self.cuts.is_none() { self.with_ray.as_deref() } else { None };
+        let with_ray = self.receivers_with(differential);
+        let with = with_ray.as_deref();
         let mut pixels = Vec::new();
         let s = if ctx.reuses() {
             // The stored stencil serves, but a recomputation in progress moves on.
@@ -179,12 +179,22 @@ impl Compositor {
         true
     }
 
+    /// The scene the receivers' `c_v`, `b_v` are traced in: the proxy and the objects at their
+    /// set-up places, unless the visibility cuts serve all of them (with the cuts serving and
+    /// some objects keeping their trace, `kept`, the receivers no moved object reaches are traced
+    /// as without motion); `None` without the differential model.
+    pub(super) fn receivers_with(&self, differential: bool) -> Option<std::sync::Arc<crate::geometry::raycast::RayScene>> {
+        if differential && (self.cuts.is_none() || self.kept.any()) { self.with_ray.clone() } else { None }
+    }
+
     /// The sky visibility with the objects present, from the visibility cuts at their current
-    /// poses, of those of `pixels` that see the proxy (with those pixels); `None` when the cuts
-    /// do not serve.
+    /// poses, of those of `pixels` that see the proxy and take the cuts (all of them, or, while
+    /// some objects keep their trace, those a moved object has reached: `kept`), with those
+    /// pixels; `None` when the cuts do not serve.
     pub(super) fn cut_visibility(&self, pixels: &[u32]) -> Option<(Vec<u32>, Vec<f32>)> {
         let cuts = self.cuts.as_ref()?;
-        let kept: Vec<u32> = pixels.iter().copied().filter(|&p| self.receivers.surface(p).is_some()).collect();
+        let served = if self.kept.any() { self.receivers.by_cuts(pixels) } else { pixels.to_vec() };
+        let kept: Vec<u32> = served.into_iter().filter(|&p| self.receivers.surface(p).is_some()).collect();
         let surfaces: Vec<(Vec3, Vec3)> = kept.iter().filter_map(|&p| self.receivers.surface(p)).collect();
         let vis = cuts(&surfaces);
         Some((kept, vis))

@@ -76,9 +76,11 @@ impl Compositor {
             self.receivers.replay(&reach, sun, rebuild, false, self.config.bounce_quality.paths);
         }
         let pixels = self.receiver_pixels.pixels(&self.receivers, &self.virtual_bounds, ctx.sun(), differential, rebuild).to_vec();
-        // With the visibility cuts serving, `c_v`, `b_v` are not traced (`receiver_update`).
+        // With the visibility cuts serving all objects, `c_v`, `b_v` are not traced
+        // (`receiver_update`).
         let sun = ctx.traced_sun(self.receivers.sky_model());
-        self.receivers.replay(&pixels, sun, rebuild, differential && self.cuts.is_none(), self.config.bounce_quality.paths);
+        let with = self.receivers_with(differential).is_some();
+        self.receivers.replay(&pixels, sun, rebuild, with, self.config.bounce_quality.paths);
         // `c_v`, `b_v` from the cuts at this frame's poses, owed in order after the pixels'
         // `c`, `b` (`update_receivers` sets them right after computing those).
         if differential && let Some((kept, vis)) = self.cut_visibility(&pixels) {
@@ -89,7 +91,8 @@ impl Compositor {
     /// Pays what replayed frames owe before the frame `now` is recorded into `encoder`.
     pub(super) fn restore(&mut self, now: &FrameContext, encoder: &mut wgpu::CommandEncoder, report: &mut PassReport) {
         let differential = self.config.darkening == Darkening::Differential;
-        let with = if differential && self.cuts.is_none() { self.with_ray.as_deref() } else { None };
+        let with_ray = self.receivers_with(differential);
+        let with = with_ray.as_deref();
         let t = std::time::Instant::now();
         let owed_values = self.receivers.owes();
         let computed = self.receivers.restore(&self.proxy_ray, with, self.config.ambient_quality, self.config.bounce_quality);

@@ -186,6 +186,7 @@ impl Compositor {
         let cut_ambient = cut_ambient_buffer(d, vertex_sources.iter().map(Vec::len).sum());
         let shading_bg = Self::shading_bind_group(d, &p.shading, &uniforms.camera_buf, &uniforms.lighting_buf, &probes, &res, &cut_ambient);
         res.write_receivers(&gpu.queue, &canvas, &receivers);
+        let kept = super::kept::KeptTrace::new(virtual_bounds.clone());
         Ok(Self {
             config,
             canvas,
@@ -224,6 +225,7 @@ impl Compositor {
             cut_ambient,
             vertex_sources,
             cuts: None,
+            kept,
             lamps: None,
             lamp_bounce: None,
             ground_bounce: None,

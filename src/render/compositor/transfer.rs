@@ -23,6 +23,9 @@ pub struct TransferPass {
     rebuild_deg: f64,
     /// Why the transfer was dropped after set-up (an object moved), for the report.
     dropped: Option<String>,
+    /// Which objects it serves while others move under the visibility cuts (`kept`), for the
+    /// report.
+    note: Option<String>,
 }
 
 /// The sun direction the transfer is traced for ([`FrameContext::traced_sun`]): under a sky
@@ -37,7 +40,7 @@ impl TransferPass {
     /// The unit for `traced` (`None`: `transfer_paths = 0` or no objects), retraced past a sun
     /// motion of `rebuild_deg`.
     pub fn new(traced: Option<(TransferScene, ObjectTransfer)>, rebuild_deg: f64) -> Self {
-        Self { traced, rebuild_deg, dropped: None }
+        Self { traced, rebuild_deg, dropped: None, note: None }
     }
 
     /// The transfer, when it is on.
@@ -54,7 +57,14 @@ impl TransferPass {
     /// and the shading falls back to the probe grid times ambient occlusion.
     pub fn drop_traced(&mut self, reason: &str) {
         self.traced = None;
+        self.note = None;
         self.dropped = Some(reason.to_owned());
+    }
+
+    /// Says which objects the kept transfer serves (objects moved under the cuts, `kept`); the
+    /// plan's reasons end with it.
+    pub fn set_note(&mut self, note: Option<String>) {
+        self.note = note;
     }
 
     /// The lattice stride the shading pass reads the transfer with (0: off this frame).
@@ -135,6 +145,13 @@ impl Pass<FrameContext> for TransferPass {
         }
         if transfer.surfaces().is_empty() {
             return Plan::skip("no canvas pixel shows a virtual object");
+        }
+        if let Some(note) = &self.note {
+            // Objects moved under the visibility cuts; the others keep the transfer (`kept`).
+            return Plan::skip(match (transfer.traced_sun(), sun) {
+                (Some(a), Some(l)) => format!("the sun moved {:.3}° ≤ {}° since it was traced and objects moved under the visibility cuts: the transfer is {note}", angle_deg(a, l), self.rebuild_deg),
+                _ => format!("no sun and objects moved under the visibility cuts: the traced sky transfer is {note}"),
+            });
         }
         Plan::skip(match (transfer.traced_sun(), sun) {
             (Some(a), Some(l)) => format!(

@@ -25,6 +25,7 @@
 //! frame reshapes the sky: the values are recomputed under it as after a sun move (a slice per
 //! frame within the budget, the stored values serving), not dropped.
 
+mod cuts;
 mod retrace;
 mod sweep;
 
@@ -64,6 +65,9 @@ pub struct Receivers {
     have_ambient: Vec<bool>,
     /// `c_v`, `b_v` are known.
     have_with: Vec<bool>,
+    /// `c_v`, `b_v` belong to the visibility cuts: a moved object can reach the pixel
+    /// ([`Receivers::forget_objects_at`]); the others keep their traced values.
+    by_cuts: Vec<bool>,
     /// The steps replayed frames decided on but did not do, in order (see [`Receivers::replay`]).
     owed: Vec<Owed>,
     /// Pixels whose `b` has been computed for `bounce_sun`.
@@ -108,6 +112,8 @@ enum Owed {
     Visibility { pixels: Vec<u32>, visibility: Vec<f32> },
     /// The objects moved: `c_v`, `b_v` forgotten ([`Receivers::forget_objects`]).
     Forget,
+    /// Some objects moved: `c_v`, `b_v` forgotten at these pixels ([`Receivers::forget_objects_at`]).
+    ForgetAt(Vec<u32>),
 }
 
 /// The fraction of pixel `p` (footage grid) whose first proxy surface sees the sun `l`.
@@ -165,6 +171,7 @@ impl Receivers {
             bounce_with: vec![[0.0; 4]; n],
             have_ambient: vec![false; n],
             have_with: vec![false; n],
+            by_cuts: vec![false; n],
             owed: Vec::new(),
             have_bounce: vec![false; n],
             bounce_sun: None,
@@ -299,6 +306,7 @@ impl Receivers {
     /// objects computes them again where they are needed.
     /// Computations owed by replayed frames before the move are forgotten after them, in order.
     pub fn forget_objects(&mut self) {
+        self.by_cuts.fill(false);
         self.clear_with();
         if !self.owed.is_empty() {
             self.owed.push(Owed::Forget);
@@ -319,28 +327,6 @@ impl Receivers {
         Some((point, Vec3::new(n[0], n[1], n[2])))
     }
 
-    /// Sets `c_v = c·V` and `b_v = b·V` at `pixels` from each one's sky visibility with the
-    /// objects present `visibility` (the visibility cuts, `crate::cuts::frame`) instead of
-    /// tracing them with the objects. Pixels whose `c` is not known are left alone.
-    pub fn set_with_from_visibility(&mut self, pixels: &[u32], visibility: &[f32]) {
-        for (&p, &v) in pixels.iter().zip(visibility) {
-            let i = p as usize;
-            if i >= self.point.len() || !self.have_ambient[i] {
-                continue;
-            }
-            let (c, b) = (self.ambient[i], self.bounce[i]);
-            self.ambient_with[i] = [c[0] * v, c[1] * v, c[2] * v, 1.0];
-            self.bounce_with[i] = [b[0] * v, b[1] * v, b[2] * v, 1.0];
-            self.have_with[i] = true;
-        }
-    }
-
-    /// Owes [`Self::set_with_from_visibility`] with `visibility` at `pixels` (a replayed frame's
-    /// visibility cuts), after the computations owed before it.
-    pub fn owe_visibility(&mut self, pixels: Vec<u32>, visibility: Vec<f32>) {
-        self.owed.push(Owed::Visibility { pixels, visibility });
-    }
-
     /// True when replayed frames owe computations.
     pub fn owes(&self) -> bool {
         !self.owed.is_empty() || self.job_owes()
@@ -359,6 +345,7 @@ impl Receivers {
                     self.bounce_with.iter_mut().for_each(|b| *b = [0.0; 4]);
                 }
                 Owed::Forget => self.clear_with(),
+                Owed::ForgetAt(pixels) => self.clear_with_at(&pixels),
                 Owed::Visibility { pixels, visibility } => self.set_with_from_visibility(&pixels, &visibility),
                 Owed::Compute { todo, bounce_sun, with: with_on, sky } => {
                     let q = if bounce_sun.is_some() { bounce_quality } else { ambient_quality };

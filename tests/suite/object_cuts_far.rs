@@ -1,0 +1,144 @@
+//! A second object moving under the visibility cuts far from the courtyard's statue (issue 15
+//! §5, step 1; `render::compositor`'s `kept`): the statue, which did not move and which the
+//! mover's cut field never reaches, keeps its traced per-pixel transfer and the ground around it
+//! its traced `c_v`, `b_v`, so its pixels are those of the same scene with the mover standing
+//! still, bit for bit; a mover that comes near the statue switches it to the cuts, and the
+//! report says why.
+
+use crate::common::*;
+use crate::object_cuts::{augment3, edit, object_hits, object_pixels};
+use heliar::scene::Scene;
+use std::path::Path;
+
+/// The statue as the courtyard places it (unchanged by the edits below).
+const STATUE_END: &str = "rotation_y_deg = 25\nscale = 1.0\n";
+/// The mover's scale (the statue's mesh at 0.3: 0.45 m tall, its cut field reaching about
+/// 10 × its bounding radius, under 3 m).
+const MOVER_SCALE: f64 = 0.3;
+/// Where the mover stands for two frames: 3.3 m from the statue's box along x, 2.9 m along z
+/// (4.3 m apart), at canvas x ≈ 240, right of the statue (x ≈ 129).
+const A: &str = "[2.0, 0, -3.5]";
+/// Where it has gone on frame 2 (10 s later): farther still.
+const FAR: &str = "[3.5, 0, -4.5]";
+/// Where it goes instead in the second test: 0.6 m in front of the statue's pedestal.
+const NEAR: &str = "[-0.6, 0, 0.8]";
+
+/// The courtyard with the mover at `A`, still (`to = None`) or moving to `to` on frame 2.
+fn scene(name: &str, to: Option<&str>) -> std::path::PathBuf {
+    let dir = scratch_courtyard(name);
+    std::fs::copy(dir.join("objects/statue.glb"), dir.join("objects/mover.glb")).unwrap();
+    let mut mover = format!("[[virtual_objects]]\nfile = \"objects/mover.glb\"\ntranslation = {A}\nscale = {MOVER_SCALE}\n");
+    if let Some(to) = to {
+        mover += &format!(
+            "[[virtual_objects.motion.keyframes]]\ntime = 0.0\ntranslation = {A}\n\
+             [[virtual_objects.motion.keyframes]]\ntime = 10.0\ntranslation = {A}\n\
+             [[virtual_objects.motion.keyframes]]\ntime = 20.0\ntranslation = {to}\n"
+        );
+    }
+    edit(&dir, STATUE_END, &format!("{STATUE_END}\n{mover}"));
+    dir
+}
+
+/// The statue's interior pixels (the scene without the mover).
+fn statue_pixels(dir: &Path) -> Vec<usize> {
+    let mut s = Scene::load(dir).unwrap();
+    s.virtual_objects.truncate(1);
+    object_pixels(&s)
+}
+
+/// The `object_transfer` pass's reason on report line `line`.
+fn transfer_reason(line: &serde_json::Value) -> String {
+    let skipped = line["passes"]["skipped"].as_array().cloned().unwrap_or_default();
+    skipped.iter().find(|s| s["pass"] == "object_transfer").and_then(|s| s["reason"].as_str().map(str::to_owned)).unwrap_or_default()
+}
+
+#[test]
+fn a_far_mover_leaves_the_statue_and_its_ground_traced_bit_for_bit() {
+    let outs = std::env::temp_dir().join(format!("heliar-cuts-far-out-{}", std::process::id()));
+    let still = scene("cuts-far-still", None);
+    let moving = scene("cuts-far-moving", Some(FAR));
+    let (a, _) = augment3(&still, &outs.join("still"));
+    let (b, lines) = augment3(&moving, &outs.join("moving"));
+    let passes = &lines[2]["passes"];
+    assert!(passes["moved"].as_array().unwrap().iter().any(|m| m == "mover.glb"), "{passes}");
+    assert!(passes["ran"].as_array().unwrap().iter().any(|p| p == "visibility_cuts"), "{passes}");
+    // The transfer was kept (nothing traced again) and says for whom.
+    assert_eq!(passes["transfer_traced"].as_u64(), Some(0), "{passes}");
+    let reason = transfer_reason(&lines[2]);
+    assert!(reason.contains("kept for statue.glb") && reason.contains("cuts per vertex for mover.glb (moved)"), "{reason}");
+
+    // The statue's pixels: the same bits as with the mover standing still.
+    let statue = statue_pixels(&still);
+    assert!(statue.len() > 350, "{} statue pixels", statue.len());
+    for f in 0..3 {
+        let differ = statue.iter().filter(|&&i| a[f].data[i] != b[f].data[i]).count();
+        assert_eq!(differ, 0, "frame {f}: {differ} of the statue's {} pixels differ from the still run", statue.len());
+    }
+
+    // Every other pixel that differs on frame 2 shows the mover (at A in the still run, at FAR
+    // in the moving one) or sees the ground within the mover's reach there: 10 bounding radii,
+    // below 10 half-diagonals of its box (its shadow at 15:30, sun ~50° up, is 0.4 m long).
+    let scene_still = Scene::load(&still).unwrap();
+    let scene_far = {
+        let mut s = Scene::load(&moving).unwrap();
+        let d = glam::Vec3::new(1.5, 0.0, -1.0);
+        s.virtual_objects[1].mesh.positions.iter_mut().for_each(|p| *p += d);
+        s
+    };
+    let mover_box = |s: &Scene| s.virtual_objects[1].mesh.bounds().unwrap();
+    let (at_a, at_far) = (mover_box(&scene_still), mover_box(&scene_far));
+    let reach = (at_a.1 - at_a.0).length() / 2.0 * 10.0;
+    let hits_a = object_hits(&scene_still);
+    let hits_far = object_hits(&scene_far);
+    let proxy = heliar::geometry::raycast::RayScene::new(scene_still.proxy.clone());
+    let w = scene_still.camera.intrinsics.width;
+    let near_mover = |i: usize| {
+        let Some((o, d)) = scene_still.camera.pixel_ray(i as u32 % w, i as u32 / w) else { return true };
+        let Some(hit) = proxy.intersect(o.as_vec3(), d.as_vec3(), f32::MAX) else { return false };
+        [at_a, at_far].iter().any(|(lo, hi)| (hit.point.clamp(*lo, *hi) - hit.point).length() <= reach)
+    };
+    // The bilinear lens warp reads one pixel beyond: grow the allowed region by 2 pixels.
+    let allowed: Vec<bool> = (0..a[2].data.len()).map(|i| hits_a[i] || hits_far[i] || near_mover(i)).collect();
+    let allowed = crate::object_cuts::block(&allowed, w, false);
+    let stray: Vec<usize> = (0..a[2].data.len()).filter(|&i| a[2].data[i] != b[2].data[i] && !allowed[i]).collect();
+    let changed = (0..a[2].data.len()).filter(|&i| a[2].data[i] != b[2].data[i]).count();
+    eprintln!(
+        "far mover: {changed} pixels changed on frame 2, {} outside its reach; composite {:.0} ms, cuts {:.0} ms, receivers computed {}",
+        stray.len(),
+        lines[2]["composite_ms"].as_f64().unwrap_or(0.0),
+        passes["timings"]["cuts_ms"].as_f64().unwrap_or(0.0),
+        passes["receivers_computed"]
+    );
+    assert!(changed > 50, "the mover changed only {changed} pixels");
+    assert!(stray.is_empty(), "{} pixels changed outside the mover's reach, e.g. {:?}", stray.len(), &stray[..stray.len().min(8)]);
+    for d in [&still, &moving, &outs] {
+        std::fs::remove_dir_all(d).ok();
+    }
+}
+
+#[test]
+fn a_mover_that_comes_near_switches_the_statue_to_the_cuts() {
+    let outs = std::env::temp_dir().join(format!("heliar-cuts-near-out-{}", std::process::id()));
+    let still = scene("cuts-near-still", None);
+    let moving = scene("cuts-near-moving", Some(NEAR));
+    let (a, _) = augment3(&still, &outs.join("still"));
+    let (b, lines) = augment3(&moving, &outs.join("moving"));
+    let reason = transfer_reason(&lines[2]);
+    assert!(reason.contains("an object moved") && reason.contains("statue.glb (mover.glb came within"), "{reason}");
+    // Frame 1 (nothing moved yet) is the still run's; on frame 2 the statue takes the cuts.
+    let statue = statue_pixels(&still);
+    assert_eq!(statue.iter().filter(|&&i| a[1].data[i] != b[1].data[i]).count(), 0);
+    let differ = statue.iter().filter(|&&i| a[2].data[i] != b[2].data[i]).count();
+    eprintln!(
+        "near mover: the statue's {} pixels on frame 2, {differ} changed, relative RMSE {:.4} against the still run (composite {:.0} ms, cuts {:.0} ms)",
+        statue.len(),
+        crate::object_cuts::rel_rmse(&b[2], &a[2], &statue),
+        lines[2]["composite_ms"].as_f64().unwrap_or(0.0),
+        lines[2]["passes"]["timings"]["cuts_ms"].as_f64().unwrap_or(0.0)
+    );
+    assert!(differ * 2 > statue.len(), "only {differ} of the statue's {} pixels changed", statue.len());
+    for d in [&still, &moving, &outs] {
+        std::fs::remove_dir_all(d).ok();
+    }
+}
+
