@@ -81,9 +81,6 @@ impl Compositor {
         let near_radius_m = self.virtual_bounds.iter().map(|(lo, hi)| (*hi - *lo).length() / 2.0 * NEAR_RADIUS_HALF_DIAGONALS).fold(MIN_NEAR_RADIUS_M, f32::max);
         self.transfer.drop_traced(reason);
         self.receivers.forget_objects();
-        if let Some(g) = self.ground_bounce.as_mut() {
-            g.forget();
-        }
         self.receiver_pixels = self.receiver_pixels.rebuilt(near_radius_m);
         self.invalidate();
         Ok(meshes)
@@ -97,6 +94,9 @@ impl Compositor {
             return Ok(());
         }
         let meshes = self.follow(objects, moved, TRANSFER_DROPPED)?;
+        if let Some(g) = self.ground_bounce.as_mut() {
+            g.forget();
+        }
         if self.cuts.take().is_some() {
             self.write_cut_ambient(&[]);
         }
@@ -112,6 +112,9 @@ impl Compositor {
     pub fn move_objects_with_cuts(&mut self, objects: &[(String, &Mesh)], moved: &[bool], ambient: &[Vec<VertexAmbient>], receivers: ReceiverVisibility) -> Result<(), RenderError> {
         if moved.iter().any(|m| *m) {
             self.follow(objects, moved, TRANSFER_BY_CUTS)?;
+            if let Some(g) = self.ground_bounce.as_mut() {
+                g.moved_by_cuts();
+            }
         }
         self.set_cuts(ambient, receivers);
         Ok(())
