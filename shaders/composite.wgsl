@@ -158,12 +158,10 @@ fn lamp_share(px: vec2<i32>, n: vec3<f32>, irradiance: bool) -> LampShare {
         if (cos_l <= 0.0) {
             continue;
         }
-        let c = spot_map_coords(spot.index.y, spot.world.xyz, p, n, l);
-        var v_proxy = 1.0;
-        var v_both = 1.0;
-        if (c.w > 0.5) {
-            v_proxy = textureSampleCompareLevel(proxy_atlas, shadow_sampler, c.xy, c.z);
-            v_both = textureSampleCompareLevel(shadow_atlas, shadow_sampler, c.xy, c.z);
+        let v_proxy = spot_soft_visibility(proxy_atlas, spot.index.y, spot.world.xyz, p, n, l);
+        var v_both = 0.0;
+        if (v_proxy > 0.0) {
+            v_both = spot_soft_visibility(shadow_atlas, spot.index.y, spot.world.xyz, p, n, l);
         }
         if (v_proxy <= 0.0) {
             continue;

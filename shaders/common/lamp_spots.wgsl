@@ -165,14 +165,34 @@ fn field_irradiance(s: LampSpot, x: vec3<f32>, delta2: f32) -> vec3<f32> {
     return (z * inverseSqrt(delta2)) / delta2 * mean;
 }
 
-// Where point `p` (normal `n`, unit direction `l` to the light at `light`) falls in map `slot`:
-// xy the atlas coordinates, z the depth to compare, w 1 when inside the map. The point is moved
-// toward the light and along its normal by the view's offsets per metre of distance.
-fn spot_map_coords(slot: u32, light: vec3<f32>, p: vec3<f32>, n: vec3<f32>, l: vec3<f32>) -> vec4<f32> {
-    if (slot >= header.counts.w) {
-        return vec4<f32>(0.0);
-    }
-    let view = shadow_views[slot];
+// Near plane of the perspective maps, metres (mirrors SPOT_NEAR_M in
+// src/render/vem/shadow_atlas.rs).
+const SPOT_NEAR_M: f32 = 0.02;
+// The penumbra of a source with an area (PCSS; `ShadowView::with_emitter`): taps per axis of
+// the blocker search and of the filter, and the widest search and filter radius in texels (a
+// wider penumbra, from a blocker closer to the light than half the receiver's distance, is cut
+// to it).
+const PCSS_SEARCH_TAPS: i32 = 5;
+const PCSS_FILTER_TAPS: i32 = 6;
+const PCSS_MAX_RADIUS_TEXELS: f32 = 16.0;
+// Largest tan θ of the receiver-plane bias of the wide lookups (θ ≈ 80°).
+const PCSS_MAX_SLOPE: f32 = 5.67;
+
+// A perspective map's stored depth as metres along its axis (`spot_linear_depth` in
+// src/render/vem/shadow_atlas.rs), and back.
+fn spot_linear_depth(z: f32, far: f32) -> f32 {
+    return SPOT_NEAR_M * far / max(far - z * (far - SPOT_NEAR_M), 1e-6);
+}
+
+fn spot_stored_depth(d: f32, far: f32) -> f32 {
+    return far * (d - SPOT_NEAR_M) / (max(d, 1e-6) * (far - SPOT_NEAR_M));
+}
+
+// Where point `p` (normal `n`, unit direction `l` to the light at `light`) falls in `view`: xy
+// continuous texel coordinates in its tile, z the depth to compare, w 1 when inside the map. The
+// point is moved toward the light and along its normal by the view's offsets per metre of
+// distance.
+fn spot_tile_coords(view: ShadowView, light: vec3<f32>, p: vec3<f32>, n: vec3<f32>, l: vec3<f32>) -> vec4<f32> {
     let dist = length(light - p);
     let q = view.light_from_world * vec4<f32>(p + n * (view.bias.y * dist) + l * (view.bias.x * dist), 1.0);
     if (q.w <= 1e-6) {
@@ -183,22 +203,86 @@ fn spot_map_coords(slot: u32, light: vec3<f32>, p: vec3<f32>, n: vec3<f32>, l: v
     if (uv.x < 0.0 || uv.y < 0.0 || uv.x >= 1.0 || uv.y >= 1.0) {
         return vec4<f32>(0.0);
     }
-    let tiles = header.counts.y;
-    let tile = header.counts.z;
-    let origin = vec2<u32>(slot % tiles, slot / tiles) * tile;
-    let t = min(vec2<u32>(uv * f32(tile)), vec2<u32>(tile - 1u));
-    let at = (vec2<f32>(origin + t) + vec2<f32>(0.5)) / f32(tiles * tile);
-    return vec4<f32>(at, min(ndc.z, 1.0), 1.0);
+    return vec4<f32>(uv * f32(header.counts.z), min(ndc.z, 1.0), 1.0);
 }
 
-// 1 when no caster of map `slot` (the objects and the proxy) lies between the light at `light`
-// and `p`, from one texel of the perspective map (spot_map_coords).
-fn spot_visibility(slot: u32, light: vec3<f32>, p: vec3<f32>, n: vec3<f32>, l: vec3<f32>) -> f32 {
-    let c = spot_map_coords(slot, light, p, n, l);
+// The atlas texel (integer coordinates) of texel `t` of map `slot`'s tile, clamped to the tile.
+fn spot_atlas_texel(slot: u32, t: vec2<i32>) -> vec2<i32> {
+    let tiles = header.counts.y;
+    let tile = header.counts.z;
+    let origin = vec2<i32>(vec2<u32>(slot % tiles, slot / tiles) * tile);
+    return origin + clamp(t, vec2<i32>(0), vec2<i32>(i32(tile) - 1));
+}
+
+// The atlas coordinates of that texel's centre.
+fn spot_atlas_uv(slot: u32, t: vec2<i32>) -> vec2<f32> {
+    let size = f32(header.counts.y * header.counts.z);
+    return (vec2<f32>(spot_atlas_texel(slot, t)) + vec2<f32>(0.5)) / size;
+}
+
+// The visibility of the light at `light` from `p` in map `slot` of `atlas` (the objects and the
+// proxy, or the proxy alone). A point source (the view's emitter radius 0) reads one texel. A
+// source of radius R reads the penumbra it casts (PCSS, Fernando 2005): a blocker at distance
+// d_b from the light hides part of the disc from a receiver at d_r when its direction lies within
+// R·(d_r − d_b)/(d_r·d_b) of the receiver's; so the mean depth of the blockers found within the
+// widest such angle sets the filter, a box of that half-width whose depth tests are biased by the
+// receiver's own slope across it.
+fn spot_soft_visibility(atlas: texture_depth_2d, slot: u32, light: vec3<f32>, p: vec3<f32>, n: vec3<f32>, l: vec3<f32>) -> f32 {
+    if (slot >= header.counts.w) {
+        return 1.0;
+    }
+    let view = shadow_views[slot];
+    let c = spot_tile_coords(view, light, p, n, l);
     if (c.w < 0.5) {
         return 1.0;
     }
-    return textureSampleCompareLevel(shadow_atlas, shadow_sampler, c.xy, c.z);
+    let base = vec2<i32>(floor(c.xy));
+    let radius = view.penumbra.x;
+    if (radius <= 0.0) {
+        return textureSampleCompareLevel(atlas, shadow_sampler, spot_atlas_uv(slot, base), c.z);
+    }
+    let texel = view.penumbra.y;
+    let far = view.penumbra.z;
+    let d_r = spot_linear_depth(c.z, far);
+    let cos_t = max(dot(n, l), 0.1);
+    let slope = min(sqrt(max(1.0 - cos_t * cos_t, 0.0)) / cos_t, PCSS_MAX_SLOPE);
+    // Metres of the receiver plane's depth per texel of offset, and a texel of margin.
+    let per_texel = texel * d_r * slope;
+    let search = min(radius / (d_r * texel), PCSS_MAX_RADIUS_TEXELS);
+    var blockers = 0.0;
+    var depth_sum = 0.0;
+    for (var j = 0; j < PCSS_SEARCH_TAPS; j += 1) {
+        for (var i = 0; i < PCSS_SEARCH_TAPS; i += 1) {
+            let o = (vec2<f32>(f32(i), f32(j)) + 0.5) / f32(PCSS_SEARCH_TAPS) * 2.0 - 1.0;
+            let off = o * search;
+            let d = spot_linear_depth(textureLoad(atlas, spot_atlas_texel(slot, vec2<i32>(floor(c.xy + off))), 0), far);
+            if (d < d_r - per_texel * (length(off) + 1.0)) {
+                blockers += 1.0;
+                depth_sum += d;
+            }
+        }
+    }
+    if (blockers < 0.5) {
+        return 1.0;
+    }
+    let d_b = depth_sum / blockers;
+    let width = clamp(radius * (d_r - d_b) / (d_r * d_b * texel), 0.5, PCSS_MAX_RADIUS_TEXELS);
+    var lit = 0.0;
+    for (var j = 0; j < PCSS_FILTER_TAPS; j += 1) {
+        for (var i = 0; i < PCSS_FILTER_TAPS; i += 1) {
+            let o = (vec2<f32>(f32(i), f32(j)) + 0.5) / f32(PCSS_FILTER_TAPS) * 2.0 - 1.0;
+            let off = o * width;
+            let z = spot_stored_depth(d_r - per_texel * length(off), far);
+            lit += textureSampleCompareLevel(atlas, shadow_sampler, spot_atlas_uv(slot, vec2<i32>(floor(c.xy + off))), min(z, c.z));
+        }
+    }
+    return lit / f32(PCSS_FILTER_TAPS * PCSS_FILTER_TAPS);
+}
+
+// 1 when no caster of map `slot` (the objects and the proxy) lies between the light at `light`
+// and `p`, with the penumbra of the light's area (spot_soft_visibility).
+fn spot_visibility(slot: u32, light: vec3<f32>, p: vec3<f32>, n: vec3<f32>, l: vec3<f32>) -> f32 {
+    return spot_soft_visibility(shadow_atlas, slot, light, p, n, l);
 }
 
 // The unscaled irradiance of `spot` at the world point `p` on a surface facing the spot

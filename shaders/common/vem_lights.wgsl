@@ -49,6 +49,10 @@ struct ShadowView {
     // (w = 1): x, y the offsets toward the light and along the normal per metre of distance to
     // the light. z: unused.
     bias: vec4<f32>,
+    // Perspective maps of a light with an area (`ShadowView::with_emitter`): x the emitter's
+    // radius (m; 0 a point, one texel), y a texel's angular size on the axis, z the far plane (m).
+    // Zero for orthographic maps.
+    penumbra: vec4<f32>,
 }
 
 // The LUT texel of direction `d` on a `size`² per face cube map: `CubeLut::texel` in

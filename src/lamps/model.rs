@@ -97,6 +97,16 @@ pub struct Lamp {
 }
 
 impl Lamp {
+    /// The radius of the source's emitting area, metres, for the penumbra of its shadows: the
+    /// luminous opening of a measured table (IES/LDT); 0 for the analytic point and spot, and for
+    /// a light field, whose filter positions each cast their own shadows (Granier §4).
+    pub fn emitter_radius_m(&self) -> f64 {
+        match &self.model {
+            Model::Table(t) => t.opening_radius_m(),
+            Model::Point(_) | Model::Spot(_) | Model::Field(_) => 0.0,
+        }
+    }
+
     /// Reads the model of `light` (`manifest`: the `scene.toml` it came from, for messages).
     pub fn load(manifest: &Path, light: &Light) -> Result<Self, LampError> {
         let m = manifest.to_owned();

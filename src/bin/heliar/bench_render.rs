@@ -76,6 +76,10 @@ pub struct RenderSweep {
     /// (`render::lamps::ground_bounce`), to measure what it adds.
     #[arg(long)]
     no_lamp_ground_bounce: bool,
+    /// Hard lamp shadows from the lamps' centres instead of the penumbrae of their luminous
+    /// openings (`ShadowView::with_emitter`), to measure what the penumbra changes.
+    #[arg(long)]
+    hard_lamp_shadows: bool,
     /// Not a sweep: the objects' radiance split by light (sky, sun, lamps) under the truth's
     /// `Pd` and `Pa`, against the generator's per-light crops in this folder
     /// (`gen-courtyard --dusk-parts DIR`; `bench_render_parts`).
@@ -123,7 +127,7 @@ pub fn run(a: RenderSweep) -> Result<()> {
     }
     let seq = scene.sequence(refs.sequence.as_deref()).context("the references' sequence")?.clone();
     let frames = reference_frames(&scene, &ray, &refs, &seq, a.lamp_k)?;
-    let options = heliar::render::lamps::LampOptions { ground: !a.no_lamp_ground, bounce: !a.no_lamp_bounce, ground_bounce: !a.no_lamp_ground_bounce, ..Default::default() };
+    let options = heliar::render::lamps::LampOptions { ground: !a.no_lamp_ground, bounce: !a.no_lamp_bounce, ground_bounce: !a.no_lamp_ground_bounce, soft_shadows: !a.hard_lamp_shadows, ..Default::default() };
     if let Some(parts) = &a.parts {
         return crate::bench_render_parts::run(&scene, &ray, &frames, seq.truth.as_deref(), parts, options);
     }

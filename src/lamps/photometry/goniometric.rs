@@ -134,6 +134,8 @@ pub struct Goniometric {
     v_deg: Vec<f64>,
     /// Intensities (cd), plane-major: `cd[i_h * v_deg.len() + i_v]`.
     cd: Vec<f64>,
+    /// Radius of a disc of the luminous opening's area, metres (0: a point).
+    opening_radius_m: f64,
 }
 
 /// Checks that angles strictly increase and lie in `[lo, hi]`.
@@ -187,7 +189,7 @@ impl Goniometric {
         } else if planes.len() < 2 {
             return Err(TableError::Symmetry("types A and B need at least two planes".into()));
         }
-        let mut out = Self { kind, h_deg: Vec::with_capacity(planes.len()), v_deg: v_deg.to_vec(), cd: Vec::with_capacity(planes.len() * nv) };
+        let mut out = Self { kind, h_deg: Vec::with_capacity(planes.len()), v_deg: v_deg.to_vec(), cd: Vec::with_capacity(planes.len() * nv), opening_radius_m: 0.0 };
         for (a, j) in planes {
             out.h_deg.push(a);
             out.cd.extend_from_slice(&cd[j * nv..(j + 1) * nv]);
@@ -200,6 +202,18 @@ impl Goniometric {
     pub fn from_fn(kind: PhotometricType, symmetry: Symmetry, h_deg: &[f64], v_deg: &[f64], f: impl Fn(f64, f64) -> f64) -> Result<Self, TableError> {
         let cd: Vec<f64> = h_deg.iter().flat_map(|&h| v_deg.iter().map(move |&v| (h, v))).map(|(h, v)| f(h, v)).collect();
         Self::new(kind, symmetry, h_deg, v_deg, &cd)
+    }
+
+    /// The table with a luminous opening of `radius_m` (the radius of a disc of its area; the
+    /// lamp's shadows get a penumbra of that source size). Negative or non-finite radii give 0.
+    pub fn with_opening(mut self, radius_m: f64) -> Self {
+        self.opening_radius_m = if radius_m.is_finite() { radius_m.max(0.0) } else { 0.0 };
+        self
+    }
+
+    /// The radius of a disc of the luminous opening's area, metres (0: a point source).
+    pub fn opening_radius_m(&self) -> f64 {
+        self.opening_radius_m
     }
 
     /// The photometric type of the angles.

@@ -250,7 +250,26 @@ impl IesFile {
     /// The intensity table (cd), symmetry expanded.
     pub fn goniometric(&self) -> Result<Goniometric, super::TableError> {
         let sym = self.symmetry().map_err(super::TableError::Symmetry)?;
-        Goniometric::new(self.photometric_type, sym, &self.horizontal_deg, &self.vertical_deg, &self.candela)?.scaled(self.candela_scale())
+        Ok(Goniometric::new(self.photometric_type, sym, &self.horizontal_deg, &self.vertical_deg, &self.candela)?.scaled(self.candela_scale())?.with_opening(self.opening_radius_m()))
+    }
+
+    /// The radius of a disc with the luminous opening's area, metres. LM-63-2002 §5.10: a
+    /// rectangle is `width × length` (height 0 for a flat opening); a negative width and length
+    /// mean a circle of that diameter; a vertical opening (height only, or a sphere or cylinder
+    /// by negative values) is taken by its largest extent. All zero: a point (0).
+    pub fn opening_radius_m(&self) -> f64 {
+        let metres = match self.units {
+            LengthUnit::Feet => 0.3048,
+            LengthUnit::Metres => 1.0,
+        };
+        let [w, l, h] = self.size.map(|v| if v.is_finite() { v * metres } else { 0.0 });
+        if w < 0.0 || l < 0.0 {
+            return 0.5 * w.abs().max(l.abs());
+        }
+        if w > 0.0 && l > 0.0 {
+            return (w * l / std::f64::consts::PI).sqrt();
+        }
+        0.5 * w.abs().max(l.abs()).max(h.abs())
     }
 
     /// The file as LM-63 text (the version line of `self.version`; numbers in Rust's shortest

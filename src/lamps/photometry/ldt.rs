@@ -245,7 +245,17 @@ impl LdtFile {
             4 => (Symmetry::Quadrant, planes, self.intensities.clone()),
             s => return Err(TableError::Symmetry(format!("Isym = {s}"))),
         };
-        Goniometric::new(PhotometricType::C, sym, &h, &self.gamma_deg, &cd)?.scaled(self.candela_scale())
+        Ok(Goniometric::new(PhotometricType::C, sym, &h, &self.gamma_deg, &cd)?.scaled(self.candela_scale())?.with_opening(self.opening_radius_m()))
+    }
+
+    /// The radius of a disc with the luminous area's size, metres: lines 16–17 are its length (or
+    /// diameter) and width, a width of 0 meaning a circle of that diameter.
+    pub fn opening_radius_m(&self) -> f64 {
+        let (l, w) = (self.dimensions_mm[3].abs() * 1e-3, self.dimensions_mm[4].abs() * 1e-3);
+        if !(l.is_finite() && w.is_finite()) {
+            return 0.0;
+        }
+        if w > 0.0 && l > 0.0 { (l * w / std::f64::consts::PI).sqrt() } else { 0.5 * l.max(w) }
     }
 
     /// The file as EULUMDAT text (one field per line, numbers in Rust's shortest round-trip form).

@@ -29,6 +29,14 @@ impl GroundBounceUnit {
     pub fn forget(&mut self) {
         self.traced = None;
     }
+
+    /// The objects moved with the visibility cuts serving: no trace follows them, so the traced
+    /// bounce stays and loses the objects' effect (`B_v = B`).
+    pub fn moved_by_cuts(&mut self) {
+        if let Some(g) = self.traced.as_mut() {
+            g.without_objects();
+        }
+    }
 }
 
 impl Compositor {
@@ -36,7 +44,11 @@ impl Compositor {
     /// time), forms it for the scales `k` and uploads it when they changed.
     pub(super) fn prepare_ground_bounce(&mut self, k: &LampScales, report: &mut PassReport) {
         let Some(unit) = self.ground_bounce.as_ref() else { return };
-        let Some(with) = self.with_ray.clone() else { return };
+        let Some(mut with) = self.with_ray.clone() else { return };
+        if self.cuts.is_some() {
+            // The objects moved by the cuts, which `with_ray` does not follow: no objects' share.
+            with = self.proxy_ray.clone();
+        }
         if unit.traced.is_none() {
             let lamps: Vec<Vec3> = unit.lamps.iter().map(|l| l.light.position.as_vec3()).collect();
             let rec = &self.receivers;

@@ -105,9 +105,6 @@ impl Compositor {
                 self.receivers.forget_objects();
             }
         }
-        if let Some(g) = self.ground_bounce.as_mut() {
-            g.forget();
-        }
         self.receiver_pixels = self.receiver_pixels.rebuilt(near_radius_m);
         self.invalidate();
         Ok(meshes)
@@ -121,6 +118,9 @@ impl Compositor {
             return Ok(());
         }
         let meshes = self.follow(objects, moved, TRANSFER_DROPPED, None)?;
+        if let Some(g) = self.ground_bounce.as_mut() {
+            g.forget();
+        }
         if self.cuts.take().is_some() {
             self.write_cut_ambient(&[]);
         }
@@ -139,6 +139,9 @@ impl Compositor {
     pub fn move_objects_with_cuts(&mut self, objects: &[(String, &Mesh)], moved: &[bool], ambient: &[Vec<VertexAmbient>], receivers: ReceiverVisibility, reach_m: &[f32]) -> Result<(), RenderError> {
         if moved.iter().any(|m| *m) {
             self.follow(objects, moved, TRANSFER_BY_CUTS, Some(reach_m))?;
+            if let Some(g) = self.ground_bounce.as_mut() {
+                g.moved_by_cuts();
+            }
         }
         self.set_cuts(ambient, receivers);
         Ok(())

@@ -127,8 +127,9 @@ pub fn data_bind_group(device: &wgpu::Device, layout: &wgpu::BindGroupLayout, b:
 /// buffer and 1×1 atlases, so the composite's lamp loop never runs.
 pub fn empty_data(device: &wgpu::Device, layout: &wgpu::BindGroupLayout) -> wgpu::BindGroup {
     let zeros = |label: &str, bytes: usize| device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: &vec![0u8; bytes], usage: wgpu::BufferUsages::STORAGE });
-    // The header (8 u32), one `LampSpot` (9 vec4), one texel, one tap, one `ShadowView` (5 vec4).
-    let buffers = [zeros("no lamp header", 32), zeros("no lamp spots", 144), zeros("no lamp texels", 8), zeros("no lamp taps", 16), zeros("no lamp views", 80)];
+    // The header (8 u32), one `LampSpot` (9 vec4), one texel, one tap, one `ShadowView`.
+    let view = std::mem::size_of::<crate::render::vem::shadow_atlas::ShadowView>();
+    let buffers = [zeros("no lamp header", 32), zeros("no lamp spots", 144), zeros("no lamp texels", 8), zeros("no lamp taps", 16), zeros("no lamp views", view)];
     let atlas = Tex::new(device, "no lamp atlas", (1, 1), ATLAS_FORMAT, 1, wgpu::TextureUsages::TEXTURE_BINDING);
     let sampler = atlas_sampler(device);
     data_bind_group(device, layout, &DataBindings { buffers: [&buffers[0], &buffers[1], &buffers[2], &buffers[3], &buffers[4]], atlas: &atlas.view, proxy_atlas: &atlas.view, sampler: &sampler })

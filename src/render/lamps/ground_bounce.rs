@@ -34,7 +34,10 @@
 //!   whose `lamp_ground` runs, with the receivers' bounce quality; a move of the objects drops
 //!   it (traced again on the next such frame). A frame whose scales differ from those formed
 //!   forms `Σ k_i·B_i`, `Σ k_i·B_{v,i}` on the CPU and uploads them. Scenes without lamps
-//!   have none of it.
+//!   have none of it. While the visibility cuts serve the moved objects (`c_v`, `b_v` from
+//!   them, no trace with the objects), the trace is kept and `B_{v,i} = B_i`
+//!   ([`GroundBounce::without_objects`]): the objects' share of the bounce is left out there,
+//!   and receivers outside the traced pixels get none, as before this term.
 
 use crate::geometry::ambient::TransportQuality;
 use crate::geometry::raycast::RayScene;
@@ -113,6 +116,17 @@ impl GroundBounce {
     /// `(B_i, B_{v,i})` of lamp `lamp` at traced receiver `index` (zero past the end).
     pub fn value(&self, index: usize, lamp: usize) -> (Vec3, Vec3) {
         self.values.get(index).and_then(|v| v.get(lamp)).copied().unwrap_or((Vec3::ZERO, Vec3::ZERO))
+    }
+
+    /// Forgets the objects' effect: `B_{v,i} = B_i` everywhere (the objects moved where no
+    /// trace follows them, see the module docs); the next [`Self::apply`] forms the texels again.
+    pub fn without_objects(&mut self) {
+        for v in &mut self.values {
+            for (b, b_v) in v.iter_mut() {
+                *b_v = *b;
+            }
+        }
+        self.applied = None;
     }
 
     /// The scales the texels hold (`None` before the first [`Self::apply`]).
@@ -281,5 +295,11 @@ mod tests {
         // Deterministic.
         let again = GroundBounce::trace(surface, &[0, 1, 2], 4, &proxy, &with, &lamps, q, 3);
         assert_eq!(again.value(1, 1), g.value(1, 1));
+        // Without the objects' effect (moved by the cuts): B_v = B, formed again.
+        g.without_objects();
+        assert_eq!(g.applied(), None);
+        g.apply(&k);
+        assert_eq!(g.value(0, 1).1, g.value(0, 1).0);
+        assert_eq!(g.with[0], g.without[0]);
     }
 }

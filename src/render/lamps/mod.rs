@@ -22,6 +22,15 @@
 //!   real geometry shadows them. A light field with more positions than free maps shares one map
 //!   from its centre. A second atlas of the same views holds the proxy alone, for the objects'
 //!   lamp shadows on the real receivers in the composite ([`ground`], `lamp_ground`).
+//! - **Penumbrae**: a lamp with a luminous opening (the IES/LDT file's, `Lamp::emitter_radius_m`)
+//!   and a map of its own reads it with PCSS (Fernando, *Percentage-closer soft shadows*, 2005;
+//!   `spot_soft_visibility` in `shaders/common/lamp_spots.wgsl`, [`ShadowView::with_emitter`]):
+//!   the mean depth `d_b` of the blockers found around the receiver's texel sets a box filter of
+//!   half-width `R·(d_r − d_b)/(d_r·d_b)` in angle, the part of a disc of radius `R` a blocker at
+//!   `d_b` can hide from a receiver at `d_r`. Points, spots and light fields (whose filter
+//!   positions each cast their own shadow, Granier §4) keep one texel. Against the disc's
+//!   visibility by shadow rays: `render::lamp_penumbra`. [`LampOptions::soft_shadows`] off (and
+//!   `heliar bench render --hard-lamp-shadows`) gives the hard shadows of the lamps' centres.
 //! - **Left out, with the reason in the pass report**: the whole lamp stage when the objects are
 //!   not drawn; lamps that are off (`k = 0`: the schedule, or no scale in the lighting); lamps
 //!   whose light cannot reach the objects' bounds ([`SpotSet::misses`]); the shadow maps when
@@ -72,13 +81,17 @@ pub struct LampOptions {
     /// Add the lamps' light bounced off the proxy and the objects to the real receivers'
     /// irradiance in the ground shadows' ratio ([`ground_bounce`], with [`Self::ground`]).
     pub ground_bounce: bool,
+    /// The penumbra of a lamp's emitting area in its shadows (`ShadowView::with_emitter`, the
+    /// luminous opening of an IES or LDT file); off: hard shadows from its centre.
+    pub soft_shadows: bool,
 }
 
 impl Default for LampOptions {
     /// One point per cell (16 lookups per spot), up to 81 maps (a 9×9 light field) of 256²,
-    /// shadows on real receivers and the lamps' bounce on (on the objects and on the receivers).
+    /// shadows on real receivers, the lamps' bounce (on the objects and on the receivers) and the
+    /// penumbrae of their areas on.
     fn default() -> Self {
-        Self { support_points: 1, shadows: true, shadow_maps: 81, tile: DEFAULT_TILE, ground: true, bounce: true, ground_bounce: true }
+        Self { support_points: 1, shadows: true, shadow_maps: 81, tile: DEFAULT_TILE, ground: true, bounce: true, ground_bounce: true, soft_shadows: true }
     }
 }
 
@@ -278,7 +291,8 @@ impl LampPass {
                 s.index[1] = match shared {
                     Some(slot) => slot,
                     None if self.options.shadows && f.views.len() < self.options.shadow_maps => {
-                        f.views.push(fit_spot_view(Vec3::new(s.world[0], s.world[1], s.world[2]), lo, hi, self.options.tile));
+                        let view = fit_spot_view(Vec3::new(s.world[0], s.world[1], s.world[2]), lo, hi, self.options.tile);
+                        f.views.push(if self.options.soft_shadows { view.with_emitter(lamp.emitter_radius_m) } else { view });
                         (f.views.len() - 1) as u32
                     }
                     None => NO_SLOT,

@@ -74,6 +74,9 @@ pub struct LampSpots {
     pub range: std::ops::Range<usize>,
     /// Its position in the world.
     pub position: Vec3,
+    /// The radius of its emitting area, metres (`Lamp::emitter_radius_m`): the penumbra of its
+    /// shadow map when it has one of its own.
+    pub emitter_radius_m: f32,
 }
 
 /// Every lamp's spots, built once per scene.
@@ -118,7 +121,12 @@ impl SpotSet {
             let start = set.spots.len();
             set.push_lamp(lamp);
             let p = lamp.light.position;
-            set.lamps.push(LampSpots { name: lamp.light.name.clone(), range: start..set.spots.len(), position: Vec3::new(p.x as f32, p.y as f32, p.z as f32) });
+            set.lamps.push(LampSpots {
+                name: lamp.light.name.clone(),
+                range: start..set.spots.len(),
+                position: Vec3::new(p.x as f32, p.y as f32, p.z as f32),
+                emitter_radius_m: lamp.emitter_radius_m() as f32,
+            });
         }
         set
     }

@@ -64,6 +64,24 @@ pub struct ShadowView {
     /// Perspective (`w = 1`): the offsets toward the light and along the normal per metre of
     /// distance to the light, unused.
     pub bias: [f32; 4],
+    /// Perspective maps of a source with an area ([`ShadowView::with_emitter`]): the emitter's
+    /// radius (m; 0 for a point, a hard shadow), one texel's angular size on the axis
+    /// (`2·tan(half-angle)/tile`), the far plane (m), unused. Zero for orthographic maps.
+    pub penumbra: [f32; 4],
+}
+
+impl ShadowView {
+    /// The same map for a light whose emitting area has radius `radius_m` (a perspective map
+    /// from [`fit_spot_view`]): its lookup (`spot_soft_visibility` in
+    /// `shaders/common/lamp_spots.wgsl`) averages over the penumbra that size casts (PCSS:
+    /// a blocker search, then a filter of width `radius·(d_r − d_b)/(d_r·d_b)` in angle).
+    /// Orthographic maps and non-positive radii keep one texel, a hard shadow.
+    pub fn with_emitter(mut self, radius_m: f32) -> Self {
+        if self.bias[3] > 0.0 && radius_m.is_finite() && radius_m > 0.0 {
+            self.penumbra[0] = radius_m;
+        }
+        self
+    }
 }
 
 /// Tiles per side of an atlas holding `slots` maps (the square atlas of the issue).
@@ -101,7 +119,7 @@ pub fn fit_view(to_light: Vec3, lo: Vec3, hi: Vec3, tile: u32) -> ShadowView {
     ];
     let m = Mat4::from_cols(rows[0], rows[1], rows[2], rows[3]).transpose();
     let texel_m = 2.0 * ex.max(ey) / tile.max(1) as f32;
-    ShadowView { light_from_world: m.to_cols_array_2d(), bias: [DEPTH_BIAS_TEXELS * texel_m / dr, NORMAL_OFFSET_TEXELS * texel_m, 0.0, 0.0] }
+    ShadowView { light_from_world: m.to_cols_array_2d(), bias: [DEPTH_BIAS_TEXELS * texel_m / dr, NORMAL_OFFSET_TEXELS * texel_m, 0.0, 0.0], penumbra: [0.0; 4] }
 }
 
 /// The perspective map from the point `eye` (a lamp, or one filter position of a light field)
@@ -123,10 +141,14 @@ pub fn fit_spot_view(eye: Vec3, lo: Vec3, hi: Vec3, tile: u32) -> ShadowView {
     // One texel of margin on each side, and a little depth margin past the farthest corner.
     let tile = tile.max(1) as f32;
     let tan_half = (tan_half * (1.0 + 2.0 / tile)).clamp(1e-4, SPOT_MAX_TAN_HALF);
-    let far = far * 1.01 + 0.01;
-    let proj = glam::camera::rh::proj::directx::perspective(2.0 * tan_half.atan(), 1.0, SPOT_NEAR_M, far.max(2.0 * SPOT_NEAR_M));
+    let far = (far * 1.01 + 0.01).max(2.0 * SPOT_NEAR_M);
+    let proj = glam::camera::rh::proj::directx::perspective(2.0 * tan_half.atan(), 1.0, SPOT_NEAR_M, far);
     let texel_per_m = 2.0 * tan_half / tile;
-    ShadowView { light_from_world: (proj * view).to_cols_array_2d(), bias: [DEPTH_BIAS_TEXELS * texel_per_m, NORMAL_OFFSET_TEXELS * texel_per_m, 0.0, 1.0] }
+    ShadowView {
+        light_from_world: (proj * view).to_cols_array_2d(),
+        bias: [DEPTH_BIAS_TEXELS * texel_per_m, NORMAL_OFFSET_TEXELS * texel_per_m, 0.0, 1.0],
+        penumbra: [0.0, texel_per_m, far, 0.0],
+    }
 }
 
 /// The directions of the shadow maps: `clusters` when given, else `lights` clustered into at
@@ -300,6 +322,13 @@ impl Pass<VemFrame> for ShadowAtlasPass {
     }
 }
 
+/// A perspective map's stored depth `z` (in `[0, 1]`, from [`SPOT_NEAR_M`] to `far`) as
+/// metres along its axis: `z = f·(d − n) / (d·(f − n))`, so `d = n·f / (f − z·(f − n))`.
+/// Written again in `shaders/common/lamp_spots.wgsl` (`spot_linear_depth`).
+pub fn spot_linear_depth(z: f32, far: f32) -> f32 {
+    SPOT_NEAR_M * far / (far - z * (far - SPOT_NEAR_M)).max(1e-6)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -345,6 +374,19 @@ mod tests {
             let (near, far) = (apply(&v, eye + 0.5 * (c - eye)), apply(&v, c));
             assert!(near.z < far.z && (near.x - far.x).abs() < 1e-4 && (near.y - far.y).abs() < 1e-4);
             assert!(v.bias[0] > 0.0 && v.bias[1] > 0.0 && v.bias[3] == 1.0);
+            // The penumbra's data: a point source until given an area; the stored depth back to
+            // metres along the axis as `spot_linear_depth` (shaders/common/lamp_spots.wgsl) does.
+            assert_eq!(v.penumbra[0], 0.0);
+            assert_eq!(v.with_emitter(0.15).penumbra[0], 0.15);
+            assert_eq!(fit_view(Vec3::Y, lo, hi, 256).with_emitter(0.15).penumbra, [0.0; 4]);
+            let axis = (c - eye).normalize();
+            for p in [c, lo, hi, eye + 0.3 * (hi - eye)] {
+                let d = (p - eye).dot(axis);
+                let z = apply(&v, p).z;
+                let back = spot_linear_depth(z, v.penumbra[2]);
+                assert!((back - d).abs() < 1e-3 * d.max(1.0), "{eye} {p}: {back} against {d}");
+            }
+            assert!((v.penumbra[1] - v.bias[0] / DEPTH_BIAS_TEXELS).abs() < 1e-9);
         }
     }
 

@@ -156,3 +156,47 @@ fn ground_shadows_need_the_differential_model_and_a_lit_lamp_and_say_why() {
         assert_eq!(changed, 0, "{label}: {changed} real pixels changed");
     }
 }
+
+#[test]
+fn objects_moved_by_the_cuts_keep_the_traced_lamp_bounce_without_their_share() {
+    // The visibility cuts move the objects without tracing against them (issue 15 §2). The lamps'
+    // bounce at the receivers, traced with the objects at their first place, is kept, not traced
+    // again with the objects' stale BVH; their share of it is dropped (`B_v = B`), so the ground
+    // they left gets back the bounce they blocked.
+    let (s, lamp) = scene();
+    let (w, h) = (s.camera.intrinsics.width, s.camera.intrinsics.height);
+    let mut comp = s.compositor(config());
+    comp.set_lamps(std::slice::from_ref(&lamp), LampOptions::default()).expect("lamps");
+    let video = VideoFrame { width: w, height: h, rgba: vec![[VIDEO, VIDEO, VIDEO, 1.0]; (w * h) as usize] };
+    comp.render(&video, &night(PA, K)).expect("first frame");
+    let (trace_ms, without) = {
+        let gb = comp.ground_bounce().expect("traced with lamp_ground");
+        // The objects block some of the bounce at first (else the check below says nothing).
+        let blocked = gb.with.iter().zip(&gb.without).filter(|(a, b)| a[1] < 0.99 * b[1]).count();
+        assert!(blocked > 100, "only {blocked} receivers lose bounced lamp light to the objects");
+        (gb.trace_ms, gb.without.clone())
+    };
+    let moved: Vec<(String, heliar::geometry::Mesh)> = s
+        .objects
+        .iter()
+        .enumerate()
+        .map(|(i, (name, m))| {
+            let mut m = m.clone();
+            if i == 0 {
+                m.positions.iter_mut().for_each(|p| *p += Vec3::new(0.0, 0.0, 0.4));
+            }
+            (name.clone(), m)
+        })
+        .collect();
+    let objects: Vec<(String, &heliar::geometry::Mesh)> = moved.iter().map(|(n, m)| (n.clone(), m)).collect();
+    let flags: Vec<bool> = (0..objects.len()).map(|i| i == 0).collect();
+    // Every field reaches every object (10 m): no object keeps a trace (`compositor::kept`).
+    let reach = vec![10.0; objects.len()];
+    comp.move_objects_with_cuts(&objects, &flags, &[], Box::new(|q: &[(Vec3, Vec3)]| vec![1.0; q.len()]), &reach).expect("move");
+    let (_, report) = comp.render(&video, &night(PA, K)).expect("moved frame");
+    assert!(report.ran(pass::LAMP_GROUND), "{report:?}");
+    let gb = comp.ground_bounce().expect("kept across the move");
+    assert_eq!(gb.trace_ms.to_bits(), trace_ms.to_bits(), "the bounce was traced again");
+    assert!(gb.without == without, "the proxy's bounce changed");
+    assert!(gb.with == gb.without, "the objects' share of the bounce is kept after a move by the cuts");
+}

@@ -6,6 +6,7 @@
 mod courtyard;
 mod lamp_bounce;
 mod lamp_ground;
+mod lamp_penumbra;
 mod lamps;
 mod report_order;
 mod robust;
