@@ -13,6 +13,9 @@
 //! tilted normals the worst error is 1.8e-3 at `M = 1024` and 4.4e-4 at `M = 4096`; for the
 //! default basis on a horizontal surface 8e-3 and 2.8e-3 (tests).
 //!
+//! [`RefinedSet`] evaluates a fast-varying radiance at more directions than the visibility is
+//! traced at (each fine direction takes the visibility of its nearest coarse one).
+//!
 //! [`hemisphere_integral`] computes `∫_{y>0} f(ω)·ω_y dω` (horizontal irradiance) by Gauss–Legendre
 //! in `μ = ω_y` times the trapezoid rule in azimuth (spectrally accurate for periodic integrands);
 //! it normalises the basis shapes.
@@ -73,6 +76,91 @@ impl CosineSet {
     pub fn around(&self, n: Vec3) -> impl Iterator<Item = Vec3> + '_ {
         let (t, b) = basis_from_normal(n);
         self.local.iter().map(move |l| (t * l.x + b * l.y + n * l.z).normalize())
+    }
+}
+
+/// A finer cosine-weighted set whose every direction belongs to the nearest direction of a coarse
+/// [`CosineSet`] (nearest on the unit disc before the lift, so each coarse direction owns the
+/// fine directions of its Voronoi cell, of cosine-weighted measure ≈ `π/M`).
+///
+/// A visibility traced along the coarse directions then weights a radiance evaluated along the
+/// fine ones: `E = π/M_fine · Σ_fine L(ω_f)·V(ω_cell(f))`. A radiance that varies faster than the
+/// coarse set resolves (a low sun's circumsolar glow and bright horizon) is integrated at the fine
+/// set's accuracy wherever the visibility is uniform over a cell, at no extra ray. Measured on
+/// open surfaces under the Hošek–Wilkie sky (turbidity 3) of a 5–10° sun against a set of 2²⁰
+/// directions, red channel: 512 directions err by +0.5 to +1.6% (walls; the horizon cuts the
+/// lobe where the sky is brightest), 4096 by ≤ 0.2%.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RefinedSet {
+    fine: CosineSet,
+    /// Per fine direction, the index of its coarse direction.
+    cell: Vec<u32>,
+}
+
+impl RefinedSet {
+    /// `factor` fine directions per direction of `coarse` on average (`factor ≥ 1`).
+    pub fn new(coarse: &CosineSet, factor: usize) -> Result<Self, SkyError> {
+        let fine = CosineSet::fibonacci(coarse.len() * factor.max(1))?;
+        // The coarse directions' disc positions in a uniform grid of about one per bucket; the
+        // nearest is searched ring by ring until no closer one can lie outside the rings seen.
+        let g = (coarse.len() as f64).sqrt().ceil().max(1.0) as usize;
+        let bucket = |v: f32| (((v + 1.0) * 0.5 * g as f32) as usize).min(g - 1);
+        let mut grid: Vec<Vec<u32>> = vec![Vec::new(); g * g];
+        for (j, d) in coarse.local.iter().enumerate() {
+            grid[bucket(d.y) * g + bucket(d.x)].push(j as u32);
+        }
+        let size = 2.0 / g as f32;
+        let cell = fine
+            .local
+            .iter()
+            .map(|f| {
+                let (bx, by) = (bucket(f.x) as isize, bucket(f.y) as isize);
+                let mut best = (f32::INFINITY, 0u32);
+                for r in 0..g as isize {
+                    for y in (by - r).max(0)..=(by + r).min(g as isize - 1) {
+                        for x in (bx - r).max(0)..=(bx + r).min(g as isize - 1) {
+                            if (x - bx).abs() != r && (y - by).abs() != r {
+                                continue;
+                            }
+                            for &j in &grid[y as usize * g + x as usize] {
+                                let c = coarse.local[j as usize];
+                                let d2 = (c.x - f.x).powi(2) + (c.y - f.y).powi(2);
+                                if d2 < best.0 || (d2 == best.0 && j < best.1) {
+                                    best = (d2, j);
+                                }
+                            }
+                        }
+                    }
+                    // Any point in ring r + 1 or beyond is at least r·size away.
+                    if best.0.is_finite() && best.0.sqrt() <= r as f32 * size {
+                        break;
+                    }
+                }
+                best.1
+            })
+            .collect();
+        Ok(Self { fine, cell })
+    }
+
+    /// Number of fine directions.
+    pub fn len(&self) -> usize {
+        self.fine.len()
+    }
+
+    /// Always false.
+    pub fn is_empty(&self) -> bool {
+        self.fine.is_empty()
+    }
+
+    /// The irradiance each fine direction stands for per unit radiance: `π/M_fine`.
+    pub fn weight(&self) -> f32 {
+        self.fine.weight()
+    }
+
+    /// The fine directions rotated onto unit normal `n`, each with the index of its coarse
+    /// direction (the coarse set's [`CosineSet::around`] order).
+    pub fn around(&self, n: Vec3) -> impl Iterator<Item = (usize, Vec3)> + '_ {
+        self.cell.iter().map(|&j| j as usize).zip(self.fine.around(n))
     }
 }
 
@@ -227,6 +315,31 @@ mod tests {
         let mean = dirs.iter().copied().sum::<Vec3>() / dirs.len() as f32;
         assert!((mean.z - 2.0 / 3.0).abs() < 1e-3 && mean.x.abs() < 1e-3 && mean.y.abs() < 1e-3, "{mean}");
         assert!(CosineSet::fibonacci(0).is_err());
+    }
+
+    /// Every fine direction belongs to its nearest coarse one (brute force), every coarse
+    /// direction owns about `factor` fine ones, and a refined sum with all cells visible is the
+    /// fine set's own quadrature.
+    #[test]
+    fn a_refined_set_assigns_each_fine_direction_to_its_nearest_coarse_one() {
+        let coarse = CosineSet::fibonacci(512).unwrap();
+        let r = RefinedSet::new(&coarse, 8).unwrap();
+        assert_eq!(r.len(), 4096);
+        let mut owned = vec![0usize; coarse.len()];
+        for (f, &j) in r.fine.local.iter().zip(&r.cell) {
+            let d2 = |c: &Vec3| (c.x - f.x).powi(2) + (c.y - f.y).powi(2);
+            let nearest = coarse.local.iter().map(d2).fold(f32::INFINITY, f32::min);
+            assert_eq!(d2(&coarse.local[j as usize]), nearest, "fine {f}");
+            owned[j as usize] += 1;
+        }
+        // Voronoi cells of the Fibonacci spiral are nearly equal: 8 ± a few fine points each.
+        assert!(owned.iter().all(|&k| (4..=12).contains(&k)), "{:?}", owned.iter().min().zip(owned.iter().max()));
+        let n = Vec3::new(0.3, 0.2, -0.9).normalize();
+        let sum: f32 = r.around(n).map(|(_, d)| d.dot(n)).sum::<f32>() * r.weight();
+        // ∫ cos²θ dω over the hemisphere = 2π/3.
+        assert!((sum - 2.0 * std::f32::consts::PI / 3.0).abs() < 2e-3, "{sum}");
+        let order: Vec<Vec3> = coarse.around(n).collect();
+        assert!(r.around(n).all(|(j, d)| d.dot(order[j]) > 0.9), "a fine direction far from its cell's");
     }
 
     #[test]
