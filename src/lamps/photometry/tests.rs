@@ -254,3 +254,34 @@ fn bad_ldt_files_name_file_line_and_field() {
         }
     }
 }
+
+#[test]
+fn the_luminous_opening_is_a_disc_of_its_area() {
+    use std::f64::consts::PI;
+    let near = |a: f64, b: f64| (a - b).abs() < 1e-12;
+    let mut f = ies_of(PhotometricType::C, vec![0.0], steps(0.0, 90.0, 45.0), |_, _| 100.0);
+    // A 0.1 m × 0.2 m rectangle (height 0): a disc of the same area.
+    assert!(near(f.opening_radius_m(), (0.02 / PI).sqrt()));
+    assert!(near(f.goniometric().unwrap().opening_radius_m(), (0.02 / PI).sqrt()));
+    // LM-63-2002: negative width and length are a circle of that diameter.
+    f.size = [-0.3, -0.3, 0.0];
+    assert!(near(f.opening_radius_m(), 0.15));
+    // Feet.
+    f.units = LengthUnit::Feet;
+    assert!(near(f.opening_radius_m(), 0.15 * 0.3048));
+    // A point, and a vertical opening by its height.
+    f.size = [0.0; 3];
+    assert_eq!(f.opening_radius_m(), 0.0);
+    f.units = LengthUnit::Metres;
+    f.size = [0.0, 0.0, 0.4];
+    assert!(near(f.opening_radius_m(), 0.2));
+    // The hand-written street lamp: 0.5 m × 0.5 m.
+    let street = IesFile::parse(STREET_LAMP, Path::new("street.ies")).unwrap();
+    assert!(near(street.opening_radius_m(), (0.25 / PI).sqrt()));
+    // EULUMDAT: the luminous area 400 mm × 150 mm; a width of 0 is a circle of that diameter.
+    let mut l = ldt_of(1, 1, |_, _| 100.0);
+    assert!(near(l.opening_radius_m(), (0.4 * 0.15 / PI).sqrt()));
+    l.dimensions_mm[4] = 0.0;
+    assert!(near(l.opening_radius_m(), 0.2));
+    assert!(near(l.goniometric().unwrap().opening_radius_m(), 0.2));
+}
