@@ -345,26 +345,9 @@ impl FrameCuts {
     }
 
     /// The other objects' fields at vertex `v` of object `a`, culled and remapped into `a`'s
-    /// frame as the first pass does (`super::frame`).
+    /// frame as the first pass does (`FrameCuts::occluders`).
     fn vertex_fields(&self, poses: &[Pose], a: usize, v: usize, remaps: &[Option<LeafRemap>]) -> Result<Occluders, CutsError> {
         let obj = &self.cuts.objects[a];
-        let x = poses[a].point(obj.positions[v]);
-        let n = poses[a].dir(obj.svc.normals[v]);
-        let mut fields: Occluders = Vec::new();
-        for (b, other) in self.cuts.objects.iter().enumerate() {
-            if b == a {
-                continue;
-            }
-            let centre = poses[b].point(other.vcf.centre);
-            if n != Vec3::ZERO && n.dot(centre - x) < -other.vcf.radius_m {
-                continue;
-            }
-            let (cut, _) = other.vcf.lookup(poses[b].local_point(x))?;
-            fields.push((b, match &remaps[b] {
-                Some(remap) => remap.cut(cut.view())?,
-                None => cut,
-            }));
-        }
-        Ok(fields)
+        self.occluders(remaps, poses, poses[a].point(obj.positions[v]), poses[a].dir(obj.svc.normals[v]), a)
     }
 }

@@ -270,8 +270,9 @@ impl FrameCuts {
     }
 
     /// The other objects' fields at `x` (world) with normal `n` (world), culled as
-    /// `CutScene::occluder_cuts` does (§V-B) and remapped into the frame of `frame`.
-    fn occluders(&self, frame: &ObjectFrame, poses: &[Pose], x: Vec3, n: Vec3, skip: usize) -> Result<Occluders, CutsError> {
+    /// `CutScene::occluder_cuts` does (§V-B) and remapped by `others[b]` into the frame of
+    /// object `skip` (`ObjectFrame::others`; the bounce's own remaps in `super::bounce`).
+    pub(super) fn occluders(&self, others: &[Option<LeafRemap>], poses: &[Pose], x: Vec3, n: Vec3, skip: usize) -> Result<Occluders, CutsError> {
         let mut cuts = Vec::new();
         for (b, obj) in self.cuts.objects.iter().enumerate() {
             if b == skip {
@@ -282,7 +283,7 @@ impl FrameCuts {
                 continue;
             }
             let (cut, _region) = obj.vcf.lookup(poses[b].local_point(x))?;
-            cuts.push((b, match &frame.others[b] {
+            cuts.push((b, match &others[b] {
                 Some(remap) => remap.cut(cut.view())?,
                 None => cut,
             }));
@@ -309,7 +310,7 @@ impl FrameCuts {
     fn vertex_ambient(&self, frame: &ObjectFrame, poses: &[Pose], object: usize, v: usize, eye: Vec3) -> Result<(VertexAmbient, bool, Occluders), CutsError> {
         let (obj, pose) = (&self.cuts.objects[object], poses[object]);
         let (x, n_local, n, r) = self.vertex_geometry(poses, object, v, eye)?;
-        let others = self.occluders(frame, poses, x, n, object)?;
+        let others = self.occluders(&frame.others, poses, x, n, object)?;
         let (proxy, outside) = match &self.cuts.proxy {
             Some(field) => {
                 let (cut, region) = field.lookup(x)?;
