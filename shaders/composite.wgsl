@@ -158,10 +158,16 @@ fn lamp_share(px: vec2<i32>, n: vec3<f32>, irradiance: bool) -> LampShare {
         if (cos_l <= 0.0) {
             continue;
         }
-        let v_proxy = spot_soft_visibility(proxy_atlas, spot.index.y, spot.world.xyz, p, n, l);
+        // The proxy-alone and the objects-and-proxy atlases hold the same views.
+        let slot = spot.index.y;
+        var c = vec4<f32>(0.0);
+        if (slot < header.counts.w) {
+            c = spot_tile_coords(shadow_views[slot], spot.world.xyz, p, n, l);
+        }
+        let v_proxy = spot_soft_visibility_at(proxy_atlas, slot, c, n, l);
         var v_both = 0.0;
         if (v_proxy > 0.0) {
-            v_both = spot_soft_visibility(shadow_atlas, spot.index.y, spot.world.xyz, p, n, l);
+            v_both = spot_soft_visibility_at(shadow_atlas, slot, c, n, l);
         }
         if (v_proxy <= 0.0) {
             continue;

@@ -231,11 +231,16 @@ fn spot_soft_visibility(atlas: texture_depth_2d, slot: u32, light: vec3<f32>, p:
     if (slot >= header.counts.w) {
         return 1.0;
     }
-    let view = shadow_views[slot];
-    let c = spot_tile_coords(view, light, p, n, l);
+    return spot_soft_visibility_at(atlas, slot, spot_tile_coords(shadow_views[slot], light, p, n, l), n, l);
+}
+
+// spot_soft_visibility at the coordinates `c` of spot_tile_coords in map `slot` (`slot` below
+// the maps drawn), so that two atlases of the same views share one projection.
+fn spot_soft_visibility_at(atlas: texture_depth_2d, slot: u32, c: vec4<f32>, n: vec3<f32>, l: vec3<f32>) -> f32 {
     if (c.w < 0.5) {
         return 1.0;
     }
+    let view = shadow_views[slot];
     let base = vec2<i32>(floor(c.xy));
     let radius = view.penumbra.x;
     if (radius <= 0.0) {
