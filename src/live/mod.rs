@@ -31,6 +31,10 @@
 //! - **VEM** ([`vem`], `--vem-input`): a captured video environment map sequence decomposed
 //!   into lights, drawn on a polar plot, with a slider for the light count and a switch that
 //!   lights and shadows the virtual objects with those lights over the feed (the VEM renderer).
+//!   The objects follow their motions and the moves by hand there too: the overlay poses them
+//!   itself (`VemPanel::pose_objects`; each light's shadow map is drawn every frame, so nothing
+//!   is re-traced), picking and dragging follow where it shows them, and the outdoor compositor
+//!   catches up when the switch is turned off.
 
 pub mod app;
 pub mod slot;

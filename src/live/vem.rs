@@ -5,6 +5,8 @@
 //! current map, and, when the panel has the scene's renderer ([`VemPanel::with_overlay`]), a
 //! switch that lights and shadows the virtual objects with these lights over the feed through
 //! the VEM renderer ([`VemOverlay`]): the same stage and renderer `heliar vem --scene` uses.
+//! The overlay's objects are where their motions and the person's drags put them
+//! ([`VemPanel::pose_objects`], issue 15 §1 "Live").
 
 use crate::io::image::LinearImage;
 use crate::render::vem::VemOutput;
@@ -12,6 +14,7 @@ use crate::run::vem::{VemOverlay, VemStage};
 use crate::vem::{Light, Status, VemConfig};
 use anyhow::{Context, Result};
 use egui::{Color32, Pos2, Sense, Stroke, Vec2};
+use glam::Mat4;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -23,6 +26,11 @@ pub struct VemPanel {
     stage: VemStage,
     status: Status,
     overlay: Option<VemOverlay>,
+    /// The poses the overlay's objects stand in (`None` before the first
+    /// [`VemPanel::pose_objects`]: as the scene places them).
+    posed: Option<Vec<Option<Mat4>>>,
+    /// The overlay's objects where they stand (empty before they first moved).
+    meshes: Vec<crate::geometry::Mesh>,
     /// Light the virtual objects with the panel's lights (needs [`VemPanel::with_overlay`]).
     pub compose: bool,
     /// The slider's light count.
@@ -45,7 +53,7 @@ impl VemPanel {
         let mut stage = VemStage::open(frames, calib, cfg)?;
         stage.input.set_yaw_deg(yaw_deg).context("--vem-yaw")?;
         eprintln!("VEM layout: {}", stage.input.layout()?);
-        Ok(Self { stage, status: Status::Dark, overlay: None, compose: false, light_count, frame: None, last: None, interval, decompose_ms: 0.0, error: None })
+        Ok(Self { stage, status: Status::Dark, overlay: None, posed: None, meshes: Vec::new(), compose: false, light_count, frame: None, last: None, interval, decompose_ms: 0.0, error: None })
     }
 
     /// Gives the panel the scene's VEM renderer, so it can light the virtual objects; compositing
@@ -70,6 +78,33 @@ impl VemPanel {
         }
         let overlay = self.overlay.as_mut()?;
         Some(overlay.render(&self.stage, self.status, background, dt_s))
+    }
+
+    /// Brings the overlay's objects to `poses` (`crate::run::motion::MovingObjects::poses_at`:
+    /// their motions and the moves by hand), posing them with `meshes` only when a pose
+    /// differs from where they stand; returns which objects moved (none without the overlay).
+    /// The VEM renderer draws each light's shadow map every frame, so a moved object casts and
+    /// receives its shadows at once; nothing else is kept of its old place.
+    pub fn pose_objects(&mut self, poses: Vec<Option<Mat4>>, meshes: impl FnOnce(&[Option<Mat4>]) -> Vec<crate::geometry::Mesh>) -> Result<Vec<bool>> {
+        let Some(overlay) = self.overlay.as_mut() else { return Ok(vec![false; poses.len()]) };
+        let moved: Vec<bool> = match &self.posed {
+            Some(was) => poses.iter().enumerate().map(|(k, p)| was.get(k) != Some(p)).collect(),
+            // Where the scene placed them: an object already off its placement has moved.
+            None => poses.iter().map(Option::is_some).collect(),
+        };
+        if moved.iter().any(|m| *m) {
+            let meshes = meshes(&poses);
+            overlay.move_objects(&meshes.iter().collect::<Vec<_>>()).context("moving the objects in the VEM overlay")?;
+            self.meshes = meshes;
+        }
+        self.posed = Some(poses);
+        Ok(moved)
+    }
+
+    /// Object `k` where the overlay last put it (`None` before the objects first moved here:
+    /// where the outdoor compositor has them).
+    pub fn object_mesh(&self, k: usize) -> Option<&crate::geometry::Mesh> {
+        self.meshes.get(k)
     }
 
     /// Loads and decomposes the next frame (the sequence loops).

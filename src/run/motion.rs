@@ -195,6 +195,20 @@ impl MovingObjects {
         self.objects.iter().map(|o| o.pose).collect()
     }
 
+    /// Every object's pose at `time` (its motion's and its move by hand), without moving
+    /// anything: for a second renderer that follows the same objects on its own (the live
+    /// window's VEM overlay, `crate::live::vem::VemPanel::pose_objects`).
+    pub fn poses_at(&self, time: &DateTime<FixedOffset>) -> Vec<Option<Mat4>> {
+        let start = self.start;
+        self.objects.iter().map(|o| o.pose_at(|m| m.motion.seconds_at(time, &start))).collect()
+    }
+
+    /// Every object in `poses` ([`Self::poses_at`]'s order; an object past the list's end as
+    /// placed).
+    pub fn meshes_in(&self, poses: &[Option<Mat4>]) -> Vec<Mesh> {
+        self.objects.iter().enumerate().map(|(k, o)| o.posed(poses.get(k).copied().flatten())).collect()
+    }
+
     /// Object `k`'s move by hand (world from where its own pose puts it).
     pub fn user(&self, k: usize) -> Option<Mat4> {
         self.objects.get(k).map(|o| o.user)

@@ -76,6 +76,13 @@ impl LiveApp {
         self.session.motion.as_ref().filter(|m| m.draggable())
     }
 
+    /// Object `k` as the window shows it: where the VEM overlay put it when that composes,
+    /// else where the outdoor compositor has it.
+    fn shown_mesh(&self, k: usize) -> Option<&Mesh> {
+        let vem = self.vem.as_ref().filter(|v| v.composes()).and_then(|v| v.object_mesh(k));
+        vem.or_else(|| self.objects()?.mesh(k))
+    }
+
     /// The object under footage pixel `(x, y)` (nearest hit), if any.
     pub fn pick_object(&self, x: f64, y: f64) -> Option<usize> {
         let objects = self.objects()?;
@@ -83,7 +90,7 @@ impl LiveApp {
         let (o, d) = (o.as_vec3(), d.as_vec3());
         (0..objects.names().len())
             .filter_map(|k| {
-                let mesh = objects.mesh(k)?;
+                let mesh = self.shown_mesh(k)?;
                 // A BVH per pick: a click, not a frame (1 292 triangles for the statue).
                 let hit = RayScene::new(mesh.clone()).intersect(o, d, f32::MAX)?;
                 Some((k, hit.t))
@@ -96,11 +103,10 @@ impl LiveApp {
     /// pointer is on no object.
     pub fn begin_drag(&mut self, x: f64, y: f64) -> Option<usize> {
         let object = self.pick_object(x, y)?;
-        let objects = self.objects()?;
-        let base = base_point(objects.mesh(object)?)?;
+        let base = base_point(self.shown_mesh(object)?)?;
         let (o, d) = self.session.compositor.canvas().footage_ray(x, y)?;
         let grab = on_plane(o, d, base.y as f64)?;
-        let user = objects.user(object)?;
+        let user = self.objects()?.user(object)?;
         self.drag = Some(Drag { object, base, grab, user });
         self.selected = Some(object);
         Some(object)
@@ -137,9 +143,9 @@ impl LiveApp {
             return Err(format!("a turn of {degrees}° is not a number"));
         }
         let objects = self.objects().ok_or("no object can be moved by hand here")?;
-        let (lo, hi) = objects.mesh(k).and_then(Mesh::bounds).ok_or_else(|| format!("object {k} has no vertices"))?;
-        let c = Vec3::new((lo.x + hi.x) / 2.0, 0.0, (lo.z + hi.z) / 2.0);
         let user = objects.user(k).ok_or_else(|| format!("there is no object {k}"))?;
+        let (lo, hi) = self.shown_mesh(k).and_then(Mesh::bounds).ok_or_else(|| format!("object {k} has no vertices"))?;
+        let c = Vec3::new((lo.x + hi.x) / 2.0, 0.0, (lo.z + hi.z) / 2.0);
         let turn = Mat4::from_translation(c) * Mat4::from_rotation_y(degrees.to_radians()) * Mat4::from_translation(-c);
         self.selected = Some(k);
         self.set_user(k, yaw_translation(turn * user))
@@ -172,14 +178,29 @@ impl LiveApp {
     }
 
     /// Composites the last frame again with the objects where they stand now (a move by hand
-    /// while no new frame comes); false when there is no frame yet or the VEM panel composes.
+    /// while no new frame comes), through the VEM overlay when it composes; false when there is
+    /// no frame yet.
     pub fn recompose(&mut self) -> bool {
         self.objects_dirty = false;
+        let (Some(c), Some(last)) = (&self.last_input, &self.last) else { return false };
+        let video = crate::render::VideoFrame::from_frame(&c.frame, &self.lin);
         if self.vem.as_ref().is_some_and(|v| v.composes()) {
-            return false;
+            let (index, time) = (c.index, last.time);
+            return match self.compose_vem(&time, &video, 0.0) {
+                Ok((passes, report, composited)) => {
+                    if let Some(last) = &mut self.last {
+                        (last.passes, last.vem, last.composited) = (passes, Some(report), composited);
+                    }
+                    self.texture_dirty = true;
+                    true
+                }
+                Err(e) => {
+                    self.error = Some(format!("frame {index} composited again: {e:#}"));
+                    false
+                }
+            };
         }
         let (Some(c), Some(last)) = (&self.last_input, &mut self.last) else { return false };
-        let video = crate::render::VideoFrame::from_frame(&c.frame, &self.lin);
         match self.session.recompose(c.index as usize, &last.time, &video, &last.record.lighting) {
             Ok((rendered, passes)) => {
                 let img = crate::render::output::encode_rgb8(&rendered.image, rendered.precision, &video, &c.frame, &self.photometry);

@@ -324,12 +324,25 @@ impl LiveApp {
         let record = self.session.prepare(c.index as usize, time, &c.frame, &self.lin)?;
         let video = VideoFrame::from_frame(&c.frame, &self.lin);
         let dt_s = self.last.as_ref().map_or(0.0, |l| (*time - l.time).num_microseconds().unwrap_or(0) as f64 * 1e-6).max(0.0);
+        let (passes, report, composited) = self.compose_vem(time, &video, dt_s)?;
+        Ok((record, passes, Some(report), composited, video))
+    }
+
+    /// The VEM overlay over `video`, its objects brought to where their motions and the moves by
+    /// hand put them at `time` first (`VemPanel::pose_objects`; the pass report lists those that
+    /// moved). The outdoor compositor's objects are left where it last put them: it catches up
+    /// on its own next frame.
+    fn compose_vem(&mut self, time: &DateTime<FixedOffset>, video: &VideoFrame, dt_s: f64) -> anyhow::Result<(PassReport, VemReport, Rgb8)> {
         let panel = self.vem.as_mut().ok_or_else(|| anyhow::anyhow!("no VEM panel"))?;
-        let out = panel.render_over(&linear_of(&video), dt_s).ok_or_else(|| anyhow::anyhow!("the VEM panel has no frame yet"))??;
-        let composited = rgb8(out.srgb.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect(), video.width, video.height);
         let mut passes = PassReport::default();
+        if let Some(m) = &self.session.motion {
+            let moved = panel.pose_objects(m.poses_at(time), |p| m.meshes_in(p))?;
+            passes.moved = m.names().into_iter().zip(moved).filter(|(_, moved)| *moved).map(|(n, _)| n.to_owned()).collect();
+        }
+        let out = panel.render_over(&linear_of(video), dt_s).ok_or_else(|| anyhow::anyhow!("the VEM panel has no frame yet"))??;
+        let composited = rgb8(out.srgb.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect(), video.width, video.height);
         passes.skip(crate::render::frame::pass::COMPOSITE, VEM_COMPOSITES);
-        Ok((record, passes, Some(out.report), composited, video))
+        Ok((passes, out.report, composited))
     }
 
     fn push_history(&mut self, r: &FrameRecord) {
