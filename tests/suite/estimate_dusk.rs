@@ -167,7 +167,8 @@ fn rel_diff(a: Option<[f64; 3]>, b: Option<[f64; 3]>) -> f64 {
 /// `response.read_noise = "auto"` on the dusk frames: the read noise measured on each frame
 /// agrees with the file's 5·10⁻⁴ within 3 standard errors, and within [`READ_NOISE_TOL`] after
 /// sunset; the report says it came from the frame; `k`, `Pd` and `Pa` agree with the fit that
-/// uses the file's value within [`K_AUTO_TOL`] and [`P_AUTO_TOL`].
+/// uses the file's value within [`K_AUTO_TOL`] and [`P_AUTO_TOL`]. With no `read_noise` in the
+/// file, frames with the sun up use none and the others the measured one.
 #[test]
 fn the_dusk_read_noise_measured_on_the_frames_agrees_with_the_file() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/dusk");
@@ -177,8 +178,12 @@ fn the_dusk_read_noise_measured_on_the_frames_agrees_with_the_file() {
     let mut auto = seq.photometry.clone();
     auto.read_noise = ReadNoise::Auto;
     let auto_lin = auto.linearizer();
+    let mut unknown = seq.photometry.clone();
+    unknown.read_noise = ReadNoise::Unknown;
+    let unknown_lin = unknown.linearizer();
     let ray = Arc::new(RayScene::new(scene.proxy.clone()));
-    let (mut est_file, mut est_auto) = (Estimator::new(&scene, ray.clone()).unwrap(), Estimator::new(&scene, ray).unwrap());
+    let (mut est_file, mut est_auto) = (Estimator::new(&scene, ray.clone()).unwrap(), Estimator::new(&scene, ray.clone()).unwrap());
+    let mut est_unknown = Estimator::new(&scene, ray).unwrap();
     for (i, p) in seq.files.iter().enumerate() {
         let frame = Frame::load(p).unwrap();
         let m = noise_level::measure(&frame, &auto_lin).expect("a noise level fit on every dusk frame");
@@ -188,6 +193,12 @@ fn the_dusk_read_noise_measured_on_the_frames_agrees_with_the_file() {
         assert_eq!((rf.source, ra.source), (ReadNoiseSource::File, ReadNoiseSource::Frame));
         assert!((rf.value - 5e-4).abs() < 1e-9, "{rf:?}");
         assert!(ra.value == m.read_noise && ra.blocks == Some(m.blocks), "{ra:?} against {m:?}");
+        // Absent from the camera file: none while the sun is up, measured after sunset.
+        let eu = est_unknown.estimate(i, &seq.times[i], &frame, &unknown_lin).unwrap();
+        match eu.read_noise {
+            None => assert!(eu.sun.above_horizon, "frame {i}"),
+            Some(r) => assert!(!eu.sun.above_horizon && r.source == ReadNoiseSource::FrameAtDusk && r.value == m.read_noise, "frame {i}: {r:?}"),
+        }
         let (kf, ka) = (luma(&ef.lamps[0].k), luma(&ea.lamps[0].k));
         let (dd, da) = (rel_diff(ea.pd, ef.pd), rel_diff(ea.pa, ef.pa));
         eprintln!(
