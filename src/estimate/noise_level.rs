@@ -104,18 +104,15 @@ struct Bin {
 /// of flat blocks above the clip are left.
 pub fn measure(frame: &Frame, lin: &Linearizer) -> Option<NoiseLevel> {
     let (w, h) = (frame.width as usize, frame.height as usize);
-    let mut planes = vec![vec![f32::NAN; w * h]; 3];
-    for i in 0..w * h {
-        let (v, state) = lin.radiance(frame, i);
-        if state == PixelState::Ok {
-            for c in 0..3 {
-                planes[c][i] = v[c];
-            }
-        }
-    }
+    // One channel at a time: one plane of `f32` in memory (33 MB for a 4K frame).
+    let mut plane = vec![f32::NAN; w * h];
     let mut blocks = Vec::new();
-    for (c, plane) in planes.iter().enumerate() {
-        blocks_of(plane, w, h, |m| lin.code_step(frame, m as f32, c) as f64, &mut blocks);
+    for c in 0..3 {
+        for (i, p) in plane.iter_mut().enumerate() {
+            let (v, state) = lin.radiance(frame, i);
+            *p = if state == PixelState::Ok { v[c] } else { f32::NAN };
+        }
+        blocks_of(&plane, w, h, |m| lin.code_step(frame, m as f32, c) as f64, &mut blocks);
     }
     fit_blocks(blocks)
 }
