@@ -20,6 +20,8 @@
 //!   lamps nothing of it runs.
 //! - [`noise`]: with the camera's read noise (`response.read_noise`), the fits weight rows by an
 //!   absolute noise floor beside the relative one and model values clipped at zero.
+//!   [`noise_level`] measures the read noise on the frame when the camera file says `"auto"`, or
+//!   gives none and the sun is at or below the horizon (dusk and night).
 //! - [`temporal`]: smooth across frames and detect when the lighting changed enough to relight.
 //!
 //! Thresholds are named constants or [`EstimatorConfig`] fields, documented where defined.
@@ -32,6 +34,7 @@ mod report;
 mod gather;
 mod decide;
 pub mod noise;
+pub mod noise_level;
 pub mod sky_terms;
 pub mod smoother;
 pub mod solve;
@@ -53,7 +56,7 @@ use solve::{ChannelRows, HDR_NOISE_FLOOR_REL, LDR_NOISE_FLOOR_REL};
 use std::sync::Arc;
 use smoother::{ChangeDetector, ChangeReason, Smoother};
 pub use turbidity::TurbidityFit;
-pub use report::{EstimateError, Fallback, FrameEstimate, Intensities, LampReport, LampStatus, SampleCounts, SetupStats, Status, SunReport};
+pub use report::{EstimateError, Fallback, FrameEstimate, Intensities, LampReport, LampStatus, ReadNoiseReport, ReadNoiseSource, SampleCounts, SetupStats, Status, SunReport};
 
 /// Rec. 709 luminance weights, used to compare colour intensities.
 pub const LUMA: [f64; 3] = [0.2126, 0.7152, 0.0722];
@@ -318,7 +321,8 @@ impl Estimator {
             crate::io::frames::FrameData::Ldr { .. } => LDR_NOISE_FLOOR_REL,
             crate::io::frames::FrameData::Hdr(_) => HDR_NOISE_FLOOR_REL,
         };
-        self.read_noise = lin.read_noise();
+        let read_noise = read_noise_of(frame, lin, above);
+        self.read_noise = read_noise.map_or(0.0, |r| r.value);
         let rebuilt = self.ensure_sun(dir, above)?;
         let sun_rebuild_ms = self.sun_timings.total_ms();
         let t_start = std::time::Instant::now();
@@ -352,6 +356,7 @@ impl Estimator {
             terrain: self.sky.as_ref().map(|_| self.config.sky.terrain_used()),
             turbidity_fit,
             lamps: Vec::new(),
+            read_noise,
         };
 
         self.prepare_lamps(time);
@@ -368,4 +373,22 @@ impl Estimator {
         self.smooth(&mut out, time, dir);
         Ok(out)
     }
+}
+
+/// The read noise of a frame's fit (`noise`): the camera file's number; measured on the frame
+/// ([`noise_level`]) under `"auto"`, or when the file gives none and the sun is not above the
+/// horizon; else none (the relative fit of `solve`, as before there was a read-noise model).
+fn read_noise_of(frame: &Frame, lin: &Linearizer, sun_above: bool) -> Option<ReadNoiseReport> {
+    use crate::io::frames::ReadNoise;
+    let source = match lin.read_noise_setting() {
+        ReadNoise::Given(v) if v > 0.0 => return Some(ReadNoiseReport { source: ReadNoiseSource::File, value: lin.read_noise(), se: None, blocks: None }),
+        ReadNoise::Given(_) => return None,
+        ReadNoise::Unknown if sun_above => return None,
+        ReadNoise::Unknown => ReadNoiseSource::FrameAtDusk,
+        ReadNoise::Auto => ReadNoiseSource::Frame,
+    };
+    Some(match noise_level::measure(frame, lin) {
+        Some(m) => ReadNoiseReport { source, value: m.read_noise, se: Some(m.read_noise_se), blocks: Some(m.blocks) },
+        None => ReadNoiseReport { source, value: 0.0, se: None, blocks: Some(0) },
+    })
 }

@@ -13,7 +13,7 @@
 //!
 //! # How it works
 //! With `σ_r > 0` (the camera file's `response.read_noise`, in radiance through the exposure:
-//! [`crate::io::frames::Linearizer::read_noise`]), [`robust_fit_noise`] replaces steps 1 and 3
+//! [`crate::io::frames::Linearizer::read_noise`], or measured on the frame: [`super::noise_level`]), [`robust_fit_noise`] replaces steps 1 and 3
 //! of the robust least squares (Jensen §3.1; the LMedS start and the Tukey IRLS of
 //! [`super::solve_multi`]):
 //! - **Noise model.** Row `i`'s standard deviation is `σ_i = √((s·(max(y_i, 0) + floor))² + σ_r²)`:
@@ -40,8 +40,10 @@
 //!   `σ²·(AᵀWA)⁻¹`, which takes the clipped mean's slope `Φ(μ/σ) ∈ [½, 1]` as 1; for rows at
 //!   `μ ≈ 0` this and the clipped variance `(½ − 1/2π)·σ²` roughly cancel (a factor ≈ 1.2).
 //!
-//! With `σ_r = 0` (the default: no `read_noise` in the camera file), nothing here runs and the fits
-//! are those of [`super::solve`] and [`super::solve_multi`], bit for bit.
+//! With `σ_r = 0` (no `read_noise` in the camera file and the sun up, or `read_noise = 0`), nothing
+//! here runs and the fits are those of [`super::solve`] and [`super::solve_multi`], bit for bit.
+//! Under `read_noise = "auto"`, or with none given and the sun at or below the horizon, `σ_r` is
+//! measured on the frame ([`super::noise_level`]).
 
 use super::solve::{ChannelFit, ChannelRows, IRLS_MAX_ITERS, IRLS_TOL, MAD_TO_SIGMA, SIGMA_FLOOR, TUKEY_C, median_in_place, robust_fit, tukey};
 use super::solve_multi::{MultiFit, lmeds_start, nnls, normal, report, robust_fit_multi};

@@ -157,6 +157,40 @@ pub struct FrameEstimate {
     /// One entry per `[[lights]]` of the scene, in order (absent without lights).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub lamps: Vec<LampReport>,
+    /// The read noise the fit used and where it came from (`estimate::noise`,
+    /// `estimate::noise_level`); absent when the fit used none (no `response.read_noise` and the
+    /// sun up).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub read_noise: Option<ReadNoiseReport>,
+}
+
+/// Where the read noise of a frame's fit came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReadNoiseSource {
+    /// The camera file's `response.read_noise` (a number).
+    File,
+    /// Measured on the frame (`response.read_noise = "auto"`).
+    Frame,
+    /// Measured on the frame because the camera file gives none and the sun is at or below the
+    /// horizon.
+    FrameAtDusk,
+}
+
+/// The read noise of a frame's fit (`estimate::noise_level`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ReadNoiseReport {
+    /// Where it came from.
+    pub source: ReadNoiseSource,
+    /// The standard deviation used, scaled radiance (0 when the frame's measurement failed).
+    pub value: f64,
+    /// Measured on the frame: its standard error.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub se: Option<f64>,
+    /// Measured on the frame: the flat 8×8 blocks (of all channels) in the fit; 0 when too few
+    /// were left for one (then `value` is 0 and the fit is the relative one).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub blocks: Option<usize>,
 }
 
 /// What the frame's fit says about one lamp (`estimate::lamps`).

@@ -93,7 +93,20 @@ pub struct Linearizer {
     sat8: u16,
     sat16: u16,
     hdr_clip: f32,
-    read_noise: f32,
+    read_noise: ReadNoise,
+}
+
+/// Where the sensor's read noise comes from: the camera file's `response.read_noise`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ReadNoise {
+    /// Absent: none (relative weights only) while the sun is up; at dusk and night (the sun at or
+    /// below the horizon) the estimator measures it on each frame (`estimate::noise_level`).
+    Unknown,
+    /// A number: the standard deviation in linear camera units (after the response curve,
+    /// before the exposure), ≥ 0. It always wins.
+    Given(f32),
+    /// `"auto"`: measured on each frame (`estimate::noise_level`).
+    Auto,
 }
 
 impl Linearizer {
@@ -112,21 +125,39 @@ impl Linearizer {
             sat8: (saturation * 255.0).ceil().min(255.0) as u16,
             sat16: (saturation * 65535.0).ceil().min(65535.0) as u16,
             hdr_clip: hdr_clip.unwrap_or(HALF_MAX),
-            read_noise: 0.0,
+            read_noise: ReadNoise::Given(0.0),
         }
     }
 
-    /// The same tables with the sensor's read noise: its standard deviation in linear camera
-    /// units (before the exposure), as [`Photometry::read_noise`].
-    pub fn with_read_noise(mut self, read_noise: f32) -> Self {
+    /// The same tables with the sensor's read noise, as [`Photometry::read_noise`]
+    /// ([`Linearizer::new`] has `Given(0)`: none).
+    pub fn with_read_noise(mut self, read_noise: ReadNoise) -> Self {
         self.read_noise = read_noise;
         self
     }
 
-    /// The read noise's standard deviation in scaled radiance (the units of [`Self::radiance`]);
-    /// 0 when the calibration gives none.
+    /// The read noise's standard deviation in scaled radiance (the units of [`Self::radiance`])
+    /// when the calibration gives a number; 0 otherwise (see [`Self::read_noise_setting`]).
     pub fn read_noise(&self) -> f64 {
-        self.read_noise as f64 * self.inv_exposure as f64
+        match self.read_noise {
+            ReadNoise::Given(v) => v as f64 * self.inv_exposure as f64,
+            ReadNoise::Unknown | ReadNoise::Auto => 0.0,
+        }
+    }
+
+    /// Where the read noise comes from.
+    pub fn read_noise_setting(&self) -> ReadNoise {
+        self.read_noise
+    }
+
+    /// The step in scaled radiance between the stored code nearest to `radiance` in channel `c`
+    /// and the next one: the quantisation step of an LDR frame at that level; 0 for HDR frames.
+    pub fn code_step(&self, frame: &Frame, radiance: f32, c: usize) -> f32 {
+        let FrameData::Ldr { bits, .. } = frame.data else { return 0.0 };
+        let lut = if bits == 8 { &self.lut8[c] } else { &self.lut16[c] };
+        let x = radiance / self.inv_exposure;
+        let i = lut.partition_point(|&v| v < x).clamp(1, lut.len() - 1);
+        (lut[i] - lut[i - 1]) * self.inv_exposure
     }
 
     /// Linear radiance of pixel `index` (row-major) of `frame`, and whether it is usable.
@@ -254,10 +285,10 @@ pub struct Photometry {
     pub saturation: f32,
     /// HDR values at or above this are treated as clipped.
     pub hdr_clip: Option<f32>,
-    /// Standard deviation of the sensor's read noise in linear camera units (after the response
-    /// curve, before the exposure), ≥ 0; 0 when unknown. The estimator's fit weights rows by it
-    /// and models values clipped at zero (`estimate::noise`).
-    pub read_noise: f32,
+    /// The sensor's read noise: a standard deviation in linear camera units (after the response
+    /// curve, before the exposure), or measured on the frames. The estimator's fit weights rows
+    /// by it and models values clipped at zero (`estimate::noise`).
+    pub read_noise: ReadNoise,
 }
 
 impl Photometry {

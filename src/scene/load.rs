@@ -8,7 +8,8 @@ use super::paths::Within;
 use super::settings::BakeConfig;
 use super::{AlbedoSource, Manifest, ResponseSpec, SceneError, Sequence, VirtualObject, finite3, invalid, load_truth, parse_time};
 use crate::geometry::Mesh;
-use crate::io::frames::{Photometry, Response, list_frame_files};
+use crate::io::frames::{Photometry, ReadNoise, Response, list_frame_files};
+use super::manifest::{READ_NOISE_AUTO, ReadNoiseSpec};
 use crate::sun::{GeoFrame, Observer};
 use glam::{DVec3, Mat4, Quat, Vec3};
 use std::path::Path;
@@ -41,10 +42,14 @@ pub(super) fn check_response(camera_path: &Path, rs: &ResponseSpec) -> Result<()
     if rs.hdr_clip.is_some_and(|c| !(c > 0.0)) {
         return Err(invalid(camera_path, "response.hdr_clip", "must be positive"));
     }
-    if let Some(v) = rs.read_noise
-        && !(v.is_finite() && v >= 0.0)
-    {
-        return Err(invalid(camera_path, "response.read_noise", format!("{v} is not a finite standard deviation ≥ 0 (linear camera units)")));
+    match &rs.read_noise {
+        Some(ReadNoiseSpec::Value(v)) if !(v.is_finite() && *v >= 0.0) => {
+            return Err(invalid(camera_path, "response.read_noise", format!("{v} is not a finite standard deviation ≥ 0 (linear camera units)")));
+        }
+        Some(ReadNoiseSpec::Word(w)) if w != READ_NOISE_AUTO => {
+            return Err(invalid(camera_path, "response.read_noise", format!("'{w}' is neither a standard deviation ≥ 0 (linear camera units) nor \"{READ_NOISE_AUTO}\"")));
+        }
+        _ => {}
     }
     Ok(())
 }
@@ -179,7 +184,7 @@ pub(super) fn sequences(within: &Within, m: &Path, manifest: &Manifest, response
             name: s.name.clone(),
             files,
             times,
-            photometry: Photometry { response: response.clone(), exposure, saturation: rs.saturation, hdr_clip: rs.hdr_clip, read_noise: rs.read_noise.unwrap_or(0.0) },
+            photometry: Photometry { response: response.clone(), exposure, saturation: rs.saturation, hdr_clip: rs.hdr_clip, read_noise: rs.read_noise_setting().unwrap_or(ReadNoise::Unknown) },
             truth,
         });
     }

@@ -374,9 +374,37 @@ pub struct ResponseSpec {
     /// HDR values at or above this count as clipped (default: 65504, the half-float maximum).
     pub hdr_clip: Option<f32>,
     /// Standard deviation of the sensor's read noise in linear camera units (after the response
-    /// curve, before the exposure); absent: unknown, and the estimator weights rows by their
-    /// level only.
-    pub read_noise: Option<f32>,
+    /// curve, before the exposure), or `"auto"`: measured on each frame; absent: unknown (the
+    /// estimator weights rows by their level only while the sun is up, and measures the read
+    /// noise on the frame at dusk and night: [`crate::io::frames::ReadNoise::Unknown`]).
+    pub read_noise: Option<ReadNoiseSpec>,
+}
+
+/// `response.read_noise` as written: a number or a word (only `"auto"` is valid).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum ReadNoiseSpec {
+    /// A standard deviation in linear camera units.
+    Value(f32),
+    /// A word: `"auto"`.
+    Word(String),
+}
+
+/// The word that asks for the read noise measured on the frames.
+pub const READ_NOISE_AUTO: &str = "auto";
+
+impl ResponseSpec {
+    /// The read noise setting; `None` for a bad value (a word other than `"auto"`, a negative or
+    /// non-finite number: `load::check_response` says which).
+    pub fn read_noise_setting(&self) -> Option<crate::io::frames::ReadNoise> {
+        use crate::io::frames::ReadNoise;
+        match &self.read_noise {
+            None => Some(ReadNoise::Unknown),
+            Some(ReadNoiseSpec::Value(v)) if v.is_finite() && *v >= 0.0 => Some(ReadNoise::Given(*v)),
+            Some(ReadNoiseSpec::Word(w)) if w == READ_NOISE_AUTO => Some(ReadNoise::Auto),
+            Some(_) => None,
+        }
+    }
 }
 
 impl Default for ResponseSpec {

@@ -17,7 +17,7 @@ pub mod settings;
 pub use lights::{Light, LightKind, LightSpec, Schedule};
 pub use paths::LoadOptions;
 use paths::Within;
-pub use manifest::{AlbedoSource, CameraFile, EnvMapSpec, GridSpec, KeyTimeValue, KeyframeSpec, Manifest, MotionSpec, PoseSpec, ResponseSpec, SequenceSpec, TimeSpec, VirtualObjectSpec};
+pub use manifest::{AlbedoSource, CameraFile, EnvMapSpec, GridSpec, KeyTimeValue, KeyframeSpec, Manifest, MotionSpec, PoseSpec, READ_NOISE_AUTO, ReadNoiseSpec, ResponseSpec, SequenceSpec, TimeSpec, VirtualObjectSpec};
 
 use settings::{BakeConfig, EstimatorConfig};
 use crate::geometry::Mesh;
@@ -323,7 +323,7 @@ impl Scene {
             observer,
             geo,
             camera,
-            photometry: Photometry { response: response.clone(), exposure: rs.exposure, saturation: rs.saturation, hdr_clip: rs.hdr_clip, read_noise: rs.read_noise.unwrap_or(0.0) },
+            photometry: Photometry { response: response.clone(), exposure: rs.exposure, saturation: rs.saturation, hdr_clip: rs.hdr_clip, read_noise: rs.read_noise_setting().unwrap_or(crate::io::frames::ReadNoise::Unknown) },
             camera_path: camera_path.clone(),
             proxy,
             proxy_notes,

@@ -269,7 +269,7 @@ fn load_response(path: &Path, r: &ResponseFile) -> Result<LoadedResponse, LensFi
         }
         other => return Err(invalid(path, "response.kind", format!("'{other}' is not one of linear, srgb, gamma, log, table"))),
     };
-    Ok((Photometry { response, exposure: r.exposure, saturation: r.saturation, hdr_clip: r.hdr_clip, read_noise: 0.0 }, log))
+    Ok((Photometry { response, exposure: r.exposure, saturation: r.saturation, hdr_clip: r.hdr_clip, read_noise: crate::io::frames::ReadNoise::Unknown }, log))
 }
 
 /// Numbers of a CSV line, `None` for blank, comment and header lines.
