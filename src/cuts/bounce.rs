@@ -27,8 +27,9 @@
 //!   the per-vertex ambient (`super::frame::VertexAmbient`); only one bounce is added (`b`'s
 //!   radiance has no light from `a`).
 //!
-//! One object alone has no other object: nothing is added and its ambient is bit for bit that
-//! of Eq. 3. Measured on two statues 1.2 m apart in `tests/suite/object_cuts_two.rs`
+//! One object alone has no other object: nothing is added from others; the light it reflects
+//! onto itself comes from [`super::self_bounce`] when `Bounce::own` holds its gather (the frame
+//! loop passes none yet), computed from the same first pass and added before the others' light. Measured on two statues 1.2 m apart in `tests/suite/object_cuts_two.rs`
 //! (docs/measurements.md, "Two objects turned differently"): the larger statue's relative RMSE
 //! against the traced reference fell from 7.8% to 5.3% (its mean from 6.7% to 2.2% too dark),
 //! both statues' from 8.1% to 6.3%, for about +16% of the cuts' time per frame.
@@ -43,6 +44,7 @@ use super::frame::{FrameCuts, ObjectAmbient, Occluders, UnitLighting, VertexAmbi
 use super::lighting::ClusteredLighting;
 use super::packed::{CutView, PackedCuts};
 use super::rotate::{LeafRemap, Pose, relative};
+use super::self_bounce::SelfGather;
 use super::tree::{DirectionTree, node_index};
 use super::vcf::FieldLookup;
 use super::walk::for_each_common_node;
@@ -191,14 +193,28 @@ pub(super) fn lambert(rho: Vec3, e: Vec3) -> Vec3 {
     rho * e * FRAC_1_PI
 }
 
-/// What the bounce needs besides the cuts: each object's [`BounceSurface`] (scene order) and
-/// the direction toward the sun (world; `None`: no sun, no direct light on the objects).
+/// What the bounce needs besides the cuts: each object's [`BounceSurface`] (scene order), the
+/// direction toward the sun (world; `None`: no sun, no direct light on the objects) and each
+/// object's gather of the light it reflects onto itself ([`super::self_bounce`]; empty: none).
 #[derive(Clone, Copy, Debug)]
 pub struct Bounce<'a> {
     /// Per object.
     pub surfaces: &'a [BounceSurface],
     /// Toward the sun, unit, world frame.
     pub sun: Option<Vec3>,
+    /// Per object, or empty (no light from an object onto itself: Eq. 3's black self-occluder).
+    pub own: &'a [SelfGather],
+}
+
+/// Adds `more` to `rows`, rgb of each row.
+fn add_rows(rows: &mut [VertexAmbient], more: &[VertexAmbient]) {
+    for (row, m) in rows.iter_mut().zip(more) {
+        for (r, m) in row.iter_mut().zip(m) {
+            for c in 0..3 {
+                r[c] += m[c];
+            }
+        }
+    }
 }
 
 /// `v` as a [`Vec3`] of an ambient row's rgb.
@@ -213,15 +229,14 @@ impl FrameCuts {
     pub fn object_ambient_bounced(&self, lighting: &Arc<UnitLighting>, poses: &[Pose], eye: Vec3, bounce: &Bounce) -> Result<ObjectAmbient, CutsError> {
         let keep = self.cuts.objects.len() > 1;
         let (mut ambient, kept) = self.object_ambient_kept(lighting, poses, eye, keep)?;
-        if keep {
-            self.bounce_into(&mut ambient, poses, eye, bounce, Some(&kept))?;
-        }
+        self.bounce_into(&mut ambient, poses, eye, bounce, Some(&kept))?;
         Ok(ambient)
     }
 
     /// Adds to `ambient` (the first pass, `Self::object_ambient_posed` at the same `poses` and
-    /// `eye`) the light each object reflects onto the others (module docs). With fewer than two
-    /// objects nothing changes.
+    /// `eye`) the light each object reflects onto the others (module docs) and, with
+    /// `bounce.own`, onto itself ([`super::self_bounce`]). With one object and no `own` nothing
+    /// changes.
     pub fn add_bounce(&self, ambient: &mut ObjectAmbient, poses: &[Pose], eye: Vec3, bounce: &Bounce) -> Result<(), CutsError> {
         self.bounce_into(ambient, poses, eye, bounce, None)
     }
@@ -229,20 +244,40 @@ impl FrameCuts {
     /// [`Self::add_bounce`], with the first pass's fields per object and vertex when kept.
     fn bounce_into(&self, ambient: &mut ObjectAmbient, poses: &[Pose], eye: Vec3, bounce: &Bounce, kept: Option<&[Vec<Occluders>]>) -> Result<(), CutsError> {
         let objects = &self.cuts.objects;
-        if objects.len() < 2 {
+        let own = !bounce.own.is_empty();
+        if objects.len() < 2 && !own {
             return Ok(());
         }
-        if bounce.surfaces.len() != objects.len() || ambient.vertices.len() != objects.len() || poses.len() != objects.len() {
+        if bounce.surfaces.len() != objects.len() || ambient.vertices.len() != objects.len() || poses.len() != objects.len() || (own && bounce.own.len() != objects.len()) {
             return Err(CutsError::Operands(format!(
-                "bounce: {} objects, {} surfaces, {} ambient rows, {} poses",
+                "bounce: {} objects, {} surfaces, {} ambient rows, {} poses, {} self gathers",
                 objects.len(),
                 bounce.surfaces.len(),
                 ambient.vertices.len(),
-                poses.len()
+                poses.len(),
+                bounce.own.len()
             )));
         }
         let radiance: Vec<ObjectRadiance> = (0..objects.len()).map(|b| self.object_radiance(ambient, poses, b, bounce)).collect::<Result<_, _>>()?;
         let mut added: Vec<Vec<VertexAmbient>> = Vec::with_capacity(objects.len());
+        if own {
+            // The light each object reflects onto itself, from the same first pass.
+            for (a, gather) in bounce.own.iter().enumerate() {
+                let obj = &objects[a];
+                let count = obj.positions.len().min(obj.svc.cuts.len());
+                let rows: Vec<VertexAmbient> = (0..count)
+                    .into_par_iter()
+                    .map(|v| {
+                        let (_, n_local, _, r) = self.vertex_geometry(poses, a, v, eye)?;
+                        Ok(gather.vertex_ambient(v, &radiance[a].pa, &radiance[a].pd, n_local, poses[a].local_dir(r)))
+                    })
+                    .collect::<Result<_, CutsError>>()?;
+                add_rows(&mut ambient.vertices[a], &rows);
+            }
+        }
+        if objects.len() < 2 {
+            return Ok(());
+        }
         for (a, obj) in objects.iter().enumerate() {
             let own = poses[a].rotation;
             let lights: Vec<Option<(ClusteredLighting, ClusteredLighting)>> =
@@ -260,13 +295,7 @@ impl FrameCuts {
             added.push(rows);
         }
         for (rows, more) in ambient.vertices.iter_mut().zip(&added) {
-            for (row, m) in rows.iter_mut().zip(more) {
-                for (r, m) in row.iter_mut().zip(m) {
-                    for c in 0..3 {
-                        r[c] += m[c];
-                    }
-                }
-            }
+            add_rows(rows, more);
         }
         Ok(())
     }

@@ -33,7 +33,18 @@
 //!   `b`, `ρ/π` times its own ambient from the cuts plus the direct sun (its SVC at the sun's
 //!   leaf times the proxy's and the other fields' values there), seen along each direction as the
 //!   projected-area mean of `b`'s vertices facing back, clustered on the tree as `l_k`; split
-//!   per unit `Pa` and `Pd` like the rest. One object alone is unchanged bit for bit.
+//!   per unit `Pa` and `Pd` like the rest.
+//! - **Light an object reflects onto itself** ([`self_bounce`]; *not in the paper*, the same
+//!   extension for the object's own parts, which the self-visibility cut makes black): rays
+//!   from each vertex against the object's own mesh, cast once (the object is rigid), bring per
+//!   frame the first pass's outgoing radiance at their hits (a statue's sunlit pedestal top onto
+//!   its sphere's underside). Passed in `bounce::Bounce::own`; **the frame loop does not use it
+//!   yet**: it only helps with the moving objects' long edges split
+//!   (`crate::geometry::subdivide`, so that the cuts, shaded per vertex, have vertices where a
+//!   two-triangle pedestal top's light changes), and splitting breaks the bit-for-bit equality
+//!   of a motion's still frames with the static object's. Measured on the two statues of
+//!   `tests/suite/object_cuts_two.rs` with both wired in (docs/measurements.md, "Where the two
+//!   statues' error was"): 6.3% → 3.8% over both statues.
 //! - **Files and sweeps**: [`mod@file`] stores a scene's cuts with a hash of their inputs;
 //!   [`sweep`] measures error against cost.
 //! - **Frames** ([`frame`], [`receivers`]): the objects' ambient per vertex and the receivers'
@@ -61,6 +72,7 @@ pub mod packed;
 pub mod proxy_field;
 pub mod receivers;
 pub mod rotate;
+pub mod self_bounce;
 pub mod shapes;
 pub mod svc;
 pub mod sweep;

@@ -13,6 +13,7 @@ pub mod brdf;
 pub mod equirect;
 pub mod raycast;
 pub mod sampling;
+pub mod subdivide;
 
 use glam::{Vec2, Vec3};
 

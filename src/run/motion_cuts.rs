@@ -154,7 +154,7 @@ impl CutState {
     /// the objects reflect onto each other (`crate::cuts::bounce`); `None` when the lighting holds
     /// all of it (a VEM frame).
     pub fn evaluate_with(&self, poses: &[Pose], light: Arc<UnitLighting>, eye: Vec3, sun: Option<Vec3>) -> Result<(ObjectAmbient, ReceiverCuts), CutsError> {
-        let ambient = self.frame.object_ambient_bounced(&light, poses, eye, &Bounce { surfaces: &self.surfaces, sun })?;
+        let ambient = self.frame.object_ambient_bounced(&light, poses, eye, &Bounce { surfaces: &self.surfaces, sun, own: &[] })?;
         let receivers = self.frame.receivers_posed(light, poses.to_vec());
         Ok((ambient, receivers))
     }
