@@ -4,20 +4,33 @@
 //! `b = ρ·(s·max(n·l,0) + b_bounce)/π` (Jensen §4.2, the same equation as the relighting). People,
 //! cars, wet patches and highlights make outliers, so the fit is robust:
 //!
-//! 1. **Weights.** Each row is divided by its own noise level `|y| + floor`, so the fit
-//!    minimises relative residuals. Camera noise grows with the signal, so this is the right
-//!    weighting; it also makes the arithmetic independent of the overall scale (1e-4 … 1e5) and
-//!    keeps dark shadowed samples from being swamped by bright sunlit ones when the sun-to-sky ratio
-//!    is extreme. The floor is [`LDR_NOISE_FLOOR_REL`] or [`HDR_NOISE_FLOOR_REL`] of the median.
+//! 1. **Weights.** Each row is divided by its own noise level, so the fit minimises relative
+//!    residuals. Camera noise grows with the signal, so this is the right weighting; it also makes
+//!    the arithmetic independent of the overall scale (1e-4 … 1e5) and keeps dark shadowed samples
+//!    from being swamped by bright sunlit ones when the sun-to-sky ratio is extreme. The level is
+//!    the row's expected value plus a floor, [`LDR_NOISE_FLOOR_REL`] or [`HDR_NOISE_FLOOR_REL`] of
+//!    the median: the observed `|y| + floor` for the start (step 2), then in each IRLS step the
+//!    previous step's prediction `μ̂ + floor`, `μ̂ = a·Pa + b·Pd` (the floor alone at `μ̂ ≤ 0`).
+//!    (Jensen §3.1 fits the two parameters to 500 sampled pixels and leaves the weighting open.)
+//!    Dividing by the observed value instead gives rows whose noise happens to be negative more
+//!    weight and pulls the fit low: by
+//!    `E[u]/E[u²] − 1` with `u = 1/(1 + n)` for relative noise `n`, about `−2·var(n)` (−8.2% at 20%
+//!    uniform noise, the unit test; −1.2 points of red `Pa` on the winter frames, whose red has 5%
+//!    noise and an all-sunlit view that amplifies it, `docs/measurements.md`). With the prediction
+//!    the IRLS's fixed point solves `Σ w·A·(y − A·x)/d(A·x)² = 0`, whose terms have zero mean at
+//!    the truth for any zero-mean noise (a quasi-likelihood with variance ∝ μ²).
 //! 2. **Start (LMedS).** Minimal fits through pairs of rows (one sunlit, one shadowed when both
 //!    exist, so the pair is well conditioned), plus the plain least-squares fit, are scored by the
 //!    median squared residual; the best one wins (Rousseeuw's least median of squares, breakdown
 //!    ≈ 50%).
 //! 3. **Refine (MM).** Iteratively reweighted least squares with Tukey's biweight (c = 4.685, 95%
-//!    Gaussian efficiency) at the LMedS scale. Every weighted solve is a 2-variable NNLS solved
-//!    exactly by its active sets, so `Pa, Pd ≥ 0` always.
-//! 4. **Report.** Standard errors from `σ²·(AᵀWA)⁻¹`, the weighted residual RMS, the inlier count
-//!    (non-zero biweight) and the condition number of the weighted design with unit-norm columns,
+//!    Gaussian efficiency) at the LMedS scale, on the relative residuals `(y − μ̂)/d` at the levels
+//!    of step 1 ([`irls_weight`], shared with [`super::solve_multi`]). Every weighted solve is a
+//!    2-variable NNLS solved exactly by its active sets, so `Pa, Pd ≥ 0` always. The convergence
+//!    test is on the parameters' relative change.
+//! 4. **Report.** On the rows divided by their levels at the fit: standard errors from
+//!    `σ²·(AᵀWA)⁻¹`, the weighted residual RMS, the inlier count (non-zero biweight) and the
+//!    condition number of the weighted design with unit-norm columns,
 //!    `κ = √((1+|r|)/(1−|r|))` where `r` is the cosine between the `a` and `b` columns. `κ` grows
 //!    without bound when the sunlit and ambient columns are proportional (all samples sunlit on one
 //!    plane), which is exactly when `Pd` and `Pa` cannot be separated.

@@ -4,11 +4,13 @@
 //!
 //! # How it works
 //! The same four steps as the two-column solver, generalised:
-//! 1. **Weights:** each row divided by its noise level `|y| + floor`.
+//! 1. **Weights:** each row divided by its noise level: `|y| + floor` for the start, the previous
+//!    IRLS step's prediction `μ̂ + floor` in each step (the floor alone at `μ̂ ≤ 0`; the observed
+//!    value biases noisy fits low, [`super::solve`] step 1).
 //! 2. **Start (LMedS):** the plain NNLS fit and [`LMEDS_TRIALS_MULTI`] exact fits through `p`
 //!    rows, one drawn among the rows where each column is non-zero (so a lamp's column gets a row
 //!    it lights), scored by the median squared residual.
-//! 3. **Refine:** Tukey IRLS at the LMedS scale; each weighted solve is an NNLS on the normal
+//! 3. **Refine:** Tukey IRLS at the LMedS scale ([`super::solve::irls_weight`]); each weighted solve is an NNLS on the normal
 //!    equations by Lawson and Hanson's active sets, so every parameter stays `≥ 0`.
 //! 4. **Report:** standard errors from `σ²·(AᵀWA)⁻¹`; the condition number `√(λ_max/λ_min)` of the
 //!    weighted design with unit-norm columns (for two columns this is the solver's
