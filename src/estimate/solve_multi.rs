@@ -4,11 +4,13 @@
 //!
 //! # How it works
 //! The same four steps as the two-column solver, generalised:
-//! 1. **Weights:** each row divided by its noise level `|y| + floor`.
+//! 1. **Weights:** each row divided by its noise level: `|y| + floor` for the start, the previous
+//!    IRLS step's prediction `μ̂ + floor` in each step (the floor alone at `μ̂ ≤ 0`; the observed
+//!    value biases noisy fits low, [`super::solve`] step 1).
 //! 2. **Start (LMedS):** the plain NNLS fit and [`LMEDS_TRIALS_MULTI`] exact fits through `p`
 //!    rows, one drawn among the rows where each column is non-zero (so a lamp's column gets a row
 //!    it lights), scored by the median squared residual.
-//! 3. **Refine:** Tukey IRLS at the LMedS scale; each weighted solve is an NNLS on the normal
+//! 3. **Refine:** Tukey IRLS at the LMedS scale ([`super::solve::irls_weight`]); each weighted solve is an NNLS on the normal
 //!    equations by Lawson and Hanson's active sets, so every parameter stays `≥ 0`.
 //! 4. **Report:** standard errors from `σ²·(AᵀWA)⁻¹`; the condition number `√(λ_max/λ_min)` of the
 //!    weighted design with unit-norm columns (for two columns this is the solver's
@@ -16,7 +18,7 @@
 //!    fit by the others (`r_j² = 1 − 1/VIF_j`, `VIF_j` the diagonal of the normalised inverse), which
 //!    says which parameter cannot be told apart from the rest.
 
-use super::solve::{COND_CAP, ChannelFit, IRLS_MAX_ITERS, IRLS_TOL, LMEDS_SCORE_ROWS, MAD_TO_SIGMA, SIGMA_FLOOR, median_in_place, tukey};
+use super::solve::{COND_CAP, ChannelFit, IRLS_MAX_ITERS, IRLS_TOL, LMEDS_SCORE_ROWS, Level, MAD_TO_SIGMA, SIGMA_FLOOR, irls_weights, median_in_place, tukey};
 use rand::Rng;
 
 /// Minimal-fit trials of the LMedS start. With three columns and 30% outliers a triple is clean
@@ -242,6 +244,11 @@ fn conditions(g: &[f64], p: usize) -> (f64, Vec<f64>) {
 /// Robust fit of `y = Σ cols[j]·x_j`, `x ≥ 0` (module docs). `None` with fewer rows than
 /// `max(3, p + 1)` or no column.
 pub fn robust_fit_multi(cols: &[Vec<f64>], y: &[f64], noise_floor_rel: f64, rng: &mut impl Rng) -> Option<MultiFit> {
+    robust_fit_multi_with(cols, y, noise_floor_rel, Level::Predicted, rng)
+}
+
+/// [`robust_fit_multi`] with the IRLS's noise levels set by `level`.
+pub(super) fn robust_fit_multi_with(cols: &[Vec<f64>], y: &[f64], noise_floor_rel: f64, level: Level, rng: &mut impl Rng) -> Option<MultiFit> {
     let (n, p) = (y.len(), cols.len());
     if p == 0 || n < 3.max(p + 1) {
         return None;
@@ -257,17 +264,17 @@ pub fn robust_fit_multi(cols: &[Vec<f64>], y: &[f64], noise_floor_rel: f64, rng:
         return Some(MultiFit { x: vec![0.0; p], se: vec![0.0; p], residual_rms: 0.0, inliers: n, condition, column_condition });
     }
     let floor = noise_floor_rel * scale;
-    let d: Vec<f64> = y.iter().map(|v| v.abs() + floor).collect();
-    let ys: Vec<f64> = (0..n).map(|i| y[i] / d[i]).collect();
-    let cs: Vec<Vec<f64>> = cols.iter().map(|c| (0..n).map(|i| c[i] / d[i]).collect()).collect();
-    let (x, med) = lmeds_start(&cs, &ys, rng);
+    let observed: Vec<f64> = y.iter().map(|v| v.abs() + floor).collect();
+    let (cs, ys) = divided(cols, y, &observed);
+    let (mut x, med) = lmeds_start(&cs, &ys, rng);
     let small_sample = 1.0 + 5.0 / (n as f64 - p as f64).max(1.0);
     let sigma = (MAD_TO_SIGMA * small_sample * med.sqrt()).max(SIGMA_FLOOR);
-    // IRLS.
-    let mut x = x;
+    // IRLS on the raw rows, each weighted by its biweight over its level squared.
+    let (mut d, mut w) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    let predict = |x: &[f64]| -> Vec<f64> { (0..n).map(|i| (0..p).map(|j| cols[j][i] * x[j]).sum()).collect() };
     for _ in 0..IRLS_MAX_ITERS {
-        let w: Vec<f64> = (0..n).map(|i| tukey(resid(&cs, &ys, &x, i), sigma)).collect();
-        let (g, h, _) = normal(&cs, &ys, &w);
+        irls_weights(y, &predict(&x), floor, sigma, level, &mut d, &mut w);
+        let (g, h, _) = normal(cols, y, &w);
         let nx = nnls(&g, &h, p);
         let change: f64 = (0..p).map(|j| (nx[j] - x[j]).abs()).sum();
         x = nx;
@@ -275,7 +282,15 @@ pub fn robust_fit_multi(cols: &[Vec<f64>], y: &[f64], noise_floor_rel: f64, rng:
             break;
         }
     }
+    irls_weights(y, &predict(&x), floor, sigma, level, &mut d, &mut w);
+    let (cs, ys) = divided(cols, y, &d);
     Some(report(&cs, &ys, &d, x, |_, r| tukey(r, sigma)))
+}
+
+/// The columns and observations divided row by row by the levels `d`.
+fn divided(cols: &[Vec<f64>], y: &[f64], d: &[f64]) -> (Vec<Vec<f64>>, Vec<f64>) {
+    let div = |v: &[f64]| v.iter().zip(d).map(|(v, d)| v / d).collect();
+    (cols.iter().map(|c| div(c)).collect(), div(y))
 }
 
 /// Residual of scaled row `i` at `x`.
