@@ -1,9 +1,9 @@
 //! A second object moving under the visibility cuts far from the courtyard's statue (issue 15
-//! §5, step 1; `render::compositor`'s `kept`): the statue, which did not move and which the
-//! mover's cut field never reaches, keeps its traced per-pixel transfer and the ground around it
-//! its traced `c_v`, `b_v`, so its pixels are those of the same scene with the mover standing
-//! still, bit for bit; a mover that comes near the statue switches it to the cuts, and the
-//! report says why.
+//! §5; `render::compositor`'s `kept`): the mover has a motion, so the compositor traces the
+//! statue's transfer and the ground's `c_v`, `b_v` without it and the cuts serve it from the
+//! first frame; the statue, which the mover's cut field never reaches, keeps that trace, so its
+//! pixels are those of the same courtyard without the mover, bit for bit; a mover that comes
+//! near the statue switches it to the cuts, and the report says why.
 
 use crate::common::*;
 use crate::object_cuts::{augment3, edit, object_hits, object_pixels};
@@ -23,19 +23,20 @@ const FAR: &str = "[3.5, 0, -4.5]";
 /// Where it goes instead in the second test: 0.6 m in front of the statue's pedestal.
 const NEAR: &str = "[-0.6, 0, 0.8]";
 
-/// The courtyard with the mover at `A`, still (`to = None`) or moving to `to` on frame 2.
+/// The courtyard without a mover (`to = None`), or with the mover at `A` moving to `to` on
+/// frame 2.
 fn scene(name: &str, to: Option<&str>) -> std::path::PathBuf {
     let dir = scratch_courtyard(name);
-    std::fs::copy(dir.join("objects/statue.glb"), dir.join("objects/mover.glb")).unwrap();
-    let mut mover = format!("[[virtual_objects]]\nfile = \"objects/mover.glb\"\ntranslation = {A}\nscale = {MOVER_SCALE}\n");
     if let Some(to) = to {
+        std::fs::copy(dir.join("objects/statue.glb"), dir.join("objects/mover.glb")).unwrap();
+        let mut mover = format!("[[virtual_objects]]\nfile = \"objects/mover.glb\"\ntranslation = {A}\nscale = {MOVER_SCALE}\n");
         mover += &format!(
             "[[virtual_objects.motion.keyframes]]\ntime = 0.0\ntranslation = {A}\n\
              [[virtual_objects.motion.keyframes]]\ntime = 10.0\ntranslation = {A}\n\
              [[virtual_objects.motion.keyframes]]\ntime = 20.0\ntranslation = {to}\n"
         );
+        edit(&dir, STATUE_END, &format!("{STATUE_END}\n{mover}"));
     }
-    edit(&dir, STATUE_END, &format!("{STATUE_END}\n{mover}"));
     dir
 }
 
@@ -65,20 +66,20 @@ fn a_far_mover_leaves_the_statue_and_its_ground_traced_bit_for_bit() {
     // The transfer was kept (nothing traced again) and says for whom.
     assert_eq!(passes["transfer_traced"].as_u64(), Some(0), "{passes}");
     let reason = transfer_reason(&lines[2]);
-    assert!(reason.contains("kept for statue.glb") && reason.contains("cuts per vertex for mover.glb (moved)"), "{reason}");
+    assert!(reason.contains("kept for statue.glb") && reason.contains("cuts per vertex for mover.glb (has a motion"), "{reason}");
 
-    // The statue's pixels: the same bits as with the mover standing still.
+    // The statue's pixels: the same bits as without the mover.
     let statue = statue_pixels(&still);
     assert!(statue.len() > 350, "{} statue pixels", statue.len());
     for f in 0..3 {
         let differ = statue.iter().filter(|&&i| a[f].data[i] != b[f].data[i]).count();
-        assert_eq!(differ, 0, "frame {f}: {differ} of the statue's {} pixels differ from the still run", statue.len());
+        assert_eq!(differ, 0, "frame {f}: {differ} of the statue's {} pixels differ from the run without the mover", statue.len());
     }
 
-    // Every other pixel that differs on frame 2 shows the mover (at A in the still run, at FAR
-    // in the moving one) or sees the ground within the mover's reach there: 10 bounding radii,
-    // below 10 half-diagonals of its box (its shadow at 15:30, sun ~50° up, is 0.4 m long).
-    let scene_still = Scene::load(&still).unwrap();
+    // Every other pixel that differs on frame 2 shows the mover (at A before, at FAR now) or
+    // sees the ground within the mover's reach there: 10 bounding radii, below 10 half-diagonals
+    // of its box (its shadow at 15:30, sun ~50° up, is 0.4 m long).
+    let scene_still = Scene::load(&moving).unwrap();
     let scene_far = {
         let mut s = Scene::load(&moving).unwrap();
         let d = glam::Vec3::new(1.5, 0.0, -1.0);
@@ -125,12 +126,13 @@ fn a_mover_that_comes_near_switches_the_statue_to_the_cuts() {
     let (b, lines) = augment3(&moving, &outs.join("moving"));
     let reason = transfer_reason(&lines[2]);
     assert!(reason.contains("an object moved") && reason.contains("statue.glb (mover.glb came within"), "{reason}");
-    // Frame 1 (nothing moved yet) is the still run's; on frame 2 the statue takes the cuts.
+    // Frame 1 (nothing moved yet, the mover far) is the run's without it; on frame 2 the
+    // statue takes the cuts.
     let statue = statue_pixels(&still);
     assert_eq!(statue.iter().filter(|&&i| a[1].data[i] != b[1].data[i]).count(), 0);
     let differ = statue.iter().filter(|&&i| a[2].data[i] != b[2].data[i]).count();
     eprintln!(
-        "near mover: the statue's {} pixels on frame 2, {differ} changed, relative RMSE {:.4} against the still run (composite {:.0} ms, cuts {:.0} ms)",
+        "near mover: the statue's {} pixels on frame 2, {differ} changed, relative RMSE {:.4} against the run without the mover (composite {:.0} ms, cuts {:.0} ms)",
         statue.len(),
         crate::object_cuts::rel_rmse(&b[2], &a[2], &statue),
         lines[2]["composite_ms"].as_f64().unwrap_or(0.0),
@@ -141,4 +143,5 @@ fn a_mover_that_comes_near_switches_the_statue_to_the_cuts() {
         std::fs::remove_dir_all(d).ok();
     }
 }
+
 
