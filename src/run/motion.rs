@@ -15,6 +15,10 @@
 //! evaluates them (the objects' ambient per vertex, the receivers' sky visibility) and hands them
 //! to the compositor instead of its re-trace; a frame where an object's scale changed re-traces. The
 //! report names the pass `visibility_cuts`, with its time when it ran and its reason when not.
+//! In a scene where some objects move and others do not, the compositor leaves the movers out of
+//! its trace (`render::compositor`'s `kept`) and the first frame hands them over as moved
+//! ([`MovingObjects::serve_from_start`]), so the cuts light them from the start while the static
+//! objects keep a trace that never saw them.
 
 use super::motion_cuts::{CutOutcome, CutState};
 use crate::envmap::relight::Relighter;
@@ -81,6 +85,9 @@ pub struct MovingObjects {
     cuts: Result<CutState, String>,
     /// The objects may be moved by hand (the live window): every object is here, moving or not.
     draggable: bool,
+    /// Per object, left out of the compositor's trace (`Compositor::left_out`), served by the
+    /// cuts from the first frame: the next [`Self::apply`] hands them over as moved.
+    from_start: Vec<bool>,
 }
 
 /// What the motion did in one frame.
@@ -129,7 +136,7 @@ impl MovingObjects {
             (Vec3::from(g.min.map(|v| v as f32)) - margin, Vec3::from(g.max.map(|v| v as f32)) + margin)
         });
         let cuts = Err("the visibility cuts were not loaded: every move is re-traced".to_owned());
-        Self { objects, proxy: scene.proxy.clone(), start, volume_box, cuts, draggable }
+        Self { objects, proxy: scene.proxy.clone(), start, volume_box, cuts, draggable, from_start: Vec::new() }
     }
 
     /// Poses every moving object for frame `index` at `time`; returns which moved.
@@ -171,6 +178,13 @@ impl MovingObjects {
     pub fn with_cuts(mut self, scene: &Scene, proxy: &crate::geometry::raycast::RayScene) -> Self {
         self.cuts = CutState::load(scene, proxy, self.draggable);
         self
+    }
+
+    /// Makes the next [`Self::apply`] serve the objects `left_out` (those the compositor left out
+    /// of its trace, `Compositor::left_out`) from the cuts, as if they had moved: without the
+    /// cuts they keep the probe grid's ambient until they move (then re-traced).
+    pub fn serve_from_start(&mut self, left_out: &[bool]) {
+        self.from_start = left_out.to_vec();
     }
 
     /// True when the objects may be moved by hand ([`Self::for_live`]).
@@ -286,9 +300,12 @@ impl MovingObjects {
     /// lighting the cuts shade with).
     pub fn apply(&mut self, compositor: &mut Compositor, frame: &FrameMotion, relighter: Option<&Relighter>) -> Result<(), RenderError> {
         let list: Vec<(String, &Mesh)> = self.objects.iter().map(|o| (o.name.clone(), &o.mesh)).collect();
-        let any = frame.moved.iter().any(|m| *m);
+        // The movers the compositor left out of its trace count as moved on the first frame.
+        let from_start = std::mem::take(&mut self.from_start);
+        let moved: Vec<bool> = frame.moved.iter().enumerate().map(|(k, m)| *m || from_start.get(k).copied().unwrap_or(false)).collect();
+        let any = moved.iter().any(|m| *m);
         let Ok(cuts) = &mut self.cuts else {
-            return compositor.move_objects(&self.proxy, &list, &frame.moved);
+            return compositor.move_objects(&self.proxy, &list, &moved);
         };
         if !any && !(compositor.cuts_serve() && cuts.lighting_changed(relighter)) {
             cuts.outcome = CutOutcome::Skipped(match compositor.cuts_serve() {
@@ -303,7 +320,7 @@ impl MovingObjects {
             Err((k, why)) => {
                 let name = self.objects.get(k).map_or("an object", |o| o.name.as_str());
                 cuts.outcome = CutOutcome::Skipped(format!("{name} is not moved rigidly since its first key ({why}) and the cuts hold for rigid motion only: re-traced"));
-                return compositor.move_objects(&self.proxy, &list, &frame.moved);
+                return compositor.move_objects(&self.proxy, &list, &moved);
             }
         };
         let t = std::time::Instant::now();
@@ -313,11 +330,11 @@ impl MovingObjects {
                 // receiver step) and added to the same `cuts_ms`.
                 cuts.outcome = CutOutcome::Ran(t.elapsed().as_secs_f64() * 1e3);
                 let reach_m = cuts.reach_m();
-                compositor.move_objects_with_cuts(&list, &frame.moved, &ambient.vertices, Box::new(move |s: &[(Vec3, Vec3)]| receivers.visibility(s)), &reach_m)
+                compositor.move_objects_with_cuts(&list, &moved, &ambient.vertices, Box::new(move |s: &[(Vec3, Vec3)]| receivers.visibility(s)), &reach_m)
             }
             Err(e) => {
                 cuts.outcome = CutOutcome::Skipped(format!("the cuts could not be evaluated ({e}): re-traced"));
-                compositor.move_objects(&self.proxy, &list, &frame.moved)
+                compositor.move_objects(&self.proxy, &list, &moved)
             }
         }
     }

@@ -138,19 +138,23 @@ fn augment_writes_frames_a_report_and_a_contact_sheet() {
     let report = std::fs::read_to_string(output.join("report.jsonl")).unwrap();
     let lines: Vec<serde_json::Value> = report.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
     assert_eq!(lines.len(), 3);
-    assert_eq!(lines[0]["passes"]["ran"][0], "volume_build");
+    // The robot's visibility cuts (it has a motion) run first, then the volumes.
+    let ran = lines[0]["passes"]["ran"].as_array().unwrap();
+    assert!(ran.iter().any(|p| p == "visibility_cuts") && ran.iter().any(|p| p == "volume_build"), "{ran:?}");
     assert_eq!(lines[0]["relight"]["ran"], true);
     assert!(lines[1]["passes"]["skipped"].as_array().is_some());
     assert!(output.join("contact_sheet.png").exists());
     // PNG in, PNG out through the camera response; pixels far from the statue (beyond its shadow
-    // and the ≈ 2.5 m around it where it takes sky light from the real surfaces) are the input's
-    // own codes, the statue's pixels are not.
+    // and the ≈ 2.5 m around it where it takes sky light from the real surfaces) and from the
+    // robot (which crosses the right of the view, x ≥ 160, its cut field reaching about 5 m: the
+    // ground it reaches projects to x ≥ 166 on frame 0) are the input's own codes, the statue's
+    // pixels are not.
     let a = image::open(input.join("frame_000.png")).unwrap().to_rgb8();
     let b = image::open(output.join("frame_000.png")).unwrap().to_rgb8();
     assert_eq!(a.dimensions(), b.dimensions());
     let changed: Vec<(u32, u32)> = a.enumerate_pixels().filter(|(x, y, p)| b.get_pixel(*x, *y) != *p).map(|(x, y, _)| (x, y)).collect();
     assert!(changed.len() > 300, "{} pixels changed", changed.len());
-    let far: Vec<&(u32, u32)> = changed.iter().filter(|&&(x, y)| !((40..240).contains(&x) && (40..200).contains(&y))).collect();
+    let far: Vec<&(u32, u32)> = changed.iter().filter(|&&(x, y)| !((40..240).contains(&x) && (40..200).contains(&y)) && x < 160).collect();
     assert!(far.is_empty(), "pixels far from the statue changed: {} of them, e.g. {:?}", far.len(), &far[..far.len().min(10)]);
     // A folder that is not a sequence, without --start, is refused with a reason.
     let (ok, _, err) = heliar(&["augment", "scenes/courtyard", "--input", input.to_str().unwrap(), "--output", output.to_str().unwrap()]);

@@ -99,7 +99,7 @@ fn wait_for(what: &str, timeout: Duration, mut f: impl FnMut() -> bool) {
     }
 }
 
-/// A scratch copy of the courtyard without its sequences (what the live window caches, the bake
+/// A scratch copy of the courtyard without its sequences and its robot (what the live window caches, the bake
 /// and the cuts, goes into the scene folder).
 pub(crate) fn scratch_courtyard(tag: &str) -> PathBuf {
     let src = bundled();
@@ -111,7 +111,7 @@ pub(crate) fn scratch_courtyard(tag: &str) -> PathBuf {
     for f in ["scene.toml", "proxy.glb", "calib/camera.toml", "env.exr", "objects/statue.glb"] {
         std::fs::copy(src.join(f), dst.join(f)).unwrap();
     }
-    let m = std::fs::read_to_string(dst.join("scene.toml")).unwrap();
+    let m = crate::common::without_robot(&std::fs::read_to_string(dst.join("scene.toml")).unwrap());
     std::fs::write(dst.join("scene.toml"), &m[..m.find("[[sequences]]").unwrap()]).unwrap();
     dst
 }

@@ -289,6 +289,33 @@ fn the_vem_overlay_shows_the_statue_where_it_is_dragged_and_turned() {
     assert_eq!(app.last().unwrap().passes.moved, vec!["statue.glb".to_owned()]);
     let (b_out, b_vem) = (bounds(&app), app.vem.as_ref().unwrap().object_mesh(0).unwrap().bounds().unwrap());
     assert!((b_out.0 - b_vem.0).length() < 1e-5 && (b_out.1 - b_vem.1).length() < 1e-5, "{b_out:?} vs {b_vem:?}");
+
+/// The bundled courtyard's robot (issue 15 §5), which crosses the yard on its keyframes, can be
+/// picked and dragged like the statue: the move by hand adds to its motion, the cuts serve it.
+#[test]
+fn a_person_drags_the_bundled_robot_along_its_way() {
+    let dir = crate::common::scratch_courtyard_with_robot("drag-robot");
+    let (mut app, scene) = drag_app(&dir);
+    assert!(app.process_next(Duration::from_secs(60)), "a first frame");
+    assert!(app.error().is_none(), "{:?}", app.error());
+    let robot = |app: &LiveApp| app.session.motion.as_ref().unwrap().mesh(1).unwrap().bounds().unwrap();
+    let b0 = robot(&app);
+    let (uv, on_plane) = grab(&scene, b0);
+    assert_eq!(app.pick_object(uv.x, uv.y), Some(1), "the robot under its own centre");
+    let shift = DVec3::new(-0.6, 0.0, 0.4);
+    let to = scene.camera.project_world(on_plane + shift).unwrap();
+    assert_eq!(app.begin_drag(uv.x, uv.y), Some(1));
+    app.drag_to(to.x, to.y).unwrap();
+    app.end_drag();
+    // The same frame composited again: its motion stands where it was, the hand's move adds.
+    assert!(app.recompose());
+    let dragged = app.last().unwrap().clone();
+    assert!(app.error().is_none(), "{:?}", app.error());
+    assert_eq!(dragged.passes.moved, vec!["robot.glb".to_owned()]);
+    assert!(dragged.passes.ran.contains(&pass::VISIBILITY_CUTS), "{:?}", dragged.passes.ran);
+    let moved = centre(robot(&app)) - centre(b0);
+    // As for the statue: the ray back through the lens is interpolated (≤ 0.01 px): 1 cm.
+    assert!((moved.x + 0.6).abs() < 0.01 && (moved.z - 0.4).abs() < 0.01 && moved.y.abs() < 1e-3, "moved by {moved}");
     drop(app);
     std::fs::remove_dir_all(&dir).ok();
 }

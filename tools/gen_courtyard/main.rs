@@ -7,6 +7,9 @@
 //! present (`reference/`): its own glTF material, its shadow on the real ground, the wall's
 //! shadow on it, interreflection both ways. The compositor's end-to-end test compares its output
 //! with them. The object and references are added without changing any other output file.
+//! A second object, a small delivery robot (`objects/robot.glb`, `robot.rs`), crosses the yard
+//! along keyframes in the manifest (issue 15 §5); the references leave it out (they are cropped
+//! around the statue, which it never reaches). `--objects-only` writes just the two objects.
 //!
 //! Frames are rendered by an independent path tracer (`render.rs`) with effects the estimator's
 //! model leaves out: interreflection (up to 12 bounces), spatially varying true albedo (±8%
@@ -19,6 +22,7 @@
 mod dusk;
 mod dusk_parts;
 mod render;
+mod robot;
 mod sky_render;
 mod statue;
 mod winter;
@@ -94,6 +98,10 @@ struct Args {
     /// frame before its sensor noise (`dusk_parts.rs`); nothing else is written.
     #[arg(long, value_name = "DIR")]
     dusk_frame_parts: Option<PathBuf>,
+    /// Write only the courtyard's virtual objects (`objects/statue.glb`, `objects/robot.glb`) into
+    /// --out; nothing else is written.
+    #[arg(long)]
+    objects_only: bool,
 }
 
 const START: &str = "2024-06-21T15:30:00+02:00";
@@ -231,6 +239,9 @@ fn main() -> Result<()> {
         return winter::run(&args, dir);
     }
     let out = &args.out;
+    if args.objects_only {
+        return write_objects(out);
+    }
     for d in ["calib", "frames/hdr", "frames/ldr"] {
         std::fs::create_dir_all(out.join(d))?;
     }
@@ -254,10 +265,9 @@ fn main() -> Result<()> {
 
     let (times, previews) = render_frames(&args, &scene, &truth_albedo, &cam, &observer, &geo, t0)?;
 
-    // The virtual object, and reference frames with it physically present.
-    std::fs::create_dir_all(out.join("objects"))?;
+    // The virtual objects, and reference frames with the statue physically present.
+    write_objects(out)?;
     let statue_path = out.join(STATUE_FILE);
-    heliar::scene::gltf::save_glb(&statue_local(), &statue_path)?;
     let placement = glam::Mat4::from_scale_rotation_translation(
         Vec3::ONE,
         glam::Quat::from_rotation_y((STATUE_ROTATION_Y_DEG as f32).to_radians()),
@@ -390,6 +400,14 @@ fn write_camera(out: &Path, cam: &Camera) -> Result<()> {
     )
 }
 
+/// The virtual objects: the statue and the robot that crosses the yard (`robot.rs`).
+fn write_objects(out: &Path) -> Result<()> {
+    std::fs::create_dir_all(out.join("objects"))?;
+    heliar::scene::gltf::save_glb(&statue_local(), &out.join(STATUE_FILE))?;
+    heliar::scene::gltf::save_glb(&robot::robot_local(), &out.join(robot::ROBOT_FILE))?;
+    Ok(())
+}
+
 /// `scene.toml`.
 fn write_manifest(out: &Path, args: &Args, env_centre: Vec3) -> Result<()> {
     write(
@@ -417,6 +435,7 @@ translation = [{}, {}, {}]
 rotation_y_deg = {STATUE_ROTATION_Y_DEG}
 scale = 1.0
 
+{}
 [estimator.sky]
 # The generator's sky is uniform and nothing lies below the horizon: Jensen's model.
 shape = "uniform"
@@ -450,6 +469,7 @@ truth = "truth.csv"
             STATUE_TRANSLATION[0],
             STATUE_TRANSLATION[1],
             STATUE_TRANSLATION[2],
+            robot::robot_manifest(),
             env_centre.x,
             env_centre.y,
             env_centre.z,

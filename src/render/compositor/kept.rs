@@ -24,6 +24,15 @@
 //!   the objects at their set-up places when the sun moves past `bounce_rebuild_deg`, as
 //!   without motion).
 //!
+//! **Movers left out of the trace.** In a scene where some objects have a motion and the others
+//! do not (`Compositor::for_scene`), the transfer, the objects' ambient occlusion and `c_v`,
+//! `b_v` are traced with the static objects only, and the frame loop serves the movers from the
+//! cuts from the first frame on (`run::motion`), as if they had moved: they are never in the
+//! trace, so their set-up place counts for nothing above (only where they stand now), and a
+//! static object and the receivers beyond every mover's reach get exactly the values of the same
+//! scene without the movers, bit for bit (`tests/suite/object_cuts_far.rs`). The receivers within
+//! a mover's reach take `c·V`, `b·V` with the objects' fields (the mover's contact shadow).
+//!
 //! Distances are between boxes (the gap between the axis-aligned boxes), a little more cautious
 //! than the field's sphere. The light a moved object reflects beyond its reach is left out as
 //! the cuts leave out its occlusion there: at 10 r it subtends 0.25 % of the sphere. When no
@@ -48,6 +57,9 @@ pub(super) struct KeptTrace {
     why: Vec<Option<String>>,
     /// The objects' names.
     names: Vec<String>,
+    /// Per object, left out of the trace (a mover among static objects: the cuts serve it from
+    /// the first frame).
+    left_out: Vec<bool>,
 }
 
 /// Distance between two axis-aligned boxes (0 when they overlap), metres.
@@ -78,10 +90,17 @@ fn overlap_on_canvas(canvas: &Canvas, a: &(Vec3, Vec3), b: &(Vec3, Vec3)) -> boo
 }
 
 impl KeptTrace {
-    /// Nothing moved yet; `traced` holds the objects' boxes at set-up.
-    pub(super) fn new(traced: Vec<(Vec3, Vec3)>) -> Self {
+    /// Nothing moved yet; `traced` holds the objects' boxes at set-up, `left_out` (empty: none)
+    /// the objects the trace left out.
+    pub(super) fn new(traced: Vec<(Vec3, Vec3)>, left_out: &[bool]) -> Self {
         let n = traced.len();
-        Self { traced, displaced: vec![false; n], keeps: vec![false; n], why: vec![None; n], names: Vec::new() }
+        let left_out = (0..n).map(|k| left_out.get(k).copied().unwrap_or(false)).collect();
+        Self { traced, displaced: vec![false; n], keeps: vec![false; n], why: vec![None; n], names: Vec::new(), left_out }
+    }
+
+    /// Per object, left out of the trace (see [`Self::new`]).
+    pub(super) fn left_out(&self) -> &[bool] {
+        &self.left_out
     }
 
     /// Per object, keeps the traced transfer (empty or all false: none does).
@@ -121,6 +140,9 @@ impl KeptTrace {
 
     /// Why object `j` takes the cuts, or `None` when it keeps the trace.
     fn why_cuts(&self, canvas: &Canvas, j: usize, now: &[(Vec3, Vec3)], reach_m: Option<&[f32]>, traced: bool) -> Option<String> {
+        if self.left_out[j] {
+            return Some("has a motion: left out of the trace, the cuts serve it from the first frame".into());
+        }
         if self.displaced[j] {
             return Some("moved".into());
         }
@@ -129,15 +151,17 @@ impl KeptTrace {
             return Some("the traced transfer was dropped earlier".into());
         }
         let Some(bj) = now.get(j) else { return Some("no bounds".into()) };
-        for (k, name) in self.names.iter().enumerate().filter(|(k, _)| self.displaced[*k]) {
+        for (k, name) in self.names.iter().enumerate().filter(|(k, _)| self.displaced[*k] || self.left_out[*k]) {
             let (Some(r), Some(then), Some(bk)) = (reach_m.get(k), self.traced.get(k), now.get(k)) else {
                 return Some(format!("{name}'s reach is not known"));
             };
-            let gap = box_gap(bj, then).min(box_gap(bj, bk));
+            // A mover left out of the trace: its set-up place is not in the trace either.
+            let left_out = self.left_out[k];
+            let gap = if left_out { box_gap(bj, bk) } else { box_gap(bj, then).min(box_gap(bj, bk)) };
             if gap <= *r {
                 return Some(format!("{name} came within {gap:.2} m, its cut field reaching {r:.2} m"));
             }
-            if overlap_on_canvas(canvas, then, bj) {
+            if !left_out && overlap_on_canvas(canvas, then, bj) {
                 return Some(format!("{name} covered part of it on screen when the transfer was traced"));
             }
         }

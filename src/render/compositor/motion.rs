@@ -66,6 +66,13 @@ impl Compositor {
         &self.proxy_ray
     }
 
+    /// Per object, left out of the traced transfer, ambient occlusion and `c_v`, `b_v` (a mover
+    /// among static objects, `kept`; empty or all false: none): the visibility cuts must serve
+    /// it from the first frame (`run::motion`).
+    pub fn left_out(&self) -> &[bool] {
+        self.kept.left_out()
+    }
+
     /// True while the visibility cuts serve the objects' ambient and the receivers' `c_v`.
     pub fn cuts_serve(&self) -> bool {
         self.cuts.is_some()

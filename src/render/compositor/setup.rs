@@ -146,9 +146,15 @@ impl Pipelines {
 impl Compositor {
     /// Sets up the compositor for a loaded scene, with its lamps when it has `[[lights]]`.
     /// `proxy_ray` is the proxy's BVH (the estimator's).
+    /// In a scene where some objects have a motion and others do not, the movers are left out of
+    /// the traced transfer, ambient occlusion and `c_v`, `b_v` (`kept`, issue 15 §5): the frame
+    /// loop serves them from the visibility cuts from the first frame (`run::motion`).
     pub fn for_scene(gpu: Arc<Gpu>, scene: &Scene, proxy_ray: Arc<RayScene>, config: CompositorConfig) -> Result<Self, RenderError> {
         let objects = SceneParts::object_list(scene);
-        let mut c = Self::new(gpu, &SceneParts::of(scene, &objects), proxy_ray, config)?;
+        let movers: Vec<bool> = scene.virtual_objects.iter().map(|o| o.motion.is_some()).collect();
+        let mixed = movers.iter().any(|m| *m) && !movers.iter().all(|m| *m);
+        let left_out = if mixed { movers } else { Vec::new() };
+        let mut c = Self::leaving_out(gpu, &SceneParts::of(scene, &objects), proxy_ray, config, &left_out)?;
         if !scene.lights.is_empty() {
             let lamps = crate::lamps::Lamp::load_all(&scene.root.join(crate::scene::MANIFEST_FILE), &scene.lights)?;
             c.set_lamps(&lamps, crate::render::lamps::LampOptions::default())?;
@@ -159,13 +165,22 @@ impl Compositor {
     /// Sets up the compositor for a camera, a proxy and virtual objects. `proxy_ray` is the
     /// proxy's BVH.
     pub fn new(gpu: Arc<Gpu>, parts: &SceneParts, proxy_ray: Arc<RayScene>, config: CompositorConfig) -> Result<Self, RenderError> {
+        Self::leaving_out(gpu, parts, proxy_ray, config, &[])
+    }
+
+    /// [`Self::new`], with the objects `left_out[k]` left out of the traced per-pixel transfer,
+    /// the objects' ambient occlusion and the receivers' `c_v`, `b_v` (the movers of a scene whose
+    /// other objects stand still; `kept`): the visibility cuts serve them from the first frame,
+    /// and until they do they take the probe grid's ambient.
+    pub fn leaving_out(gpu: Arc<Gpu>, parts: &SceneParts, proxy_ray: Arc<RayScene>, config: CompositorConfig, left_out: &[bool]) -> Result<Self, RenderError> {
         let canvas = Canvas::new(parts.camera, config.supersample);
         let receivers = Receivers::new(parts.camera, &proxy_ray, config.seed).with_budget(config.trace_paths_per_frame).with_sky(config.sky.clone());
         let (virtual_occ, proxy_occ, warnings) = occluders(parts);
         let virtual_bounds: Vec<(Vec3, Vec3)> = parts.objects.iter().filter_map(|(_, m)| m.bounds()).collect();
         let near_radius_m = virtual_bounds.iter().map(|(lo, hi)| (*hi - *lo).length() / 2.0 * NEAR_RADIUS_HALF_DIAGONALS).fold(MIN_NEAR_RADIUS_M, f32::max);
         let meshes: Vec<&Mesh> = parts.objects.iter().map(|(_, m)| *m).collect();
-        let transfer_scene = (!parts.objects.is_empty()).then(|| TransferScene::new(parts.proxy, &meshes));
+        let traced: Vec<&Mesh> = meshes.iter().enumerate().filter(|(k, _)| !left_out.get(*k).copied().unwrap_or(false)).map(|(_, m)| *m).collect();
+        let transfer_scene = (!traced.is_empty()).then(|| TransferScene::new(parts.proxy, &traced));
         let with_ray = transfer_scene.as_ref().map(|t| t.world.clone());
         let closed: Vec<Vec<bool>> = virtual_occ.iter().zip(parts.objects).map(|(o, (_, m))| o.closed_triangles(m.triangles.len())).collect();
         let volumes = Volumes::new(&gpu, virtual_occ, proxy_occ, config.builder)?;
@@ -186,7 +201,7 @@ impl Compositor {
         let cut_ambient = cut_ambient_buffer(d, vertex_sources.iter().map(Vec::len).sum());
         let shading_bg = Self::shading_bind_group(d, &p.shading, &uniforms.camera_buf, &uniforms.lighting_buf, &probes, &res, &cut_ambient);
         res.write_receivers(&gpu.queue, &canvas, &receivers);
-        let kept = super::kept::KeptTrace::new(virtual_bounds.clone());
+        let kept = super::kept::KeptTrace::new(virtual_bounds.clone(), left_out);
         Ok(Self {
             config,
             canvas,

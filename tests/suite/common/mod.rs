@@ -167,8 +167,9 @@ pub fn rel_err(est: [f64; 3], truth: [f32; 3]) -> f64 {
     (0..3).map(|c| (est[c] - truth[c] as f64).abs() / (truth[c] as f64).max(1e-30)).fold(0.0, f64::max)
 }
 
-/// A copy of the bundled courtyard's small files (no frames, no sequences) in a fresh temporary
-/// folder, so tests that write (bakes, edits) never share a folder.
+/// A copy of the bundled courtyard's small files (no frames, no sequences, and the statue alone:
+/// [`without_robot`]) in a fresh temporary folder, so tests that write (bakes, edits) never
+/// share a folder.
 pub fn scratch_courtyard(name: &str) -> std::path::PathBuf {
     let src = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/courtyard");
     let dst = std::env::temp_dir().join(format!("heliar-{name}-{}", std::process::id()));
@@ -178,7 +179,27 @@ pub fn scratch_courtyard(name: &str) -> std::path::PathBuf {
     for f in ["scene.toml", "proxy.glb", "calib/camera.toml", "env.exr", "truth.csv", "objects/statue.glb"] {
         std::fs::copy(src.join(f), dst.join(f)).expect("copy");
     }
-    let m = std::fs::read_to_string(dst.join("scene.toml")).expect("manifest");
+    let m = without_robot(&std::fs::read_to_string(dst.join("scene.toml")).expect("manifest"));
+    let cut = m.find("[[sequences]]").unwrap_or(m.len());
+    std::fs::write(dst.join("scene.toml"), &m[..cut]).expect("manifest");
+    dst
+}
+
+/// The courtyard's manifest `m` without the robot that crosses the yard (its
+/// `[[virtual_objects]]` entry and keyframes): the scratch courtyards hold the statue alone, as
+/// the tests written for one object expect; [`scratch_courtyard_with_robot`] keeps it.
+pub fn without_robot(m: &str) -> String {
+    let Some(start) = m.find("[[virtual_objects]]\n# A delivery robot") else { return m.to_owned() };
+    let end = m[start..].find("[estimator").map_or(m.len(), |e| start + e);
+    format!("{}{}", &m[..start], &m[end..])
+}
+
+/// [`scratch_courtyard`] with the bundled robot crossing the yard (issue 15 §5).
+pub fn scratch_courtyard_with_robot(name: &str) -> std::path::PathBuf {
+    let dst = scratch_courtyard(name);
+    let src = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/courtyard");
+    std::fs::copy(src.join("objects/robot.glb"), dst.join("objects/robot.glb")).expect("copy");
+    let m = std::fs::read_to_string(src.join("scene.toml")).expect("manifest");
     let cut = m.find("[[sequences]]").unwrap_or(m.len());
     std::fs::write(dst.join("scene.toml"), &m[..cut]).expect("manifest");
     dst
