@@ -289,6 +289,9 @@ fn the_vem_overlay_shows_the_statue_where_it_is_dragged_and_turned() {
     assert_eq!(app.last().unwrap().passes.moved, vec!["statue.glb".to_owned()]);
     let (b_out, b_vem) = (bounds(&app), app.vem.as_ref().unwrap().object_mesh(0).unwrap().bounds().unwrap());
     assert!((b_out.0 - b_vem.0).length() < 1e-5 && (b_out.1 - b_vem.1).length() < 1e-5, "{b_out:?} vs {b_vem:?}");
+    drop(app);
+    std::fs::remove_dir_all(&dir).ok();
+}
 
 /// The bundled courtyard's robot (issue 15 §5), which crosses the yard on its keyframes, can be
 /// picked and dragged like the statue: the move by hand adds to its motion, the cuts serve it.
