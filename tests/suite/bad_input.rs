@@ -19,7 +19,7 @@ fn scratch(name: &str) -> (PathBuf, PathBuf) {
     for sub in ["calib", "frames/hdr", "frames/ldr", "objects"] {
         std::fs::create_dir_all(dst.join(sub)).unwrap();
     }
-    for f in ["scene.toml", "proxy.glb", "calib/camera.toml", "env.exr", "truth.csv", "objects/statue.glb"] {
+    for f in ["scene.toml", "proxy.glb", "calib/camera.toml", "env.exr", "truth.csv", "objects/statue.glb", "objects/robot.glb"] {
         std::fs::copy(bundled().join(f), dst.join(f)).unwrap();
     }
     for i in 0..12 {
