@@ -127,8 +127,9 @@ class Lighting:
     def above_horizon(self) -> bool: ...
 
 class Compositor:
-    def composite(self, frame: FrameArray, lighting: Union[Estimate, Lighting]) -> Tuple[FrameArray, Dict[str, Any]]:
-        """The composited frame (the input's form) and the pass report (GIL released)."""
+    def composite(self, frame: FrameArray, lighting: Union[Estimate, Lighting], time: Optional[Union[str, datetime]] = None) -> Tuple[FrameArray, Dict[str, Any]]:
+        """The composited frame (the input's form) and the pass report (GIL released); with the
+        frame's `time`, objects with a motion are posed for it first, as `heliar augment` does."""
     @property
     def gpu(self) -> str: ...
     @property

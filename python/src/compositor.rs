@@ -12,7 +12,9 @@ use heliar::gpu::{Gpu, GpuOptions};
 use heliar::io::frames::{FrameData, Linearizer, Photometry};
 use heliar::irradiance::sources::ProbeSource;
 use heliar::render::{Builder, CompositorConfig, Darkening, PassReport, VideoFrame};
+use heliar::run::motion::MovingObjects;
 use heliar::run::outdoor::{Ambient, RelightReport, cached_bake, lighting_of, probe_source};
+use chrono::{DateTime, FixedOffset};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::sync::{Arc, Mutex};
@@ -102,6 +104,11 @@ struct State {
     probes: Box<dyn ProbeSource + Send>,
     /// The lighting the probes were last relit for (None before the first frame).
     relit_for: Option<heliar::lighting::Lighting>,
+    /// The scene's moving objects, when it has any and the compositor knows the sequence's start
+    /// (`heliar augment`'s `OutdoorSession::follow_motion`).
+    motion: Option<MovingObjects>,
+    /// The index of the next frame composited with a time.
+    next_index: usize,
 }
 
 /// Composites the scene's virtual objects into frames on the GPU, as `heliar augment` does:
@@ -119,19 +126,26 @@ pub struct Compositor {
 impl Compositor {
     /// The GPU, the compositor and the probe source (baking first when the irradiance volume
     /// is wanted and its cache is stale), as `heliar augment` sets them up.
-    pub(crate) fn build(scene: &heliar::scene::Scene, ray: Arc<RayScene>, s: CompositorSettings, photometry: Photometry) -> anyhow::Result<Self> {
+    /// `start` is the time of the sequence's first frame: with it, objects that have a motion
+    /// follow it on the frames' times, as in `heliar augment`.
+    pub(crate) fn build(scene: &heliar::scene::Scene, ray: Arc<RayScene>, s: CompositorSettings, photometry: Photometry, start: Option<DateTime<FixedOffset>>) -> anyhow::Result<Self> {
         let mut config = CompositorConfig::for_scene(scene);
         config.darkening = s.darkening;
         config.sun_bounce = config.sun_bounce && s.sun_bounce;
         config.builder = s.builder;
         config.transfer_paths = s.transfer_paths;
         let gpu = Arc::new(Gpu::new(GpuOptions { samples: s.samples.max(1) })?);
-        let comp = heliar::render::Compositor::for_scene(gpu.clone(), scene, ray.clone(), config)
+        let mut comp = heliar::render::Compositor::for_scene(gpu.clone(), scene, ray.clone(), config)
             .with_context(|| format!("setting up the compositor for {}", scene.root.display()))?;
+        let mut motion = start.and_then(|t0| MovingObjects::for_scene(scene, t0)).map(|m| m.with_cuts(scene, &ray));
+        if let Some(m) = motion.as_mut().filter(|m| m.has_cuts()) {
+            comp.reach_motion(m.reach());
+            m.serve_from_start(comp.left_out());
+        }
         let probes = probe_source(scene, ray, s.ambient, |sc, r| cached_bake(sc, r, &|_: &str, _: u64, _: u64| {}))?;
         let k = &scene.camera.intrinsics;
         Ok(Self {
-            state: Mutex::new(State { comp, probes, relit_for: None }),
+            state: Mutex::new(State { comp, probes, relit_for: None, motion, next_index: 0 }),
             lin: photometry.linearizer(),
             photometry,
             size: (k.width, k.height),
@@ -167,16 +181,35 @@ impl Compositor {
     /// objects leave alone keep the input's values. `report` is the pass report of the
     /// per-frame JSON line (`ran`, `skipped` with reasons, timings) plus `relight` and
     /// `composite_ms`.
-    fn composite<'py>(&self, py: Python<'py>, frame: &Bound<'py, PyAny>, lighting: &Bound<'py, PyAny>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    ///
+    /// `time` (RFC 3339 or a timezone-aware datetime) is the frame's capture time: objects with
+    /// a motion are posed for it first, as `heliar augment` does, and the report lists those
+    /// that moved. Without it they stay where they last stood.
+    #[pyo3(signature = (frame, lighting, time=None))]
+    fn composite<'py>(&self, py: Python<'py>, frame: &Bound<'py, PyAny>, lighting: &Bound<'py, PyAny>, time: Option<&Bound<'py, PyAny>>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
         let frame = frame_from_numpy("frame", frame, Some(self.size))?;
         let (light, wants) = lighting_arg(lighting)?;
+        let time = time.map(crate::parse_time).transpose()?;
         let (rendered, passes, relight, ms) = py
             .detach(|| -> anyhow::Result<_> {
                 let mut s = self.state.lock().map_err(|_| anyhow::anyhow!("an earlier call on this compositor panicked; create a new one"))?;
                 let relight = relight_if_needed(&mut s, &light, wants);
                 let video = VideoFrame::from_frame(&frame, &self.lin);
                 let t = std::time::Instant::now();
-                let (rendered, passes) = s.comp.render(&video, &light)?;
+                let st = &mut *s;
+                let moved = match (&mut st.motion, &time) {
+                    (Some(m), Some(time)) => {
+                        let f = m.advance(st.next_index, time);
+                        m.apply(&mut st.comp, &f, st.probes.relighter())?;
+                        st.next_index += 1;
+                        Some(f)
+                    }
+                    _ => None,
+                };
+                let (rendered, mut passes) = st.comp.render(&video, &light)?;
+                if let (Some(m), Some(f)) = (&st.motion, &moved) {
+                    m.report(f, &mut passes);
+                }
                 let ms = t.elapsed().as_secs_f64() * 1e3;
                 let out = match &frame.data {
                     FrameData::Hdr(_) => Err(heliar::render::output::camera_linear(&rendered.image, rendered.precision, &video, &frame, &self.photometry)),

@@ -173,8 +173,9 @@ impl Scene {
     ) -> PyResult<Compositor> {
         let photometry = self.photometry(sequence, exposure).map_err(py_err)?;
         let settings = CompositorSettings::parse(samples, darkening, ambient, transfer_paths, volumes, sun_bounce)?;
+        let start = self.scene.sequence(sequence).and_then(|q| q.times.first().copied());
         let (scene, ray) = (self.scene.clone(), self.ray.clone());
-        py.detach(move || Compositor::build(&scene, ray, settings, photometry)).map_err(py_err)
+        py.detach(move || Compositor::build(&scene, ray, settings, photometry, start)).map_err(py_err)
     }
 
     fn __repr__(&self) -> String {

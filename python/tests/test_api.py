@@ -71,7 +71,7 @@ def test_composited_frames_equal_the_cli_files(scene, run_cli, tmp_path, sequenc
     for i, (path, time) in enumerate(list(zip(scene.frame_files(sequence), scene.frame_times(sequence)))[:frames]):
         frame = heliar.read_frame(path)
         e = est.estimate(frame, time)
-        image, report = comp.composite(frame, e)
+        image, report = comp.composite(frame, e, time)
         assert image.shape == frame.shape and image.dtype == frame.dtype
         cli = heliar.read_frame(out / f"frame_{i:03d}.{fmt}")
         if fmt == "exr":

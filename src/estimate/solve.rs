@@ -157,10 +157,11 @@ struct Sums {
     sw: f64,
 }
 
-fn sums(a: &[f64], b: &[f64], y: &[f64], w: &[f64]) -> Sums {
+/// The weighted normal-equation sums of the rows, row `i` weighted by `w(i)`.
+fn sums(a: &[f64], b: &[f64], y: &[f64], w: impl Fn(usize) -> f64) -> Sums {
     let mut s = Sums { saa: 0.0, sab: 0.0, sbb: 0.0, say: 0.0, sby: 0.0, sw: 0.0 };
     for i in 0..y.len() {
-        let wi = w[i];
+        let wi = w(i);
         s.saa += wi * a[i] * a[i];
         s.sab += wi * a[i] * b[i];
         s.sbb += wi * b[i] * b[i];
@@ -250,7 +251,7 @@ fn robust_fit_with(rows: &ChannelRows, lit: &[bool], two_params: bool, noise_flo
     }
     if !(scale > 0.0 && scale.is_finite()) {
         // All-zero observations: the only consistent non-negative answer is zero light.
-        let s = sums(&rows.a, &rows.b, &rows.y, &vec![1.0; n]);
+        let s = sums(&rows.a, &rows.b, &rows.y, |_| 1.0);
         return Some(ChannelFit {
             condition: if two_params { condition(s.saa, s.sab, s.sbb) } else { 1.0 },
             pd_se: if two_params { 0.0 } else { f64::INFINITY },
@@ -278,17 +279,7 @@ fn robust_fit_with(rows: &ChannelRows, lit: &[bool], two_params: bool, noise_flo
     // `irls_weights`).
     let (a, y) = (&rows.a[..], &rows.y[..]);
     let step = |(pa, pd): (f64, f64), level: Level| {
-        let mut st = Sums { saa: 0.0, sab: 0.0, sbb: 0.0, say: 0.0, sby: 0.0, sw: 0.0 };
-        for i in 0..n {
-            let (wi, _) = irls_weight(y[i], a[i] * pa + b[i] * pd, floor, sigma, level);
-            st.saa += wi * a[i] * a[i];
-            st.sab += wi * a[i] * b[i];
-            st.sbb += wi * b[i] * b[i];
-            st.say += wi * a[i] * y[i];
-            st.sby += wi * b[i] * y[i];
-            st.sw += wi;
-        }
-        st
+        sums(a, b, y, |i| irls_weight(y[i], a[i] * pa + b[i] * pd, floor, sigma, level).0)
     };
     let (mut pa, mut pd) = start;
     for _ in 0..IRLS_MAX_ITERS {
@@ -333,8 +324,7 @@ impl Scaled {
     fn lmeds_start(&self, lit: &[bool], two_params: bool, rng: &mut impl Rng) -> ((f64, f64), f64) {
         let (a, b, y) = (&self.a[..], &self.b[..], &self.y[..]);
         let n = y.len();
-        let ones = vec![1.0; n];
-        let s = sums(a, b, y, &ones);
+        let s = sums(a, b, y, |_| 1.0);
         let mut candidates = vec![nnls2(s.saa, s.sab, s.sbb, s.say, s.sby)];
         let lit_idx: Vec<usize> = (0..n).filter(|&i| lit.get(i).copied().unwrap_or(false)).collect();
         let dark_idx: Vec<usize> = (0..n).filter(|&i| !lit.get(i).copied().unwrap_or(false)).collect();
@@ -385,7 +375,7 @@ impl Scaled {
         let n = y.len();
         let r: Vec<f64> = (0..n).map(|i| y[i] - a[i] * pa - b[i] * pd).collect();
         let w: Vec<f64> = r.iter().map(|&ri| tukey(ri, sigma)).collect();
-        let s = sums(a, b, y, &w);
+        let s = sums(a, b, y, |i| w[i]);
         let inliers = w.iter().filter(|&&x| x > 0.0).count();
         let wss: f64 = (0..n).map(|i| w[i] * r[i] * r[i]).sum();
         let dof = (s.sw - self.p).max(1.0);
