@@ -137,11 +137,7 @@ impl Compositor {
         let gpu = Arc::new(Gpu::new(GpuOptions { samples: s.samples.max(1) })?);
         let mut comp = heliar::render::Compositor::for_scene(gpu.clone(), scene, ray.clone(), config)
             .with_context(|| format!("setting up the compositor for {}", scene.root.display()))?;
-        let mut motion = start.and_then(|t0| MovingObjects::for_scene(scene, t0)).map(|m| m.with_cuts(scene, &ray));
-        if let Some(m) = motion.as_mut().filter(|m| m.has_cuts()) {
-            comp.reach_motion(m.reach());
-            m.serve_from_start(comp.left_out());
-        }
+        let motion = start.and_then(|t0| MovingObjects::for_scene(scene, t0)).map(|m| m.attach(scene, &mut comp));
         let probes = probe_source(scene, ray, s.ambient, |sc, r| cached_bake(sc, r, &|_: &str, _: u64, _: u64| {}))?;
         let k = &scene.camera.intrinsics;
         Ok(Self {

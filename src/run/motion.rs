@@ -180,6 +180,22 @@ impl MovingObjects {
         self
     }
 
+    /// Loads the cuts ([`Self::with_cuts`], with the proxy's BVH of `compositor`) and readies
+    /// `compositor` for the motion: the receivers along the motion get `c`, `b` at set-up (so that
+    /// a move costs no trace), and the movers it left out of its trace (static objects beside
+    /// them) are served by the cuts from the first frame ([`Self::serve_from_start`]). Without
+    /// cuts the compositor is untouched. One set-up for every front end (`heliar augment`,
+    /// `heliar live`, the Python compositor).
+    pub fn attach(self, scene: &Scene, compositor: &mut Compositor) -> Self {
+        let proxy = compositor.proxy_ray().clone();
+        let mut m = self.with_cuts(scene, &proxy);
+        if m.has_cuts() {
+            compositor.reach_motion(m.reach());
+            m.serve_from_start(compositor.left_out());
+        }
+        m
+    }
+
     /// Makes the next [`Self::apply`] serve the objects `left_out` (those the compositor left out
     /// of its trace, `Compositor::left_out`) from the cuts, as if they had moved: without the
     /// cuts they keep the probe grid's ambient until they move (then re-traced).

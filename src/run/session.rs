@@ -70,15 +70,7 @@ impl OutdoorSession {
     }
 
     fn follow(&mut self, scene: &Scene, objects: Option<MovingObjects>) {
-        let proxy = self.compositor.proxy_ray().clone();
-        self.motion = objects.map(|m| m.with_cuts(scene, &proxy));
-        if let Some(m) = self.motion.as_mut().filter(|m| m.has_cuts()) {
-            // The receivers along the motion get `c`, `b` at set-up, so that a move costs no trace.
-            self.compositor.reach_motion(m.reach());
-            // Movers the compositor left out of its trace (static objects beside them): the cuts
-            // serve them from the first frame (`render::compositor`'s `kept`).
-            m.serve_from_start(self.compositor.left_out());
-        }
+        self.motion = objects.map(|m| m.attach(scene, &mut self.compositor));
     }
 
     /// Poses the moving objects for frame `index` and hands those that moved to the compositor
