@@ -137,3 +137,37 @@ fn one_parameter_fit() {
     let f = robust_fit(&rows, &[false; 100], false, HDR_NOISE_FLOOR_REL, &mut SmallRng::seed_from_u64(0)).unwrap();
     assert!((f.pa - 0.9).abs() < 1e-9 && f.pd == 0.0 && f.pd_se.is_infinite());
 }
+
+#[test]
+fn aitken_gives_the_limit_of_a_geometric_sequence() {
+    // x_k = L + C·r^k: Δ² extrapolation is exact for every |r| < 1 it accepts
+    for (l, c, r) in [(2.5, 0.3, 0.55), (1.0, -0.2, 0.85), (0.7, 0.1, -0.6), (3.0, 1e-4, 0.1)] {
+        let x = |k: i32| l + c * f64::powi(r, k);
+        let e = aitken(x(4), x(5), x(6));
+        assert!((e - l).abs() < 1e-12 * l, "r {r}: {e} against {l}");
+    }
+    // changes that do not shrink fast enough, or vanish: the last iterate as it is
+    assert_eq!(aitken(1.0, 1.5, 1.97), 1.97); // r = 0.94
+    assert_eq!(aitken(1.0, 1.0, 1.0), 1.0); // converged: r = 0/0
+    assert_eq!(aitken(1.0, 1.0, 1.2), 1.2); // r = ∞
+    // never below the bound Pa, Pd ≥ 0
+    assert_eq!(aitken(0.3, 0.1, 0.02), 0.0);
+}
+
+#[test]
+fn the_weight_with_one_division_equals_tukeys_over_the_level_squared() {
+    // the form before the hoisting, Tukey's biweight of (y − μ)/d divided by d², to rounding
+    let mut rng = SmallRng::seed_from_u64(3);
+    let (floor, sigma) = (1e-3, 0.05);
+    for _ in 0..10_000 {
+        let y: f64 = rng.random_range(-0.1..2.0);
+        let mu: f64 = y * rng.random_range(0.7..1.3) + rng.random_range(-0.01..0.01);
+        for level in [Level::Observed, Level::Predicted] {
+            let (w, d) = irls_weight(y, mu, floor, sigma, level);
+            let reference = tukey((y - mu) / d, sigma) / (d * d);
+            // to rounding of the weight's largest value 1/d² (near |u| = 1 the weight is the
+            // difference 1 − u², whose relative rounding grows as it vanishes)
+            assert!((w - reference).abs() <= 1e-12 / (d * d), "{y} {mu}: {w} against {reference}");
+        }
+    }
+}
