@@ -16,10 +16,12 @@
 //! planned once ([`plan`]) and applied to any mesh with the same triangles ([`apply`]: a moving
 //! object's rest mesh and its mesh at the first key).
 //!
-//! Not applied by the scene loader yet: a split moving object no longer renders its still frames
-//! bit for bit as the same object placed statically (`object_motion`'s
-//! `augment_follows_the_motion_and_keeps_static_frames`), unless static objects are split too,
-//! which changes every bundled output (docs/measurements.md, "Where the two statues' error was").
+//! The scene loader (`crate::scene`'s `load::virtual_objects`) splits every virtual object,
+//! static or moving, with one plan made on the object in its glTF frame (edges longer than
+//! [`CUTS_EDGE_FRACTION`] of its bounding radius): a static object and a moving one at the same
+//! placement get the same triangles, so a motion's still frames equal the static object's bit
+//! for bit (`object_motion`'s `augment_follows_the_motion_and_keeps_static_frames`). Splitting
+//! only the movers broke that (docs/measurements.md, "Where the two statues' error was").
 
 use super::Mesh;
 use glam::Vec3;
