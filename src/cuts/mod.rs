@@ -38,13 +38,13 @@
 //!   extension for the object's own parts, which the self-visibility cut makes black): rays
 //!   from each vertex against the object's own mesh, cast once (the object is rigid), bring per
 //!   frame the first pass's outgoing radiance at their hits (a statue's sunlit pedestal top onto
-//!   its sphere's underside). Passed in `bounce::Bounce::own`; **the frame loop does not use it
-//!   yet**: it only helps with the moving objects' long edges split
-//!   (`crate::geometry::subdivide`, so that the cuts, shaded per vertex, have vertices where a
-//!   two-triangle pedestal top's light changes), and splitting breaks the bit-for-bit equality
-//!   of a motion's still frames with the static object's. Measured on the two statues of
-//!   `tests/suite/object_cuts_two.rs` with both wired in (docs/measurements.md, "Where the two
-//!   statues' error was"): 6.3% → 3.8% over both statues.
+//!   its sphere's underside). Passed in `bounce::Bounce::own`; the frame loop casts the gathers
+//!   when it loads the cuts (`crate::run::motion_cuts`). It goes with every virtual object's long
+//!   edges split at load (`crate::geometry::subdivide`, so that the cuts, shaded per vertex, have
+//!   vertices where a two-triangle pedestal top's light changes; static objects too, so that a
+//!   motion's still frames equal the static object's bit for bit). Measured on the two statues of
+//!   `tests/suite/object_cuts_two.rs` (docs/measurements.md, "Where the two statues' error was"
+//!   and "Self-bounce and split edges on by default"): 6.3% → 3.7% over both statues.
 //! - **Files and sweeps**: [`mod@file`] stores a scene's cuts with a hash of their inputs;
 //!   [`sweep`] measures error against cost.
 //! - **Frames** ([`frame`], [`receivers`]): the objects' ambient per vertex and the receivers'

@@ -29,7 +29,8 @@
 //! too bright: alone it made the courtyard's statues worse where their tops show
 //! (docs/measurements.md), so it goes with the long edges split (`crate::geometry::subdivide`).
 //! `M` rays per vertex give Monte Carlo noise on the bounce (not on the rest). The frame loop
-//! does not pass the gathers yet (`super::bounce::Bounce::own` empty).
+//! casts every object's gather when it loads the cuts (`crate::run::motion_cuts`), and the scene
+//! loader splits every virtual object's long edges.
 
 use super::frame::VertexAmbient;
 use super::lighting::MIN_BRDF_COS;

@@ -15,7 +15,10 @@
 //!   falls back to the re-trace, and the frame says which object.
 //! - **Bounce** ([`CutState::evaluate`]): the light the objects reflect onto each other is added
 //!   to the cuts' ambient (`crate::cuts::bounce`, an extension of Eq. 3), with each object's
-//!   reflectance from its mesh's materials and the relighter's sun.
+//!   reflectance from its mesh's materials and the relighter's sun, and the light each object
+//!   reflects onto itself (`crate::cuts::self_bounce`: its rays are cast once here, at loading,
+//!   [`SELF_BOUNCE_RAYS`] per vertex; the scene loader has split the objects' long edges,
+//!   `crate::geometry::subdivide`, so that the gather's sources and receivers are resolved).
 //! - **Lighting** ([`CutState::lighting`]): the relighter's map split per unit `Pa` and `Pd`
 //!   (`crate::envmap::relight::Relighter::unit_maps`), clustered again only when its sun planes
 //!   change; the uniform sky without a bake.
@@ -25,6 +28,7 @@ use crate::cuts::bounce::{Bounce, BounceSurface};
 use crate::cuts::file::{self, PrecomputedCuts};
 use crate::cuts::frame::{FrameCuts, ObjectAmbient, ReceiverCuts, UnitLighting};
 use crate::cuts::rotate::Pose;
+use crate::cuts::self_bounce::{SELF_BOUNCE_RAYS, SelfGather};
 use crate::cuts::{CutsError, no_progress};
 use crate::envmap::relight::Relighter;
 use crate::geometry::raycast::RayScene;
@@ -58,6 +62,8 @@ pub struct CutState {
     lighting: Option<(LightKey, Arc<UnitLighting>)>,
     /// Per object, what it reflects onto the others (`crate::cuts::bounce`).
     surfaces: Vec<BounceSurface>,
+    /// Per object, the rays from its vertices that meet itself (`crate::cuts::self_bounce`).
+    own: Vec<SelfGather>,
     /// This frame's outcome.
     pub outcome: CutOutcome,
 }
@@ -87,7 +93,10 @@ impl CutState {
         let frame = FrameCuts::new(cuts).map_err(|e| format!("{}: {e}: every move is re-traced", path.display()))?;
         let origin = scene.virtual_objects.iter().map(|o| o.motion.as_ref().map(|m| m.motion.world_from_rest(m.motion.start_seconds()))).collect();
         let surfaces = scene.virtual_objects.iter().map(|o| BounceSurface::from_mesh(&o.mesh)).collect();
-        Ok(Self { frame, origin, lighting: None, surfaces, outcome: CutOutcome::Skipped("no object has moved yet: the traced per-pixel transfer serves".into()) })
+        // The cuts' vertices are the meshes' at the first key (`same_objects`, or computed from
+        // them), in the cuts' frame: the gathers hold in every rigid pose.
+        let own = scene.virtual_objects.iter().zip(&frame.cuts.objects).map(|(o, c)| SelfGather::from_mesh(&o.mesh, &c.svc.normals, SELF_BOUNCE_RAYS)).collect();
+        Ok(Self { frame, origin, lighting: None, surfaces, own, outcome: CutOutcome::Skipped("no object has moved yet: the traced per-pixel transfer serves".into()) })
     }
 
     /// Each object's pose since its cuts were computed (`crate::cuts::rotate::Pose`), from its
@@ -154,7 +163,7 @@ impl CutState {
     /// the objects reflect onto each other (`crate::cuts::bounce`); `None` when the lighting holds
     /// all of it (a VEM frame).
     pub fn evaluate_with(&self, poses: &[Pose], light: Arc<UnitLighting>, eye: Vec3, sun: Option<Vec3>) -> Result<(ObjectAmbient, ReceiverCuts), CutsError> {
-        let ambient = self.frame.object_ambient_bounced(&light, poses, eye, &Bounce { surfaces: &self.surfaces, sun, own: &[] })?;
+        let ambient = self.frame.object_ambient_bounced(&light, poses, eye, &Bounce { surfaces: &self.surfaces, sun, own: &self.own })?;
         let receivers = self.frame.receivers_posed(light, poses.to_vec());
         Ok((ambient, receivers))
     }

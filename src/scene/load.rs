@@ -7,7 +7,7 @@ use super::motion::ObjectMotion;
 use super::paths::Within;
 use super::settings::BakeConfig;
 use super::{AlbedoSource, Manifest, ResponseSpec, SceneError, Sequence, VirtualObject, finite3, invalid, load_truth, parse_time};
-use crate::geometry::Mesh;
+use crate::geometry::{Mesh, subdivide};
 use crate::io::frames::{Photometry, ReadNoise, Response, list_frame_files};
 use super::manifest::{READ_NOISE_AUTO, ReadNoiseSpec};
 use crate::sun::{GeoFrame, Observer};
@@ -75,7 +75,9 @@ pub(super) fn proxy(within: &Within, m: &Path, manifest: &Manifest) -> Result<(M
     Ok((proxy, proxy_notes))
 }
 
-/// `[[virtual_objects]]`: each glTF placed in the world.
+/// `[[virtual_objects]]`: each glTF placed in the world, its edges longer than
+/// [`subdivide::CUTS_EDGE_FRACTION`] of its bounding radius split (`crate::geometry::subdivide`:
+/// the visibility cuts shade it per vertex; the surface is unchanged).
 pub(super) fn virtual_objects(within: &Within, m: &Path, manifest: &Manifest) -> Result<Vec<VirtualObject>, SceneError> {
     let mut virtual_objects = Vec::new();
     for (i, v) in manifest.virtual_objects.iter().enumerate() {
@@ -93,16 +95,24 @@ pub(super) fn virtual_objects(within: &Within, m: &Path, manifest: &Manifest) ->
             Quat::from_rotation_y((v.rotation_y_deg as f32).to_radians()),
             t,
         );
+        // Its long edges are split for the visibility cuts (`split`), planned on the object in
+        // its own frame, so that a static and a moving object get the same triangles.
+        let (rest, _) = gltf::load_gltf_within(&path, Mat4::IDENTITY, &[], within.confine())?;
+        let split = subdivide::plan(&rest, subdivide::CUTS_EDGE_FRACTION * subdivide::bounding_radius(&rest));
+        let split = |mesh: Mesh| match &split {
+            Some(p) => subdivide::apply(&mesh, p),
+            None => mesh,
+        };
         let Some(spec) = &v.motion else {
             let (mesh, _) = gltf::load_gltf_within(&path, placement, &[], within.confine())?;
-            virtual_objects.push(VirtualObject { path, mesh, motion: None });
+            virtual_objects.push(VirtualObject { path, mesh: split(mesh), motion: None });
             continue;
         };
         let motion = super::motion_load::motion(within, m, i, spec, placement, v.scale)?;
-        let (rest, _) = gltf::load_gltf_within(&path, Mat4::IDENTITY, &[], within.confine())?;
         // Where it stands at the first key, loaded as a static object is (so a motion that
         // starts at the manifest's placement starts bit for bit where the static object stands).
         let (mesh, _) = gltf::load_gltf_within(&path, motion.world_from_rest(motion.start_seconds()), &[], within.confine())?;
+        let (mesh, rest) = (split(mesh), split(rest));
         let moving = ObjectMotion { rest, motion };
         virtual_objects.push(VirtualObject { path, mesh, motion: Some(moving) });
     }
