@@ -37,7 +37,8 @@
 //! - **Receivers** ([`ReceiverCuts`], `super::receivers`): a real surface point's share of its
 //!   sky light that the objects leave ([`super::lighting::sky_visibility`], weights from the sky
 //!   per unit `Pa` and the receiver's cosine); the compositor sets `c_v = c·V` and `b_v = b·V`
-//!   from it instead of tracing them again.
+//!   from it instead of tracing them again. An object beyond its field's outermost sphere is left
+//!   out there (exactly 1), so the compositor evaluates only the receivers a moved object reaches.
 //!
 //! # Limits
 //! `V` at a receiver counts the sky an object hides even where the proxy hides it
@@ -402,8 +403,8 @@ mod tests {
         // A receiver under `b` loses sky; one far away keeps all of it.
         let rc = f.receivers(Arc::new(light), vec![Vec3::ZERO, Vec3::new(3.0, 0.0, 0.0)]);
         let v = rc.visibility(&[(Vec3::new(3.0, -0.6, 0.0), Vec3::Y), (Vec3::new(-30.0, -0.6, 0.0), Vec3::Y)]);
-        // Far away the field is clamped to its outermost sphere (10 r), where the sphere hides
-        // a cone of 5.7°: under 1% of the receiver's light.
-        assert!(v[0] < 0.7 && v[1] > 0.99, "{v:?}");
+        // Far away, beyond the field's outermost sphere (10 r), the receivers leave the object
+        // out: exactly 1 (the clamped outermost cut would hide a cone of 5.7°).
+        assert!(v[0] < 0.7 && v[1] == 1.0, "{v:?}");
     }
 }

@@ -15,8 +15,17 @@
 //!   nearest-leaf remap, cached per normal and frame), so the commonest case, one turned object
 //!   over the ground, remaps nothing per receiver; the fields of other objects turned differently
 //!   are remapped into that frame.
+//!
+//! **Reach.** An object is left out where the receiver lies beyond its field's outermost sphere
+//! (`outer·r`, [`super::vcf::VisibilityCutField::beyond_reach`]; the field would clamp to that
+//! sphere's cuts, which over-estimate the occlusion a little, `super::vcf`): its field is then
+//! exactly 1 there, so a receiver's value depends only on the objects that reach it
+//! ([`ReceiverCuts::reaches`]). The weights are cached per exact normal, so a receiver's value
+//! does not depend on which other receivers are asked for either
+//! ([`ReceiverCuts::visibility_of`]). Together these let the compositor evaluate, when an object
+//! moves, only the receivers within its reach at its old or new pose and keep the others' last
+//! values bit for bit (`render::compositor`'s `cut_cache`).
 
-use super::eval::CutScene;
 use super::frame::{FrameCuts, UnitLighting};
 use super::lighting::{ReceiverWeights, sky_visibility};
 use super::rotate::{LeafRemap, Pose, relative};
@@ -34,9 +43,13 @@ pub struct ReceiverCuts {
     poses: Vec<Pose>,
 }
 
-/// A receiver normal's key in the weights cache (a proxy has few distinct normals).
-fn normal_key(n: Vec3) -> [i32; 3] {
-    (n * 1000.0).round().as_ivec3().to_array()
+/// A receiver normal's key in the weights cache: its exact bits (a proxy's receivers take
+/// their triangles' face normals, so there are few), so that a receiver's weights never depend
+/// on which other receivers are asked for.
+type NormalKey = [u32; 3];
+
+fn normal_key(n: Vec3) -> NormalKey {
+    n.to_array().map(f32::to_bits)
 }
 
 /// The remaps a frame with turned objects needs (module docs).
@@ -44,7 +57,7 @@ struct Remaps {
     /// `pairs[f][b]`: object `b`'s field into object `f`'s frame (`None`: the same frame).
     pairs: Vec<Vec<Option<LeafRemap>>>,
     /// Per normal key and frame object `f`, the weights in `f`'s frame.
-    weights: HashMap<([i32; 3], usize), ReceiverWeights>,
+    weights: HashMap<(NormalKey, usize), ReceiverWeights>,
 }
 
 impl ReceiverCuts {
@@ -56,36 +69,79 @@ impl ReceiverCuts {
     /// The share of sky light the objects leave at each `(point, normal)` (world frame), in
     /// `[0, 1]`; 1 where the lookup fails (a non-finite point: nothing to darken). In parallel.
     pub fn visibility(&self, surfaces: &[(Vec3, Vec3)]) -> Vec<f32> {
-        let mut normals: HashMap<[i32; 3], Vec3> = HashMap::new();
-        for (_, n) in surfaces {
+        let all: Vec<usize> = (0..surfaces.len()).collect();
+        self.visibility_of(surfaces, &all)
+    }
+
+    /// [`Self::visibility`] at `surfaces[i]` for each `i` of `which` only, in that order (an
+    /// index out of range gives 1). A receiver's value depends on its own point and normal only:
+    /// the weights are per exact normal, so asking for fewer receivers changes none of them.
+    pub fn visibility_of(&self, surfaces: &[(Vec3, Vec3)], which: &[usize]) -> Vec<f32> {
+        let mut normals: HashMap<NormalKey, Vec3> = HashMap::new();
+        for (_, n) in which.iter().filter_map(|&i| surfaces.get(i)) {
             normals.entry(normal_key(*n)).or_insert(*n);
         }
         let (tree, sky) = (&*self.cuts.tree, &self.lighting.sky_pa);
-        let list: Vec<([i32; 3], Vec3)> = normals.into_iter().collect();
-        let weights: HashMap<[i32; 3], ReceiverWeights> = list.into_par_iter().filter_map(|(k, n)| ReceiverWeights::new(tree, sky, n).ok().map(|w| (k, w))).collect();
-        if self.poses.iter().all(|p| p.rotation.is_none()) {
-            let translations: Vec<Vec3> = self.poses.iter().map(|p| p.translation).collect();
-            let scene = CutScene { tree, lighting: sky, objects: &self.cuts.cuts.objects, translations: &translations, proxy: None };
-            return surfaces
-                .par_iter()
-                .map(|(x, n)| match weights.get(&normal_key(*n)) {
-                    Some(w) => scene.receiver_visibility(w, *x, *n).map_or(1.0, |r| r.visibility.clamp(0.0, 1.0)),
-                    None => 1.0,
-                })
-                .collect();
-        }
-        let remaps = self.remaps(&weights);
-        surfaces
+        let list: Vec<(NormalKey, Vec3)> = normals.into_iter().collect();
+        let weights: HashMap<NormalKey, ReceiverWeights> = list.into_par_iter().filter_map(|(k, n)| ReceiverWeights::new(tree, sky, n).ok().map(|w| (k, w))).collect();
+        let turned = self.poses.iter().any(|p| p.rotation.is_some());
+        let remaps = turned.then(|| self.remaps(&weights));
+        which
             .par_iter()
-            .map(|(x, n)| match weights.get(&normal_key(*n)) {
-                Some(w) => self.turned_visibility(&remaps, w, normal_key(*n), *x, *n).map_or(1.0, |v| v.clamp(0.0, 1.0)),
-                None => 1.0,
+            .map(|&i| {
+                let Some((x, n)) = surfaces.get(i) else { return 1.0 };
+                let Some(w) = weights.get(&normal_key(*n)) else { return 1.0 };
+                let v = match &remaps {
+                    None => self.translated_visibility(w, *x, *n),
+                    Some(remaps) => self.turned_visibility(remaps, w, normal_key(*n), *x, *n),
+                };
+                v.map_or(1.0, |v| v.clamp(0.0, 1.0))
             })
             .collect()
     }
 
+    /// True when object `b`'s field enters the product at `x` (world frame): `x` lies within its
+    /// outermost sphere at this frame's pose ([`super::vcf::VisibilityCutField::beyond_reach`]).
+    /// Beyond it the object is left out, so its field there is exactly 1 (module docs).
+    pub fn reaches(&self, b: usize, x: Vec3) -> bool {
+        match (self.cuts.cuts.objects.get(b), self.poses.get(b)) {
+            (Some(obj), Some(pose)) => !obj.vcf.beyond_reach(pose.local_point(x)),
+            _ => false,
+        }
+    }
+
+    /// Each object's pose (cut frame → world) this frame.
+    pub fn poses(&self) -> &[Pose] {
+        &self.poses
+    }
+
+    /// The lighting the receivers' weights come from.
+    pub fn lighting(&self) -> &Arc<UnitLighting> {
+        &self.lighting
+    }
+
+    /// One receiver's visibility with no object turned: the fields looked up at `x` less each
+    /// translation, as `CutScene::receiver_visibility`, with the objects beyond reach left out.
+    fn translated_visibility(&self, weights: &ReceiverWeights, x: Vec3, n: Vec3) -> Result<f32, CutsError> {
+        let mut cuts: Vec<Cut> = Vec::new();
+        for (obj, pose) in self.cuts.cuts.objects.iter().zip(&self.poses) {
+            let t = pose.translation;
+            let centre = obj.vcf.centre + t;
+            if n != Vec3::ZERO && n.dot(centre - x) < -obj.vcf.radius_m {
+                continue;
+            }
+            if obj.vcf.beyond_reach(x - t) {
+                continue;
+            }
+            let (cut, _region) = obj.vcf.lookup(x - t)?;
+            cuts.push(cut);
+        }
+        let views: Vec<_> = cuts.iter().map(Cut::view).collect();
+        sky_visibility(weights, &views)
+    }
+
     /// The pair remaps and the weights pushed into every turned object's frame.
-    fn remaps(&self, world: &HashMap<[i32; 3], ReceiverWeights>) -> Remaps {
+    fn remaps(&self, world: &HashMap<NormalKey, ReceiverWeights>) -> Remaps {
         let (tree, index) = (&*self.cuts.tree, &*self.cuts.index);
         let remap = |q: Option<glam::Mat3>| q.map(|q| LeafRemap::new(tree, index, q));
         let pairs = self.poses.iter().map(|f| self.poses.iter().map(|b| remap(relative(b.rotation, f.rotation))).collect()).collect();
@@ -103,7 +159,7 @@ impl ReceiverCuts {
     }
 
     /// One receiver's visibility with some object turned (module docs).
-    fn turned_visibility(&self, remaps: &Remaps, world: &ReceiverWeights, key: [i32; 3], x: Vec3, n: Vec3) -> Result<f32, CutsError> {
+    fn turned_visibility(&self, remaps: &Remaps, world: &ReceiverWeights, key: NormalKey, x: Vec3, n: Vec3) -> Result<f32, CutsError> {
         let mut frame: Option<usize> = None;
         let mut cuts: Vec<Cut> = Vec::new();
         for (b, obj) in self.cuts.cuts.objects.iter().enumerate() {
@@ -111,7 +167,11 @@ impl ReceiverCuts {
             if n != Vec3::ZERO && n.dot(pose.point(obj.vcf.centre) - x) < -obj.vcf.radius_m {
                 continue;
             }
-            let (cut, _region) = obj.vcf.lookup(pose.local_point(x))?;
+            let local = pose.local_point(x);
+            if obj.vcf.beyond_reach(local) {
+                continue;
+            }
+            let (cut, _region) = obj.vcf.lookup(local)?;
             let f = *frame.get_or_insert(b);
             cuts.push(match &remaps.pairs[f][b] {
                 Some(r) => r.cut(cut.view())?,
@@ -125,5 +185,60 @@ impl ReceiverCuts {
         };
         let views: Vec<_> = cuts.iter().map(Cut::view).collect();
         sky_visibility(weights, &views)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cuts::eval::ObjectCuts;
+    use crate::cuts::file::PrecomputedCuts;
+    use crate::cuts::svc::SvcSettings;
+    use crate::cuts::vcf::VcfSampling;
+    use crate::cuts::{DirectionTree, no_progress, shapes};
+    use glam::Mat3;
+
+    /// Two spheres of radius 0.5 m (object frame at the origin), the second turned by 30° about y
+    /// when `turned`, and receivers on the ground along x, some within reach of an object and
+    /// some beyond (the outermost sphere at 10 r = 5 m).
+    fn scene(turned: bool) -> (ReceiverCuts, Vec<(Vec3, Vec3)>) {
+        let levels = 8;
+        let tree = DirectionTree::new(levels).unwrap();
+        let vcf = VcfSampling { spheres: 4, rows: 8, cols: 8, ..VcfSampling::default() };
+        let one = ObjectCuts::compute("sphere", &shapes::icosphere(Vec3::ZERO, 0.5, 1), &tree, &SvcSettings::default(), &vcf, &no_progress).unwrap();
+        let frame = FrameCuts::new(PrecomputedCuts { inputs_hash: [0; 32], levels, objects: vec![one; 2], proxy: None }).unwrap();
+        let light = Arc::new(UnitLighting::uniform_sky(&frame.tree));
+        let second = if turned { Pose::from_parts(Mat3::from_rotation_y(0.5), Vec3::new(8.0, 0.6, 0.0)).unwrap() } else { Pose::translated(Vec3::new(8.0, 0.6, 0.0)) };
+        let poses = vec![Pose::translated(Vec3::new(0.0, 0.6, 0.0)), second];
+        let surfaces = (0..40).map(|i| (Vec3::new(-12.0 + i as f32 * 0.7, 0.0, 0.3), Vec3::Y)).collect();
+        (frame.receivers_posed(light, poses), surfaces)
+    }
+
+    /// Beyond an object's reach its field is left out: a receiver that no object reaches keeps
+    /// all of its sky, exactly; one under an object loses some. Asking for a subset gives each
+    /// receiver the same value, bit for bit, as asking for all (the compositor's `cut_cache`
+    /// relies on both); turned or not.
+    #[test]
+    fn beyond_reach_is_exactly_one_and_a_subset_changes_nothing() {
+        for turned in [false, true] {
+            let (rc, surfaces) = scene(turned);
+            let all = rc.visibility(&surfaces);
+            let mut reached = 0;
+            for (i, (x, _)) in surfaces.iter().enumerate() {
+                if !(rc.reaches(0, *x) || rc.reaches(1, *x)) {
+                    assert_eq!(all[i], 1.0, "turned {turned}: receiver {i} at {x} is reached by no object");
+                } else {
+                    reached += 1;
+                }
+            }
+            // 5 m either side of x = 0 and x = 8 (with the 0.6 m height): most of -12..16 m.
+            assert!(reached > 20 && reached < 40, "turned {turned}: {reached} reached");
+            assert!(all.iter().any(|v| *v < 0.9), "turned {turned}: {all:?}");
+            let some: Vec<usize> = (0..surfaces.len()).filter(|i| i % 3 == 1).collect();
+            let part = rc.visibility_of(&surfaces, &some);
+            for (k, &i) in some.iter().enumerate() {
+                assert_eq!(part[k].to_bits(), all[i].to_bits(), "turned {turned}: receiver {i}");
+            }
+        }
     }
 }

@@ -129,6 +129,18 @@ pub struct FrameTimings {
     /// The visibility cuts (issue 15 §2): the objects' per-vertex ambient and the receivers'
     /// sky visibility with the objects present.
     pub cuts_ms: f64,
+    /// The receivers' part of `cuts_ms` (their sky visibility with the objects present).
+    pub cut_receivers_ms: f64,
+}
+
+/// How many receivers a frame evaluated and how many kept their value (the report's
+/// `cut_receivers`, `render::compositor`'s `cut_cache`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct CutReceiverCounts {
+    /// Receivers whose visibility was evaluated.
+    pub evaluated: usize,
+    /// Receivers that kept the value stored at an earlier frame (no moved object reaches them).
+    pub reused: usize,
 }
 
 /// The compositor's report of one frame (part of the per-frame JSON line).
@@ -146,6 +158,11 @@ pub struct PassReport {
     pub receivers_computed: usize,
     /// Canvas pixels whose ambient transfer was traced this frame.
     pub transfer_traced: usize,
+    /// Receivers whose sky visibility the visibility cuts evaluated this frame, and those that
+    /// kept their last value because no object that moved reaches them at its old or new pose
+    /// (`render::compositor`'s `cut_cache`); absent when the cuts did not set the receivers.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cut_receivers: Option<CutReceiverCounts>,
     /// Work earlier frames decided on that this frame did instead: a run resumed after an
     /// interruption replays its written frames without their work, and the first new frame
     /// pays what they owe (absent in uninterrupted runs).

@@ -346,7 +346,7 @@ impl MovingObjects {
                 // receiver step) and added to the same `cuts_ms`.
                 cuts.outcome = CutOutcome::Ran(t.elapsed().as_secs_f64() * 1e3);
                 let reach_m = cuts.reach_m();
-                compositor.move_objects_with_cuts(&list, &moved, &ambient.vertices, Box::new(move |s: &[(Vec3, Vec3)]| receivers.visibility(s)), &reach_m)
+                compositor.move_objects_with_cuts(&list, &moved, &ambient.vertices, Box::new(receivers), &reach_m)
             }
             Err(e) => {
                 cuts.outcome = CutOutcome::Skipped(format!("the cuts could not be evaluated ({e}): re-traced"));

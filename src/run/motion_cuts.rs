@@ -185,3 +185,29 @@ impl CutState {
         &self.frame.cuts
     }
 }
+
+/// The receivers' visibility as the compositor keeps it between frames
+/// (`render::compositor`'s `cut_cache`): evaluated only where a moved object's field reaches.
+impl crate::render::compositor::ReceiverField for ReceiverCuts {
+    fn visibility(&self, surfaces: &[(Vec3, Vec3)], which: &[usize]) -> Vec<f32> {
+        self.visibility_of(surfaces, which)
+    }
+
+    fn pose_keys(&self) -> Option<Vec<[u32; 12]>> {
+        let key = |p: &Pose| {
+            // Not turned: marked apart from any rotation (a rotation's entries are finite).
+            let r = p.rotation.map_or([u32::MAX; 9], |r| r.to_cols_array().map(f32::to_bits));
+            let t = p.translation.to_array().map(f32::to_bits);
+            std::array::from_fn(|i| if i < 9 { r[i] } else { t[i - 9] })
+        };
+        Some(self.poses().iter().map(key).collect())
+    }
+
+    fn lighting_key(&self) -> usize {
+        Arc::as_ptr(self.lighting()) as usize
+    }
+
+    fn reaches(&self, b: usize, x: Vec3) -> bool {
+        ReceiverCuts::reaches(self, b, x)
+    }
+}

@@ -98,6 +98,8 @@ fn a_person_drags_turns_and_resets_the_statue_and_the_cuts_serve_every_move() {
     assert!(app.error().is_none(), "{:?}", app.error());
     assert_eq!(dragged.passes.moved, vec!["statue.glb".to_owned()]);
     assert!(dragged.passes.ran.contains(&pass::VISIBILITY_CUTS), "the cuts serve a move by hand: {:?}", dragged.passes.ran);
+    let t = &dragged.passes.timings;
+    eprintln!("drag frame: cuts {:.0} ms (receivers {:.0} ms: {:?}), receivers' c, b {:.0} ms, GPU {:.0} ms", t.cuts_ms, t.cut_receivers_ms, dragged.passes.cut_receivers, t.receivers_ms, t.gpu_ms);
     let b1 = bounds(&app);
     let moved = centre(b1) - centre(b0);
     // The pointer's pixels are exact projections; the ray back through the lens is

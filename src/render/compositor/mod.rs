@@ -62,6 +62,7 @@
 //! builds everything, `config.rs` holds the settings and plain values.
 mod config;
 mod context;
+mod cut_cache;
 mod encode;
 mod ground_bounce;
 mod kept;
@@ -79,6 +80,7 @@ mod volumes;
 
 pub use config::{CompositorConfig, HALF_PRECISION, PassSwitches, REUSE_SUN_DEG, RenderedFrame, SceneParts, TRACE_PATHS_PER_FRAME};
 pub use context::{FrameContext, Gate};
+pub use cut_cache::{CutReceiverCounts, ReceiverField};
 pub use motion::{ReceiverVisibility, VertexAmbient};
 pub use resources::Resources;
 pub use stencil_cache::StencilCache;
@@ -159,7 +161,9 @@ pub struct Compositor {
     /// Per object, the mesh vertex of each of its vertices in the vertex buffer.
     vertex_sources: Vec<Vec<u32>>,
     /// The receivers' sky visibility from the visibility cuts, while they serve (see `motion`).
-    cuts: Option<motion::ReceiverVisibility>,
+    cuts: Option<Arc<dyn ReceiverField>>,
+    /// Their values per pixel, kept between frames (`cut_cache`).
+    cut_cache: cut_cache::CutCache,
     /// The objects that keep their traced transfer while others move under the cuts (`kept`).
     kept: kept::KeptTrace,
     /// The lamp stage (`None`: the scene has no lamps).

@@ -14,7 +14,8 @@
 //!   `w = 0`), and so do the receivers no moved object reaches (`kept`, issue 15 §5). The
 //!   receivers a moved object reaches take `c_v`, `b_v` from their sky visibility with the
 //!   objects present (`c·V`, `b·V`, set where the next frame needs them, `receiver_update`)
-//!   instead of a re-trace. Nothing is traced against the moved objects: no BVH with them, no
+//!   instead of a re-trace; `V` is evaluated again only within a moved object's field reach at
+//!   its old or new pose, the other receivers keep theirs (`cut_cache`). Nothing is traced against the moved objects: no BVH with them, no
 //!   ambient occlusion, no transfer. With one object, or when every object moved or is reached,
 //!   all take the cuts.
 //! - **The re-trace** ([`Compositor::move_objects`]; an object scaled along its motion, or a scene
@@ -45,8 +46,9 @@ use std::sync::Arc;
 pub type VertexAmbient = [[f32; 4]; 4];
 
 /// The receivers' sky visibility with the objects present, in `[0, 1]`, at `(point, normal)`
-/// pairs (world frame); from the objects' visibility cut fields (`run::motion_cuts`).
-pub type ReceiverVisibility = Box<dyn Fn(&[(Vec3, Vec3)]) -> Vec<f32> + Send + Sync>;
+/// pairs (world frame); from the objects' visibility cut fields (`run::motion_cuts`; kept per
+/// pixel between frames where no moved object reaches, `cut_cache`).
+pub type ReceiverVisibility = Box<dyn super::ReceiverField>;
 
 /// Why the transfer is off after a move (re-trace).
 const TRANSFER_DROPPED: &str =
@@ -131,6 +133,7 @@ impl Compositor {
         if self.cuts.take().is_some() {
             self.write_cut_ambient(&[]);
         }
+        self.cut_cache.clear();
         let scene = TransferScene::new(proxy, &meshes);
         self.with_ray = Some(scene.world.clone());
         self.res.occlusion.write(&self.gpu.queue, &object_occlusion(&self.canvas, Some(&scene), &self.config));
@@ -158,7 +161,7 @@ impl Compositor {
     /// while the cuts serve; the receivers' values follow at the next stencil rebuild).
     pub fn set_cuts(&mut self, ambient: &[Vec<VertexAmbient>], receivers: ReceiverVisibility) {
         self.write_cut_ambient(ambient);
-        self.cuts = Some(receivers);
+        self.cuts = Some(Arc::from(receivers));
     }
 
     /// Uploads `ambient` in the vertex buffer's order (zero where missing, and for the objects

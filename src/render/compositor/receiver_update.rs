@@ -13,7 +13,9 @@
 //! (the receivers' `retrace`), on frames that reuse the stored stencil too, and is uploaded when
 //! complete. While the visibility cuts serve (objects moved by translation, `motion`), `c_v` and
 //! `b_v` are `c` and `b` times the pixel's sky visibility with the objects present, from the
-//! objects' visibility cut fields (`crate::cuts::frame`), instead of a trace with the objects.
+//! objects' visibility cut fields (`crate::cuts::frame`), instead of a trace with the objects;
+//! that visibility is evaluated only where an object that moved reaches, at its old or new pose,
+//! and kept per pixel elsewhere (`cut_cache`; the report's `cut_receivers` counts both).
 
 use super::Compositor;
 use super::setup::NEAR_RADIUS_HALF_DIAGONALS;
@@ -173,9 +175,14 @@ impl Compositor {
     /// `motion`); true when it did. Its time goes to the report's `cuts_ms`.
     pub(super) fn cut_receivers(&mut self, pixels: &[u32], report: &mut PassReport) -> bool {
         let t = std::time::Instant::now();
-        let Some((kept, vis)) = self.cut_visibility(pixels) else { return false };
+        let Some((kept, vis, counts)) = self.cut_visibility(pixels) else { return false };
         self.receivers.set_with_from_visibility(&kept, &vis);
-        report.timings.cuts_ms += t.elapsed().as_secs_f64() * 1e3;
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        report.timings.cuts_ms += ms;
+        report.timings.cut_receivers_ms += ms;
+        let total = report.cut_receivers.get_or_insert_default();
+        total.evaluated += counts.evaluated;
+        total.reused += counts.reused;
         true
     }
 
@@ -190,14 +197,15 @@ impl Compositor {
     /// The sky visibility with the objects present, from the visibility cuts at their current
     /// poses, of those of `pixels` that see the proxy and take the cuts (all of them, or, while
     /// some objects keep their trace, those a moved object has reached: `kept`), with those
-    /// pixels; `None` when the cuts do not serve.
-    pub(super) fn cut_visibility(&self, pixels: &[u32]) -> Option<(Vec<u32>, Vec<f32>)> {
-        let cuts = self.cuts.as_ref()?;
+    /// pixels and how many were evaluated (the others keep the value of an earlier frame, where
+    /// no moved object reaches: `cut_cache`); `None` when the cuts do not serve.
+    pub(super) fn cut_visibility(&mut self, pixels: &[u32]) -> Option<(Vec<u32>, Vec<f32>, super::CutReceiverCounts)> {
+        let cuts = self.cuts.clone()?;
         let served = if self.kept.any() { self.receivers.by_cuts(pixels) } else { pixels.to_vec() };
         let kept: Vec<u32> = served.into_iter().filter(|&p| self.receivers.surface(p).is_some()).collect();
         let surfaces: Vec<(Vec3, Vec3)> = kept.iter().filter_map(|&p| self.receivers.surface(p)).collect();
-        let vis = cuts(&surfaces);
-        Some((kept, vis))
+        let (vis, counts) = self.cut_cache.visibility(&cuts, &kept, &surfaces);
+        Some((kept, vis, counts))
     }
 
     /// Uploads the receivers' `c`, `b`, `c_v`, `b_v`.

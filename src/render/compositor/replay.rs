@@ -83,7 +83,7 @@ impl Compositor {
         self.receivers.replay(&pixels, sun, rebuild, with, self.config.bounce_quality.paths);
         // `c_v`, `b_v` from the cuts at this frame's poses, owed in order after the pixels'
         // `c`, `b` (`update_receivers` sets them right after computing those).
-        if differential && let Some((kept, vis)) = self.cut_visibility(&pixels) {
+        if differential && let Some((kept, vis, _)) = self.cut_visibility(&pixels) {
             self.receivers.owe_visibility(kept, vis);
         }
     }

@@ -240,6 +240,7 @@ impl Compositor {
             cut_ambient,
             vertex_sources,
             cuts: None,
+            cut_cache: Default::default(),
             kept,
             lamps: None,
             lamp_bounce: None,
