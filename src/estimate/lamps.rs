@@ -203,6 +203,9 @@ impl Estimator {
                 }
                 cols.push(col);
             }
+            if self.band.on {
+                cols.push(self.band_column(c));
+            }
             let mut y = r.y.clone();
             let mut off = vec![0.0; n];
             for &(j, _) in held {
@@ -226,6 +229,10 @@ impl Estimator {
         let base = 1 + two as usize;
         let fits = loop {
             let fits = self.fit_groups(two, &groups, &held, rng)?;
+            // The twilight band goes first when it cannot be told apart (`super::sky_band`).
+            if self.band.on && !self.band_kept(&fits, base + groups.len()) {
+                continue;
+            }
             let kappa = |k: usize| fits.iter().map(|f| f.column_condition[base + k]).fold(1.0, f64::max);
             let bad: Vec<usize> = (0..groups.len()).filter(|&k| kappa(k) > max_cond).collect();
             if bad.is_empty() {
@@ -243,6 +250,9 @@ impl Estimator {
             groups = (0..groups.len()).filter(|k| !bad.contains(k)).map(|k| groups[k].clone()).collect();
         };
         self.record_lamps(&fits, &groups, &held, base, merged.unwrap_or(COND_CAP));
+        if self.band.on {
+            return Some(self.band_channels(&fits, two, base + groups.len()));
+        }
         Some(std::array::from_fn(|c| {
             let f = &fits[c];
             f.channel(two, f.column_condition[..base].iter().copied().fold(1.0, f64::max))
