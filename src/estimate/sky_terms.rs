@@ -40,6 +40,10 @@
 //! frames use the uniform sky (with the terrain) until the sun is back; each frame's report says
 //! which sky it used (`sky`, and `sky_model` with the turbidity).
 //!
+//! **Twilight.** With the sun below the horizon or under 3° up, the frame's fit has a second sky
+//! column, a horizon band through the same open directions ([`SunSky::band`],
+//! [`super::sky_band`]).
+//!
 //! **Turbidity by residual.** With `turbidity = "fit"` the ambient column is also evaluated for
 //! each turbidity of [`FIT_TURBIDITIES`] ([`SunSky::by_turbidity`]); the estimator fits every
 //! candidate on the frame's samples and keeps the one with the smallest robust residual
