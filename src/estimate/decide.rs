@@ -152,6 +152,15 @@ impl Estimator {
         if self.lamps_in_fit() {
             return self.fit_channels_lamps(two, rng);
         }
+        if self.band.on {
+            // With the twilight band (`super::sky_band`); when it is dropped, without it.
+            if let Some(fits) = self.fit_channels_band(two, rng) {
+                return Some(fits);
+            }
+            if self.band.on {
+                return None;
+            }
+        }
         let (fl, rn) = (self.noise_floor, self.read_noise);
         let f0 = fit_channel(&self.rows[0], &self.lit, two, fl, rn, rng)?;
         let f1 = fit_channel(&self.rows[1], &self.lit, two, fl, rn, rng)?;

@@ -35,6 +35,9 @@ impl Estimator {
         self.bounce_only.clear();
         self.rho_over_pi.clear();
         self.entries.clear();
+        self.band_rows.clear();
+        // The horizon band is a column at twilight under the shaped sky (`super::sky_band`).
+        self.band = super::sky_band::BandFrame { on: !overcast && self.sun_sky.as_ref().is_some_and(|s| s.band.is_some()), report: None };
         let mut counts = SampleCounts { available, drawn: n, ..Default::default() };
         let mut clipped_lit = 0;
         // Censoring: count drawn and clipped samples per (node, lit, lamp band) group first (the
@@ -87,6 +90,9 @@ impl Estimator {
                     }
                     self.lit.push(sun.lit[e]);
                     self.entries.push(e as u32);
+                    if let Some(band) = self.sun_sky.as_ref().and_then(|s| s.band.as_ref()).filter(|_| self.band.on) {
+                        self.band_rows.push(band[e].map(f64::from));
+                    }
                     // The part of b that is bounce light only (for held-Pd subtraction).
                     let bo = if sun.lit[e] { [0.0; 3] } else { [b[0] as f64, b[1] as f64, b[2] as f64] };
                     self.bounce_only.push(bo);

@@ -36,6 +36,7 @@ mod decide;
 pub mod noise;
 pub mod noise_level;
 pub mod sky_terms;
+pub mod sky_band;
 pub mod smoother;
 pub mod solve;
 pub mod solve_multi;
@@ -118,6 +119,10 @@ pub struct Estimator {
     lamp_frame: Option<lamps::LampFrame>,
     /// Pool entry of each usable row.
     entries: Vec<u32>,
+    /// At twilight ([`sky_band`]): each usable row's horizon-band coefficient per channel.
+    band_rows: Vec<[f64; 3]>,
+    /// This frame's horizon band.
+    band: sky_band::BandFrame,
 }
 
 fn luma(v: &[f64; 3]) -> f64 {
@@ -204,6 +209,8 @@ impl Estimator {
             lamps: None,
             lamp_frame: None,
             entries: Vec::new(),
+            band_rows: Vec::new(),
+            band: sky_band::BandFrame::default(),
         })
     }
 
@@ -357,6 +364,7 @@ impl Estimator {
             turbidity_fit,
             lamps: Vec::new(),
             read_noise,
+            sky_band: None,
         };
 
         self.prepare_lamps(time);
@@ -369,6 +377,7 @@ impl Estimator {
         }
         self.decide(&mut out, above, clipped_lit, saturated, &mut rng);
         out.lamps = self.lamp_reports();
+        out.sky_band = self.band.report.take();
         out.estimate_ms = t_start.elapsed().as_secs_f64() * 1e3;
         self.smooth(&mut out, time, dir);
         Ok(out)

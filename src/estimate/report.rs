@@ -162,6 +162,11 @@ pub struct FrameEstimate {
     /// sun up).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub read_noise: Option<ReadNoiseReport>,
+    /// At twilight: the horizon band's scale beside the sky shape's (`estimate::sky_band`; the
+    /// reported `pa` is the one-shape sky that gives the samples the same sky light); absent when
+    /// the band was not a column.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sky_band: Option<super::sky_band::SkyBandReport>,
 }
 
 /// Where the read noise of a frame's fit came from.

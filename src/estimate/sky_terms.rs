@@ -40,6 +40,10 @@
 //! frames use the uniform sky (with the terrain) until the sun is back; each frame's report says
 //! which sky it used (`sky`, and `sky_model` with the turbidity).
 //!
+//! **Twilight.** With the sun below the horizon or under 3° up, the frame's fit has a second sky
+//! column, a horizon band through the same open directions ([`SunSky::band`],
+//! [`super::sky_band`]).
+//!
 //! **Turbidity by residual.** With `turbidity = "fit"` the ambient column is also evaluated for
 //! each turbidity of [`FIT_TURBIDITIES`] ([`SunSky::by_turbidity`]); the estimator fits every
 //! candidate on the frame's samples and keeps the one with the smallest robust residual
@@ -69,6 +73,9 @@ pub struct SkyTerms {
     e_uniform: Vec<f32>,
     /// Per entry, `ρ/π·ρ_t/π·E_below` (the terrain's light per unit `Pa`).
     terrain: Vec<Vec3>,
+    /// Per entry, `E_band`: the twilight horizon band's irradiance through the open directions
+    /// per unit horizontal irradiance ([`super::sky_band`]).
+    band: Vec<f32>,
 }
 
 /// The terms of one sun: per entry, the ambient coefficient and the extra direct one.
@@ -82,6 +89,9 @@ pub struct SunSky {
     pub b: Vec<[f32; 3]>,
     /// Under `turbidity = "fit"`: `a` for each candidate turbidity (empty otherwise).
     pub by_turbidity: Vec<(f64, Vec<[f32; 3]>)>,
+    /// At twilight under the Hošek–Wilkie shape: `ρ/π·E_band` per channel, the column of the
+    /// horizon band's scale ([`super::sky_band`]); `None` otherwise.
+    pub band: Option<Vec<[f32; 3]>>,
 }
 
 impl SunSky {
@@ -194,10 +204,11 @@ impl SkyTerms {
         let fine = RefinedSet::new(&set, SKY_REFINE)?;
         let w = fine.weight();
         let rho_t = Vec3::from(config.terrain_rgb()) / PI;
-        let (e_uniform, terrain) = (0..pool.len())
+        let band_shape = super::sky_band::band_shape()?;
+        let per_entry: Vec<(f32, Vec3, f32)> = (0..pool.len())
             .into_par_iter()
             .map(|k| {
-                let (mut above, mut below) = (0u32, 0u32);
+                let (mut above, mut below, mut band) = (0u32, 0u32, 0.0f32);
                 for (j, d) in fine.around(pool.normal[k]) {
                     if open[k][j / 64] & (1 << (j % 64)) == 0 {
                         continue;
@@ -206,12 +217,16 @@ impl SkyTerms {
                         below += 1;
                     } else {
                         above += 1;
+                        band += band_shape.radiance(1, d);
                     }
                 }
-                (above as f32 / PI * w, pool.albedo[k] / PI * rho_t * (below as f32 * w))
+                (above as f32 / PI * w, pool.albedo[k] / PI * rho_t * (below as f32 * w), band * w)
             })
-            .unzip();
-        Ok(Some(Self { config: config.clone(), set, fine, open, e_uniform, terrain }))
+            .collect();
+        let e_uniform = per_entry.iter().map(|e| e.0).collect();
+        let terrain = per_entry.iter().map(|e| e.1).collect();
+        let band = per_entry.iter().map(|e| e.2).collect();
+        Ok(Some(Self { config: config.clone(), set, fine, open, e_uniform, terrain, band }))
     }
 
     /// The renderer's description of the same sky (`crate::sky::radiance`), for paths that see
@@ -295,7 +310,10 @@ impl SkyTerms {
                 Some((t, a_t))
             })
             .collect();
-        SunSky { a, a_overcast, b, by_turbidity }
+        let band = (self.config.shape == SkyShape::HosekWilkie && self.config.twilight_band && super::sky_band::at_twilight(l)).then(|| {
+            (0..pool.len()).map(|k| (pool.albedo[k] / PI * self.band[k]).to_array()).collect()
+        });
+        SunSky { a, a_overcast, b, by_turbidity, band }
     }
 
     /// The terms for the sun toward `l` (a sun below the horizon: the sky's shape for a sun on

@@ -42,6 +42,9 @@ pub struct MultiFit {
     pub condition: f64,
     /// Per column, the condition number against the best fit of it by the other columns.
     pub column_condition: Vec<f64>,
+    /// The parameters' covariance, `p×p` row-major (infinite when the design is singular; zero
+    /// for a fit without rows of light).
+    pub covariance: Vec<f64>,
 }
 
 impl MultiFit {
@@ -261,7 +264,7 @@ pub(super) fn robust_fit_multi_with(cols: &[Vec<f64>], y: &[f64], noise_floor_re
     if !(scale > 0.0 && scale.is_finite()) {
         let (g, _, _) = normal(cols, y, &vec![1.0; n]);
         let (condition, column_condition) = conditions(&g, p);
-        return Some(MultiFit { x: vec![0.0; p], se: vec![0.0; p], residual_rms: 0.0, inliers: n, condition, column_condition });
+        return Some(MultiFit { x: vec![0.0; p], se: vec![0.0; p], residual_rms: 0.0, inliers: n, condition, column_condition, covariance: vec![0.0; p * p] });
     }
     let floor = noise_floor_rel * scale;
     let observed: Vec<f64> = y.iter().map(|v| v.abs() + floor).collect();
@@ -339,10 +342,11 @@ pub(super) fn report(cs: &[Vec<f64>], ys: &[f64], d: &[f64], x: Vec<f64>, weight
     let wss: f64 = (0..n).map(|i| w[i] * res[i] * res[i]).sum();
     let s2 = wss / (sw - p as f64).max(1.0);
     let (condition, column_condition) = conditions(&g, p);
-    let se = match inverse(&g, p) {
-        Some(inv) if condition < COND_CAP => (0..p).map(|j| (s2 * inv[j * p + j]).max(0.0).sqrt()).collect(),
-        _ => vec![f64::INFINITY; p],
+    let covariance: Vec<f64> = match inverse(&g, p) {
+        Some(inv) if condition < COND_CAP => inv.iter().map(|v| s2 * v).collect(),
+        _ => vec![f64::INFINITY; p * p],
     };
+    let se = (0..p).map(|j| covariance[j * p + j].max(0.0).sqrt()).collect();
     let wss_units: f64 = (0..n).map(|i| w[i] * (res[i] * d[i]).powi(2)).sum();
     MultiFit {
         x,
@@ -351,6 +355,7 @@ pub(super) fn report(cs: &[Vec<f64>], ys: &[f64], d: &[f64], x: Vec<f64>, weight
         inliers: w.iter().filter(|&&v| v > 0.0).count(),
         condition,
         column_condition,
+        covariance,
     }
 }
 

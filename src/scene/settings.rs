@@ -85,6 +85,9 @@ pub struct SkyTermsConfig {
     pub terrain_albedo: TerrainAlbedo,
     /// Directions per surface of the sky and terrain quadrature.
     pub directions: usize,
+    /// At twilight (the sun below the horizon or less than 3° up) under the Hošek–Wilkie shape,
+    /// fit a horizon band's scale beside the shape's (`estimate::sky_band`); default true.
+    pub twilight_band: bool,
     /// The albedo `terrain_albedo = "map"` resolved to (`envmap::bake::terrain::resolve_scene`);
     /// not part of `scene.toml`.
     #[serde(skip)]
@@ -211,7 +214,7 @@ pub const SKY_TURBIDITY_RANGE: (f64, f64) = (1.0, 10.0);
 
 impl Default for SkyTermsConfig {
     fn default() -> Self {
-        Self { shape: SkyShape::HosekWilkie, turbidity: Turbidity::Value(3.0), terrain_albedo: TerrainAlbedo::Map, directions: 512, resolved_terrain: None }
+        Self { shape: SkyShape::HosekWilkie, turbidity: Turbidity::Value(3.0), terrain_albedo: TerrainAlbedo::Map, directions: 512, twilight_band: true, resolved_terrain: None }
     }
 }
 
