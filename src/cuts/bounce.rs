@@ -207,7 +207,7 @@ pub struct Bounce<'a> {
 }
 
 /// Adds `more` to `rows`, rgb of each row.
-fn add_rows(rows: &mut [VertexAmbient], more: &[VertexAmbient]) {
+pub(super) fn add_rows(rows: &mut [VertexAmbient], more: &[VertexAmbient]) {
     for (row, m) in rows.iter_mut().zip(more) {
         for (r, m) in row.iter_mut().zip(m) {
             for c in 0..3 {
@@ -301,7 +301,7 @@ impl FrameCuts {
     }
 
     /// Object `b`'s outgoing radiance per vertex (module docs), from its first-pass ambient.
-    fn object_radiance(&self, ambient: &ObjectAmbient, poses: &[Pose], b: usize, bounce: &Bounce) -> Result<ObjectRadiance, CutsError> {
+    pub(super) fn object_radiance(&self, ambient: &ObjectAmbient, poses: &[Pose], b: usize, bounce: &Bounce) -> Result<ObjectRadiance, CutsError> {
         let obj = &self.cuts.objects[b];
         let pose = poses[b];
         let surface = &bounce.surfaces[b];
@@ -333,7 +333,7 @@ impl FrameCuts {
     /// The direct sun's irradiance per unit `Pd` at vertex `y` of object `b`:
     /// `V_s·max(n·s, 0)` from its self-visibility cut at the sun's leaf (`leaves[b]`, its
     /// frame), times the proxy field's (`world`) and the other objects' fields' values there.
-    fn sun_visibility(&self, poses: &[Pose], b: usize, y: usize, leaves: &[u32], world: u32) -> Result<f32, CutsError> {
+    pub(super) fn sun_visibility(&self, poses: &[Pose], b: usize, y: usize, leaves: &[u32], world: u32) -> Result<f32, CutsError> {
         let obj = &self.cuts.objects[b];
         let mut v = leaf_value(obj.svc.cuts.view(y), leaves[b]);
         if v <= 0.0 {
@@ -344,8 +344,10 @@ impl FrameCuts {
             v *= field_value(&field.locate(x)?, &field.cuts, world);
         }
         for (c, other) in self.cuts.objects.iter().enumerate() {
-            if c != b {
-                v *= field_value(&other.vcf.locate(poses[c].local_point(x))?, &other.vcf.cuts, leaves[c]);
+            // Beyond its outermost sphere an object is left out, as in `Self::occluders`.
+            let p = poses[c].local_point(x);
+            if c != b && !other.vcf.beyond_reach(p) {
+                v *= field_value(&other.vcf.locate(p)?, &other.vcf.cuts, leaves[c]);
             }
         }
         Ok(v.max(0.0))
@@ -354,7 +356,7 @@ impl FrameCuts {
     /// What the other objects reflect onto vertex `v` of object `a`, in `a`'s frame: per other
     /// object `b` not culled (§V-B), [`blocked_sums`] of `b`'s radiance (`lights[b]`) over the
     /// directions `b`'s field closes among those the vertex's SVC and the other fields leave.
-    fn vertex_bounce(&self, poses: &[Pose], a: usize, v: usize, eye: Vec3, lights: &[Option<(ClusteredLighting, ClusteredLighting)>], fields: &[(usize, Cut)]) -> Result<VertexAmbient, CutsError> {
+    pub(super) fn vertex_bounce(&self, poses: &[Pose], a: usize, v: usize, eye: Vec3, lights: &[Option<(ClusteredLighting, ClusteredLighting)>], fields: &[(usize, Cut)]) -> Result<VertexAmbient, CutsError> {
         let obj = &self.cuts.objects[a];
         let (_, n_local, _, r) = self.vertex_geometry(poses, a, v, eye)?;
         let r = poses[a].local_dir(r);
@@ -375,7 +377,7 @@ impl FrameCuts {
 
     /// The other objects' fields at vertex `v` of object `a`, culled and remapped into `a`'s
     /// frame as the first pass does (`FrameCuts::occluders`).
-    fn vertex_fields(&self, poses: &[Pose], a: usize, v: usize, remaps: &[Option<LeafRemap>]) -> Result<Occluders, CutsError> {
+    pub(super) fn vertex_fields(&self, poses: &[Pose], a: usize, v: usize, remaps: &[Option<LeafRemap>]) -> Result<Occluders, CutsError> {
         let obj = &self.cuts.objects[a];
         self.occluders(remaps, poses, poses[a].point(obj.positions[v]), poses[a].dir(obj.svc.normals[v]), a)
     }

@@ -39,6 +39,8 @@
 //!   per unit `Pa` and the receiver's cosine); the compositor sets `c_v = c·V` and `b_v = b·V`
 //!   from it instead of tracing them again. An object beyond its field's outermost sphere is left
 //!   out there (exactly 1), so the compositor evaluates only the receivers a moved object reaches.
+//!   The objects' vertices leave it out there too (`FrameCuts::occluders`, the bounce's sun
+//!   visibility), so a vertex no moved object reaches keeps its value (`super::reuse`).
 //!
 //! # Limits
 //! `V` at a receiver counts the sky an object hides even where the proxy hides it
@@ -198,7 +200,7 @@ pub struct ObjectAmbient {
 /// What one object's product needs in its own frame: the lighting, and the remaps of the proxy
 /// field (world frame) and of the other objects' fields into the object's frame (`None`: the
 /// same frame, used as stored).
-struct ObjectFrame {
+pub(super) struct ObjectFrame {
     lighting: Arc<UnitLighting>,
     proxy: Option<LeafRemap>,
     others: Vec<Option<LeafRemap>>,
@@ -219,7 +221,7 @@ impl FrameCuts {
         self.object_ambient_posed(&Arc::new(lighting.clone()), &poses, eye)
     }
 
-    fn check_poses(&self, poses: &[Pose]) -> Result<(), CutsError> {
+    pub(super) fn check_poses(&self, poses: &[Pose]) -> Result<(), CutsError> {
         if poses.len() != self.cuts.objects.len() {
             return Err(CutsError::Operands(format!("{} objects but {} poses", self.cuts.objects.len(), poses.len())));
         }
@@ -230,7 +232,7 @@ impl FrameCuts {
     }
 
     /// Object `k`'s frame this frame (see [`ObjectFrame`]).
-    fn object_frame(&self, lighting: &Arc<UnitLighting>, poses: &[Pose], k: usize) -> Result<ObjectFrame, CutsError> {
+    pub(super) fn object_frame(&self, lighting: &Arc<UnitLighting>, poses: &[Pose], k: usize) -> Result<ObjectFrame, CutsError> {
         let remap = |q: Option<Mat3>| q.map(|q| LeafRemap::new(&self.tree, &self.index, q));
         let own = poses[k].rotation;
         let lighting = match own {
@@ -271,7 +273,8 @@ impl FrameCuts {
     }
 
     /// The other objects' fields at `x` (world) with normal `n` (world), culled as
-    /// `CutScene::occluder_cuts` does (§V-B) and remapped by `others[b]` into the frame of
+    /// `CutScene::occluder_cuts` does (§V-B), left out beyond their outermost sphere
+    /// ([`super::vcf::VisibilityCutField::beyond_reach`]: exactly 1 there) and remapped by `others[b]` into the frame of
     /// object `skip` (`ObjectFrame::others`; the bounce's own remaps in `super::bounce`).
     pub(super) fn occluders(&self, others: &[Option<LeafRemap>], poses: &[Pose], x: Vec3, n: Vec3, skip: usize) -> Result<Occluders, CutsError> {
         let mut cuts = Vec::new();
@@ -283,7 +286,13 @@ impl FrameCuts {
             if n != Vec3::ZERO && n.dot(centre - x) < -obj.vcf.radius_m {
                 continue;
             }
-            let (cut, _region) = obj.vcf.lookup(poses[b].local_point(x))?;
+            // Beyond the outermost sphere the object is left out (its field exactly 1), as on
+            // the receivers' side: a vertex no other object reaches keeps its value exactly.
+            let local = poses[b].local_point(x);
+            if obj.vcf.beyond_reach(local) {
+                continue;
+            }
+            let (cut, _region) = obj.vcf.lookup(local)?;
             cuts.push((b, match &others[b] {
                 Some(remap) => remap.cut(cut.view())?,
                 None => cut,
@@ -308,7 +317,7 @@ impl FrameCuts {
     }
 
     /// One vertex of [`Self::object_ambient_posed`], and whether its proxy lookup was clamped.
-    fn vertex_ambient(&self, frame: &ObjectFrame, poses: &[Pose], object: usize, v: usize, eye: Vec3) -> Result<(VertexAmbient, bool, Occluders), CutsError> {
+    pub(super) fn vertex_ambient(&self, frame: &ObjectFrame, poses: &[Pose], object: usize, v: usize, eye: Vec3) -> Result<(VertexAmbient, bool, Occluders), CutsError> {
         let (obj, pose) = (&self.cuts.objects[object], poses[object]);
         let (x, n_local, n, r) = self.vertex_geometry(poses, object, v, eye)?;
         let others = self.occluders(&frame.others, poses, x, n, object)?;

@@ -71,6 +71,7 @@ pub mod lighting;
 pub mod packed;
 pub mod proxy_field;
 pub mod receivers;
+pub mod reuse;
 pub mod rotate;
 pub mod self_bounce;
 pub mod shapes;

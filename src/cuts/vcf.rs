@@ -25,8 +25,9 @@
 //! - beyond `outer·r`: the cuts of the outermost sphere, which *over-estimate* it slightly (at
 //!   10 r the object's cap is `2π(1 − √0.99) ≈ 0.031` sr, 0.25 % of the sphere); a caller may
 //!   instead leave the object out there ([`VisibilityCutField::beyond_reach`]): the real
-//!   receivers do (`super::receivers`), so that a receiver no moved object reaches keeps its
-//!   value exactly; the objects' own vertices still take the clamped cuts.
+//!   receivers do (`super::receivers`) and so do the objects' vertices (`super::frame`'s
+//!   occluders, the bounce's sun visibility), so that a receiver or a vertex no moved object
+//!   reaches keeps its value exactly (`super::reuse`).
 
 use super::cut::{Cut, check_threshold};
 use super::packed::{PackedCuts, ValueEncoding};
@@ -224,8 +225,9 @@ impl VisibilityCutField {
     }
 
     /// True when `p` (object frame) lies beyond the outermost sphere, as [`Self::locate`]
-    /// classifies it ([`FieldRegion::BeyondOuter`]): the real receivers leave the object out
-    /// there (`super::receivers`), so its field is exactly 1 beyond this reach.
+    /// classifies it ([`FieldRegion::BeyondOuter`]): the real receivers and the other objects'
+    /// vertices leave the object out there (`super::receivers`, `super::frame`), so its field is
+    /// exactly 1 beyond this reach.
     pub fn beyond_reach(&self, p: Vec3) -> bool {
         (p - self.centre).length() > self.sphere_radius_m(self.sampling.spheres - 1) * (1.0 + REGION_SLACK)
     }

@@ -212,6 +212,10 @@ pub mod pass {
     /// their ambient per vertex and the receivers' sky visibility; reported, ran or skipped with
     /// its reason, in scenes with moving objects.
     pub const VISIBILITY_CUTS: &str = "visibility_cuts";
+    /// One object's part of the visibility cuts, its per-vertex ambient: reported skipped, per
+    /// object with its reason, when it was not evaluated or some of its vertices reused their
+    /// last value (`crate::cuts::reuse`).
+    pub const OBJECT_CUTS: &str = "object_cuts";
     /// CPU (or compute) shadow-volume construction.
     pub const VOLUME_BUILD: &str = "volume_build";
     /// Depth prepass.

@@ -19,8 +19,16 @@
 //! its trace (`render::compositor`'s `kept`) and the first frame hands them over as moved
 //! ([`MovingObjects::serve_from_start`]), so the cuts light them from the start while the static
 //! objects keep a trace that never saw them.
+//!
+//! Before evaluating, the frame asks the compositor which objects will keep their traced transfer
+//! (`Compositor::cut_ambient_hidden_after`, the `kept` decision taken beforehand): their ambient is
+//! not shown, so it is evaluated only as the light they reflect onto the others, or not at all, and
+//! what did not change since the last frame is kept (`crate::cuts::reuse`). Each object not wholly
+//! evaluated is reported skipped under `object_cuts` with its reason (kept transfer, vertices
+//! reused: it did not move, the lighting did not change, no moved object reaches them).
 
 use super::motion_cuts::{CutOutcome, CutState};
+use crate::cuts::reuse::ObjectUse;
 use crate::envmap::relight::Relighter;
 use crate::geometry::Mesh;
 use crate::render::frame::pass;
@@ -340,16 +348,34 @@ impl MovingObjects {
             }
         };
         let t = std::time::Instant::now();
-        match cuts.evaluate(&rigid, relighter, compositor.eye_world()) {
+        let reach_m = cuts.reach_m();
+        // Which objects will keep their traced transfer, decided before evaluating: their
+        // ambient is not shown (`crate::cuts::reuse`).
+        let hidden = compositor.cut_ambient_hidden_after(&list, &moved, &reach_m);
+        match cuts.evaluate(&rigid, relighter, compositor.eye_world(), &hidden) {
             Ok((ambient, receivers)) => {
                 // The objects' part; the receivers' part is timed where it runs (the compositor's
                 // receiver step) and added to the same `cuts_ms`.
                 cuts.outcome = CutOutcome::Ran(t.elapsed().as_secs_f64() * 1e3);
-                let reach_m = cuts.reach_m();
-                compositor.move_objects_with_cuts(&list, &moved, &ambient.vertices, Box::new(receivers), &reach_m)
+                compositor.move_objects_with_cuts(&list, &moved, &ambient.vertices, Box::new(receivers), &reach_m)?;
+                let now = compositor.cut_ambient_hidden();
+                if now.iter().zip(&hidden).any(|(n, h)| *h && !*n) {
+                    // The decision beforehand left out an object that is shown after all (it
+                    // should not happen): evaluate it again with every object shown.
+                    match cuts.evaluate(&rigid, relighter, compositor.eye_world(), &now) {
+                        Ok((ambient, receivers)) => {
+                            cuts.outcome = CutOutcome::Ran(t.elapsed().as_secs_f64() * 1e3);
+                            compositor.set_cuts(&ambient.vertices, Box::new(receivers));
+                        }
+                        // The same poses evaluated a moment ago: a failure now is reported.
+                        Err(e) => cuts.outcome = CutOutcome::Skipped(format!("the cuts could not be evaluated again for an object shown after all ({e})")),
+                    }
+                }
+                Ok(())
             }
             Err(e) => {
                 cuts.outcome = CutOutcome::Skipped(format!("the cuts could not be evaluated ({e}): re-traced"));
+                cuts.uses.clear();
                 compositor.move_objects(&self.proxy, &list, &moved)
             }
         }
@@ -383,10 +409,34 @@ impl MovingObjects {
                 CutOutcome::Ran(ms) => {
                     report.ran.insert(0, pass::VISIBILITY_CUTS);
                     report.timings.cuts_ms += ms;
+                    for (o, u) in self.objects.iter().zip(&c.uses) {
+                        if let Some(why) = object_cuts_note(*u) {
+                            report.skip(pass::OBJECT_CUTS, format!("{}: {why}", o.name));
+                        }
+                    }
                 }
                 CutOutcome::Skipped(reason) => report.skip(pass::VISIBILITY_CUTS, reason.clone()),
             },
             Err(reason) => report.skip(pass::VISIBILITY_CUTS, reason.clone()),
         }
+    }
+}
+
+/// Why an object's per-vertex ambient was not (all) evaluated this frame, for the report
+/// (`crate::cuts::reuse`); `None` when it was.
+fn object_cuts_note(u: ObjectUse) -> Option<String> {
+    const SAME: &str = "it did not move, the lighting and the eye did not change and no moved object's cut field reaches them";
+    let counts = |evaluated: usize, reused: usize| match reused {
+        0 => format!("all {evaluated} vertices evaluated"),
+        _ => format!("{reused} of {} vertices reuse their last value ({SAME})", evaluated + reused),
+    };
+    match u {
+        ObjectUse::Skipped => Some("it keeps its traced per-pixel transfer and its cut field reaches no object the cuts shade: its per-vertex ambient is not evaluated".into()),
+        ObjectUse::SourceOnly { evaluated, reused } => Some(format!(
+            "it keeps its traced per-pixel transfer: its per-vertex ambient serves only as the light it reflects onto the objects the cuts shade, and the light onto it is not computed; {}",
+            counts(evaluated, reused)
+        )),
+        ObjectUse::Shown { evaluated, reused } if reused > 0 => Some(counts(evaluated, reused)),
+        ObjectUse::Shown { .. } => None,
     }
 }

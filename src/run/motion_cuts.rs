@@ -19,6 +19,11 @@
 //!   reflects onto itself (`crate::cuts::self_bounce`: its rays are cast once here, at loading,
 //!   [`SELF_BOUNCE_RAYS`] per vertex; the scene loader has split the objects' long edges,
 //!   `crate::geometry::subdivide`, so that the gather's sources and receivers are resolved).
+//! - **Kept between frames** ([`CutState::evaluate`], `crate::cuts::reuse`): an object that keeps
+//!   its traced transfer is evaluated only as the source of the light it reflects onto the others
+//!   (or not at all), and vertices that no moved object reaches at its old or new pose keep their
+//!   last first pass while their object, the lighting and the eye stay the same; the shown
+//!   objects' ambient is the same bits as a fresh evaluation ([`CutState::evaluate_with`]).
 //! - **Lighting** ([`CutState::lighting`]): the relighter's map split per unit `Pa` and `Pd`
 //!   (`crate::envmap::relight::Relighter::unit_maps`), clustered again only when its sun planes
 //!   change; the uniform sky without a bake.
@@ -27,6 +32,7 @@ use super::precompute::{self, PrecomputeOptions};
 use crate::cuts::bounce::{Bounce, BounceSurface};
 use crate::cuts::file::{self, PrecomputedCuts};
 use crate::cuts::frame::{FrameCuts, ObjectAmbient, ReceiverCuts, UnitLighting};
+use crate::cuts::reuse::{AmbientCache, ObjectUse};
 use crate::cuts::rotate::Pose;
 use crate::cuts::self_bounce::{SELF_BOUNCE_RAYS, SelfGather};
 use crate::cuts::{CutsError, no_progress};
@@ -64,8 +70,13 @@ pub struct CutState {
     surfaces: Vec<BounceSurface>,
     /// Per object, the rays from its vertices that meet itself (`crate::cuts::self_bounce`).
     own: Vec<SelfGather>,
+    /// The objects' per-vertex ambient kept between frames (`crate::cuts::reuse`).
+    cache: AmbientCache,
     /// This frame's outcome.
     pub outcome: CutOutcome,
+    /// Per object, what this frame did with its per-vertex ambient (empty when the cuts did not
+    /// run through [`Self::evaluate`]).
+    pub uses: Vec<ObjectUse>,
 }
 
 fn same_objects(cuts: &PrecomputedCuts, scene: &Scene) -> bool {
@@ -96,7 +107,7 @@ impl CutState {
         // The cuts' vertices are the meshes' at the first key (`same_objects`, or computed from
         // them), in the cuts' frame: the gathers hold in every rigid pose.
         let own = scene.virtual_objects.iter().zip(&frame.cuts.objects).map(|(o, c)| SelfGather::from_mesh(&o.mesh, &c.svc.normals, SELF_BOUNCE_RAYS)).collect();
-        Ok(Self { frame, origin, lighting: None, surfaces, own, outcome: CutOutcome::Skipped("no object has moved yet: the traced per-pixel transfer serves".into()) })
+        Ok(Self { frame, origin, lighting: None, surfaces, own, cache: AmbientCache::default(), uses: Vec::new(), outcome: CutOutcome::Skipped("no object has moved yet: the traced per-pixel transfer serves".into()) })
     }
 
     /// Each object's pose since its cuts were computed (`crate::cuts::rotate::Pose`), from its
@@ -147,14 +158,30 @@ impl CutState {
         l
     }
 
-    /// The objects' ambient per vertex and the receivers' visibility for `translations`, seen
-    /// from `eye`. Vertices outside the proxy field's box (the `[irradiance]` box, whose floor
-    /// lies a little above the ground) take the box's edge: finite, and an object that leaves
-    /// the box is warned of by `super::motion`.
-    pub fn evaluate(&mut self, poses: &[Pose], relighter: Option<&Relighter>, eye: Vec3) -> Result<(ObjectAmbient, ReceiverCuts), CutsError> {
+    /// The objects' ambient per vertex and the receivers' visibility for `poses`, seen from
+    /// `eye`. Vertices outside the proxy field's box (the `[irradiance]` box, whose floor lies a
+    /// little above the ground) take the box's edge: finite, and an object that leaves the box
+    /// is warned of by `super::motion`. `hidden[k]`: object `k`'s ambient will not be shown (it
+    /// keeps its traced transfer); its rows are then left out or only its first pass
+    /// (`crate::cuts::reuse`, which also keeps what did not change since the last call; the
+    /// shown objects' rows are those of [`Self::evaluate_with`] bit for bit). [`Self::uses`]
+    /// says what was done per object.
+    pub fn evaluate(&mut self, poses: &[Pose], relighter: Option<&Relighter>, eye: Vec3, hidden: &[bool]) -> Result<(ObjectAmbient, ReceiverCuts), CutsError> {
         let light = self.lighting(relighter);
         let sun = relighter.and_then(Relighter::sun_dir);
-        self.evaluate_with(poses, light, eye, sun)
+        let bounce = Bounce { surfaces: &self.surfaces, sun, own: &self.own };
+        let result = self.frame.object_ambient_reusing(&light, poses, eye, &bounce, hidden, &mut self.cache);
+        let (ambient, uses) = match result {
+            Ok(r) => r,
+            Err(e) => {
+                self.cache.clear();
+                self.uses.clear();
+                return Err(e);
+            }
+        };
+        self.uses = uses;
+        let receivers = self.frame.receivers_posed(light, poses.to_vec());
+        Ok((ambient, receivers))
     }
 
     /// [`Self::evaluate`] under a lighting given on the cuts' tree ([`Self::tree`]) instead of

@@ -4,6 +4,7 @@ mod bounce;
 mod fields;
 mod files;
 mod ops;
+mod reuse;
 mod shading;
 
 use super::cut::{Cut, CutNode};

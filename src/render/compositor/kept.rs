@@ -182,6 +182,28 @@ impl KeptTrace {
 }
 
 impl Compositor {
+    /// Per object, true while its per-vertex cut ambient is not shown: it keeps the traced
+    /// transfer (`motion`'s upload leaves it unserved).
+    pub fn cut_ambient_hidden(&self) -> Vec<bool> {
+        let traced = self.transfer.transfer().is_some();
+        (0..self.vertex_sources.len()).map(|k| traced && self.kept.keeps().get(k).copied().unwrap_or(false)).collect()
+    }
+
+    /// [`Self::cut_ambient_hidden`] as it will be after [`Self::move_objects_with_cuts`] with
+    /// the same `objects`, `moved` and `reach_m`: the decision above taken beforehand, so that
+    /// the frame loop need not evaluate what will not be shown (`crate::cuts::reuse`).
+    pub fn cut_ambient_hidden_after(&self, objects: &[(String, &crate::geometry::Mesh)], moved: &[bool], reach_m: &[f32]) -> Vec<bool> {
+        if !moved.iter().any(|m| *m) {
+            // Only the ambient is replaced (`set_cuts`): the last decision stands.
+            return self.cut_ambient_hidden();
+        }
+        let names: Vec<&str> = objects.iter().map(|(n, _)| n.as_str()).collect();
+        let bounds: Vec<(Vec3, Vec3)> = objects.iter().filter_map(|(_, m)| m.bounds()).collect();
+        let mut kept = self.kept.clone();
+        kept.decide(&self.canvas, &names, &bounds, moved, Some(reach_m), self.transfer.transfer().is_some());
+        (0..objects.len()).map(|k| kept.keeps().get(k).copied().unwrap_or(false)).collect()
+    }
+
     /// Proxy pixels within the reach of an object of `moved`, at set-up or now (module docs).
     pub(super) fn reached_pixels(&self, moved: &[bool], reach_m: &[f32]) -> Vec<u32> {
         let mut pixels = Vec::new();

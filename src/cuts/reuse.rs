@@ -1,0 +1,244 @@
+//! The objects' per-vertex ambient kept between frames (issue 15 §4, "objects that did not move
+//! reuse their last result"; cyberworlds §V-B: an object's field matters only within its
+//! outermost sphere, `../shared/papers/cyberworlds-captured-lighting-cuts.txt`).
+//!
+//! # How it works
+//! [`FrameCuts::object_ambient_reusing`] computes what [`FrameCuts::object_ambient_bounced`]
+//! does (first pass, Eq. 3, then the light the objects reflect onto themselves and each other,
+//! `super::bounce`), bit for bit for every object whose ambient is used, and leaves out work
+//! whose result is not used or cannot have changed:
+//! - **Unused objects.** The caller says which objects' ambient is not shown (an object that
+//!   keeps its traced per-pixel transfer, `render::compositor`'s `kept`). Such an object's own
+//!   bounce (the light onto it) is not computed; its first pass only where it is the *source* of
+//!   light onto a used object, i.e. when its field reaches a vertex of one (its radiance enters
+//!   only there, `super::bounce`); otherwise nothing of it is evaluated. Its rows are then its
+//!   first pass, or zero (not served), which the compositor does not show.
+//! - **Reuse.** A vertex's first pass depends on its object's pose, the lighting, the eye, the
+//!   sun (in its radiance) and the fields of the other objects that reach it: an object beyond its
+//!   outermost sphere is left out exactly (`super::frame`'s occluders,
+//!   [`super::vcf::VisibilityCutField::beyond_reach`]). So while the lighting (the same
+//!   [`UnitLighting`] allocation), the eye and the sun are the same and the vertex's object did not
+//!   move, a vertex that no moved object reaches at its old or its new pose keeps its last value
+//!   bit for bit. An object all of whose vertices keep theirs keeps its radiance too, and the
+//!   light it reflects clustered in another object's frame while that object's rotation is the
+//!   same.
+//!
+//! [`ObjectUse`] says per object what was done, for the pass report.
+
+use super::bounce::{Bounce, ObjectRadiance, add_rows};
+use super::frame::{FrameCuts, ObjectAmbient, Occluders, UnitLighting, VertexAmbient};
+use super::lighting::ClusteredLighting;
+use super::rotate::{LeafRemap, Pose, relative};
+use super::CutsError;
+use glam::{Mat3, Vec3};
+use rayon::prelude::*;
+use std::sync::Arc;
+
+/// What the frame did with one object's per-vertex ambient.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ObjectUse {
+    /// Its ambient is shown: `evaluated` vertices' first pass computed, `reused` kept, and the
+    /// light onto it added.
+    Shown { evaluated: usize, reused: usize },
+    /// Not shown, but the light it reflects onto a shown object needs its first pass:
+    /// `evaluated` computed, `reused` kept; no light onto it computed.
+    SourceOnly { evaluated: usize, reused: usize },
+    /// Not shown and its field reaches no shown object's vertex: nothing evaluated.
+    Skipped,
+}
+
+/// A clustered radiance pair (per unit `Pa`, per unit `Pd`).
+type Clustered = (ClusteredLighting, ClusteredLighting);
+
+/// What the last frame computed, and under what (module docs).
+#[derive(Clone, Debug)]
+struct Last {
+    lighting: Arc<UnitLighting>,
+    eye: [u32; 3],
+    sun: Option<[u32; 3]>,
+    poses: Vec<Pose>,
+    /// Per object, per vertex: the first pass and whether its proxy lookup was clamped.
+    first: Vec<Option<Vec<(VertexAmbient, bool)>>>,
+    /// Per object, its outgoing radiance.
+    radiance: Vec<Option<ObjectRadiance>>,
+    /// `clustered[a][b]`: `b`'s radiance clustered in `a`'s frame, with `a`'s rotation then.
+    clustered: Vec<Vec<Option<(Option<[u32; 9]>, Arc<Clustered>)>>>,
+}
+
+/// The per-vertex ambient kept between frames ([`FrameCuts::object_ambient_reusing`]).
+#[derive(Clone, Debug, Default)]
+pub struct AmbientCache {
+    last: Option<Last>,
+}
+
+impl AmbientCache {
+    /// Forgets everything kept (the next frame evaluates all it needs).
+    pub fn clear(&mut self) {
+        self.last = None;
+    }
+}
+
+fn bits3(v: Vec3) -> [u32; 3] {
+    v.to_array().map(f32::to_bits)
+}
+
+fn rotation_bits(r: Option<Mat3>) -> Option<[u32; 9]> {
+    r.map(|r| r.to_cols_array().map(f32::to_bits))
+}
+
+/// The same pose, bit for bit.
+fn same_pose(a: &Pose, b: &Pose) -> bool {
+    rotation_bits(a.rotation) == rotation_bits(b.rotation) && bits3(a.translation) == bits3(b.translation)
+}
+
+impl FrameCuts {
+    /// True when object `b`'s field at `pose` reaches the world point `x` (within its outermost
+    /// sphere; beyond, it is left out exactly).
+    fn field_reaches(&self, b: usize, pose: &Pose, x: Vec3) -> bool {
+        !self.cuts.objects[b].vcf.beyond_reach(pose.local_point(x))
+    }
+
+    /// Vertex `v` of object `k` at `poses`, world frame.
+    fn vertex_point(&self, poses: &[Pose], k: usize, v: usize) -> Vec3 {
+        poses[k].point(self.cuts.objects[k].positions[v])
+    }
+
+    /// Vertices of object `k` (their count as the first pass takes it).
+    fn vertex_count(&self, k: usize) -> usize {
+        let obj = &self.cuts.objects[k];
+        obj.positions.len().min(obj.svc.cuts.len())
+    }
+
+    /// [`Self::object_ambient_bounced`] for the objects at `poses`, keeping in `cache` what can
+    /// serve the next frame; `unused[k]`: object `k`'s ambient is not shown (module docs). The
+    /// rows of every object not `unused` equal [`Self::object_ambient_bounced`]'s bit for bit
+    /// (given the same `bounce`); an unused object's rows are its first pass or zero.
+    pub fn object_ambient_reusing(&self, lighting: &Arc<UnitLighting>, poses: &[Pose], eye: Vec3, bounce: &Bounce, unused: &[bool], cache: &mut AmbientCache) -> Result<(ObjectAmbient, Vec<ObjectUse>), CutsError> {
+        self.check_poses(poses)?;
+        let n = self.cuts.objects.len();
+        let own = !bounce.own.is_empty();
+        if bounce.surfaces.len() != n || (own && bounce.own.len() != n) {
+            return Err(CutsError::Operands(format!("bounce: {n} objects, {} surfaces, {} self gathers", bounce.surfaces.len(), bounce.own.len())));
+        }
+        let shown: Vec<bool> = (0..n).map(|k| !unused.get(k).copied().unwrap_or(false)).collect();
+        let (eye_bits, sun_bits) = (bits3(eye), bounce.sun.map(bits3));
+        let last = cache.last.take().filter(|l| Arc::ptr_eq(&l.lighting, lighting) && l.eye == eye_bits && l.sun == sun_bits && l.poses.len() == n);
+        let moved: Vec<bool> = (0..n).map(|b| last.as_ref().is_none_or(|l| !same_pose(&l.poses[b], &poses[b]))).collect();
+        // An unused object is needed as a source when its field reaches a shown object's vertex.
+        let needed: Vec<bool> = (0..n)
+            .map(|k| shown[k] || (0..n).any(|a| a != k && shown[a] && (0..self.vertex_count(a)).into_par_iter().any(|v| self.field_reaches(k, &poses[k], self.vertex_point(poses, a, v)))))
+            .collect();
+
+        // First pass, per object and vertex: reused where its object did not move and no moved
+        // object reaches it at its old or new pose.
+        let mut ambient = ObjectAmbient::default();
+        let mut first: Vec<Option<Vec<(VertexAmbient, bool)>>> = Vec::with_capacity(n);
+        let mut fields: Vec<Vec<Option<Occluders>>> = Vec::with_capacity(n);
+        let mut uses = Vec::with_capacity(n);
+        let mut all_reused = vec![false; n];
+        for k in 0..n {
+            let count = self.vertex_count(k);
+            if !needed[k] {
+                ambient.vertices.push(vec![[[0.0; 4]; 4]; count]);
+                first.push(None);
+                fields.push(Vec::new());
+                uses.push(ObjectUse::Skipped);
+                continue;
+            }
+            let stored = last.as_ref().filter(|_| !moved[k]).and_then(|l| l.first[k].as_ref().filter(|f| f.len() == count).map(|f| (l, f)));
+            let keep: Vec<bool> = match stored {
+                Some((l, _)) => (0..count)
+                    .into_par_iter()
+                    .map(|v| {
+                        let x = self.vertex_point(poses, k, v);
+                        (0..n).all(|b| b == k || !moved[b] || !(self.field_reaches(b, &l.poses[b], x) || self.field_reaches(b, &poses[b], x)))
+                    })
+                    .collect(),
+                None => vec![false; count],
+            };
+            let frame = if keep.iter().all(|k| *k) { None } else { Some(self.object_frame(lighting, poses, k)?) };
+            let rows: Vec<((VertexAmbient, bool), Option<Occluders>)> = (0..count)
+                .into_par_iter()
+                .map(|v| match (&frame, stored) {
+                    (Some(frame), _) if !keep[v] => self.vertex_ambient(frame, poses, k, v, eye).map(|(a, out, occ)| ((a, out), Some(occ))),
+                    (_, Some((_, f))) => Ok((f[v], None)),
+                    _ => Err(CutsError::Operands("a vertex kept without a stored value".into())),
+                })
+                .collect::<Result<_, _>>()?;
+            let reused = keep.iter().filter(|k| **k).count();
+            all_reused[k] = reused == count;
+            uses.push(match shown[k] {
+                true => ObjectUse::Shown { evaluated: count - reused, reused },
+                false => ObjectUse::SourceOnly { evaluated: count - reused, reused },
+            });
+            let (vals, occ): (Vec<(VertexAmbient, bool)>, Vec<Option<Occluders>>) = rows.into_iter().unzip();
+            ambient.outside_proxy_box += vals.iter().filter(|r| r.1).count();
+            ambient.vertices.push(vals.iter().map(|r| r.0).collect());
+            first.push(Some(vals));
+            fields.push(occ);
+        }
+
+        // Radiance of the needed objects (the sources), reused with all of an object's vertices.
+        let radiating = n > 1 || own;
+        let radiance: Vec<Option<ObjectRadiance>> = (0..n)
+            .map(|b| {
+                if !radiating || !needed[b] {
+                    return Ok(None);
+                }
+                match last.as_ref().and_then(|l| l.radiance[b].as_ref()).filter(|_| all_reused[b]) {
+                    Some(r) => Ok(Some(r.clone())),
+                    None => self.object_radiance(&ambient, poses, b, bounce).map(Some),
+                }
+            })
+            .collect::<Result<_, _>>()?;
+
+        // The light onto the shown objects: their own (self-bounce), then the others'.
+        if own {
+            for a in (0..n).filter(|&a| shown[a]) {
+                let Some(rad) = &radiance[a] else { continue };
+                let gather = &bounce.own[a];
+                let rows: Vec<VertexAmbient> = (0..self.vertex_count(a))
+                    .into_par_iter()
+                    .map(|v| {
+                        let (_, n_local, _, r) = self.vertex_geometry(poses, a, v, eye)?;
+                        Ok(gather.vertex_ambient(v, &rad.pa, &rad.pd, n_local, poses[a].local_dir(r)))
+                    })
+                    .collect::<Result<_, CutsError>>()?;
+                add_rows(&mut ambient.vertices[a], &rows);
+            }
+        }
+        let mut clustered: Vec<Vec<Option<(Option<[u32; 9]>, Arc<Clustered>)>>> = vec![vec![None; n]; n];
+        if n > 1 {
+            let mut added: Vec<(usize, Vec<VertexAmbient>)> = Vec::new();
+            for a in (0..n).filter(|&a| shown[a]) {
+                let rot = poses[a].rotation;
+                let key = rotation_bits(rot);
+                let mut lights: Vec<Option<Clustered>> = vec![None; n];
+                for b in (0..n).filter(|&b| b != a) {
+                    let Some(rad) = &radiance[b] else { continue };
+                    let old = last.as_ref().and_then(|l| l.clustered[a][b].clone()).filter(|(k, _)| all_reused[b] && *k == key);
+                    let c = match old {
+                        Some((_, c)) => c,
+                        None => Arc::new(rad.clustered(&self.tree, rot)),
+                    };
+                    lights[b] = Some((*c).clone());
+                    clustered[a][b] = Some((key, c));
+                }
+                let remaps: Vec<Option<LeafRemap>> = poses.iter().map(|p| relative(p.rotation, rot).map(|q| LeafRemap::new(&self.tree, &self.index, q))).collect();
+                let rows: Vec<VertexAmbient> = (0..self.vertex_count(a))
+                    .into_par_iter()
+                    .map(|v| match fields[a].get(v).and_then(Option::as_ref) {
+                        Some(f) => self.vertex_bounce(poses, a, v, eye, &lights, f),
+                        None => self.vertex_bounce(poses, a, v, eye, &lights, &self.vertex_fields(poses, a, v, &remaps)?),
+                    })
+                    .collect::<Result<_, _>>()?;
+                added.push((a, rows));
+            }
+            for (a, rows) in added {
+                add_rows(&mut ambient.vertices[a], &rows);
+            }
+        }
+        cache.last = Some(Last { lighting: lighting.clone(), eye: eye_bits, sun: sun_bits, poses: poses.to_vec(), first, radiance, clustered });
+        Ok((ambient, uses))
+    }
+}
