@@ -239,20 +239,27 @@ impl Cut {
         let mut out: Vec<(CutNode, u32)> = Vec::with_capacity(self.nodes.len());
         let mut first = 0u32;
         for &n in &self.nodes {
-            out.push((n, first));
+            push_merging(&mut out, self.levels, n, first);
             first += 1 << n.height;
-            while let [.., (a, fa), (b, _)] = out.as_slice() {
-                let h = a.height as u32;
-                let siblings = a.height == b.height && h < self.levels && fa % (2 << h) == 0;
-                if !(siblings && a.value == b.value) {
-                    break;
-                }
-                let merged = (CutNode { height: a.height + 1, value: a.value }, *fa);
-                out.truncate(out.len() - 2);
-                out.push(merged);
-            }
         }
         self.nodes = out.into_iter().map(|(n, _)| n).collect();
+    }
+}
+
+/// Appends node `n` (first leaf `first`) to `out`, a left-to-right run of nodes with their first
+/// leaves, merging sibling pairs of equal value into their parent as long as there are any
+/// ([`Cut::merge_equal_siblings`] one node at a time: the walks merge as they emit).
+pub(crate) fn push_merging(out: &mut Vec<(CutNode, u32)>, levels: u32, n: CutNode, first: u32) {
+    out.push((n, first));
+    while let [.., (a, fa), (b, _)] = out.as_slice() {
+        let h = a.height as u32;
+        let siblings = a.height == b.height && h < levels && fa % (2 << h) == 0;
+        if !(siblings && a.value == b.value) {
+            break;
+        }
+        let merged = (CutNode { height: a.height + 1, value: a.value }, *fa);
+        out.truncate(out.len() - 2);
+        out.push(merged);
     }
 }
 

@@ -18,7 +18,7 @@
 //! operands need not be refined there).
 
 use super::CutsError;
-use super::cut::{Cut, CutNode};
+use super::cut::{Cut, CutNode, push_merging};
 use super::packed::CutView;
 
 /// Walk state over `cuts` (checked to share a tree depth and be non-empty): per operand the
@@ -73,19 +73,26 @@ impl<'c, 'a> Walker<'c, 'a> {
 pub fn for_each_common_node(cuts: &[CutView], mut visit: impl FnMut(u32, u32, &[f32])) -> Result<(), CutsError> {
     let levels = check_operands(cuts)?;
     let mut walk = Walker::new(cuts);
-    let mut values = vec![0.0f32; cuts.len()];
+    // The current nodes' values, read again only when a pointer moves (a packed cut decodes
+    // them bit by bit).
+    let mut values: Vec<f32> = cuts.iter().map(|c| c.value(0)).collect();
     let (total, mut first) = (1u64 << levels, 0u32);
     while (first as u64) < total {
         // Step 2: the operation on the current nodes, stored at the lowest height.
-        let mut h_min = u32::MAX;
-        for (j, c) in cuts.iter().enumerate() {
-            h_min = h_min.min(walk.height[j]);
-            values[j] = c.value(walk.pointer[j]);
-        }
+        let h_min = walk.height.iter().copied().min().unwrap_or(0);
         visit(h_min, first, &values);
-        // Step 3: advance the lowest nodes, count into the others.
-        for j in 0..cuts.len() {
-            walk.advance(j, 1 << h_min);
+        // Step 3 with `2^h_min` leaves: every current node is at least that high and starts on
+        // a multiple of it, so each pointer moves at most once (`Walker::advance` in one step).
+        for (j, c) in cuts.iter().enumerate() {
+            walk.counter[j] += 1 << h_min;
+            if walk.counter[j] >= 1 << walk.height[j] {
+                walk.pointer[j] += 1;
+                walk.counter[j] = 0;
+                if walk.pointer[j] < c.len() {
+                    walk.height[j] = c.height(walk.pointer[j]);
+                    values[j] = c.value(walk.pointer[j]);
+                }
+            }
         }
         first += 1 << h_min;
     }
@@ -145,12 +152,11 @@ pub fn weighted_sum(cuts: &[CutView], weights: &[f32]) -> Result<Cut, CutsError>
     if kept.is_empty() {
         return Cut::constant(levels, 0.0);
     }
-    let mut nodes = Vec::new();
-    for_each_common_node(&kept, |h, _, values| {
+    // Equal siblings merged as the walk emits them (`Cut::merge_equal_siblings`, the same nodes).
+    let mut nodes: Vec<(CutNode, u32)> = Vec::with_capacity(kept.iter().map(CutView::len).max().unwrap_or(1));
+    for_each_common_node(&kept, |h, first, values| {
         let value = values.iter().zip(&w).map(|(v, w)| v * w).sum();
-        nodes.push(CutNode { height: h as u8, value });
+        push_merging(&mut nodes, levels, CutNode { height: h as u8, value }, first);
     })?;
-    let mut cut = Cut::from_nodes_unchecked(levels, nodes);
-    cut.merge_equal_siblings();
-    Ok(cut)
+    Ok(Cut::from_nodes_unchecked(levels, nodes.into_iter().map(|(n, _)| n).collect()))
 }
