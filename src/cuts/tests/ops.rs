@@ -84,6 +84,24 @@ fn interpolation_equals_the_leafwise_weighted_sum() {
 }
 
 #[test]
+fn interpolation_merges_as_it_walks_into_the_same_nodes_as_merging_afterwards() {
+    // `weighted_sum` merges equal siblings as the walk emits them: the same nodes, bit for bit,
+    // as the common refinement's weighted values merged by `Cut::merge_equal_siblings`.
+    for seed in 0..CASES / 3 {
+        let (levels, cuts) = random_operands(seed + 4000);
+        let mut r = rng(seed + 7);
+        let weights: Vec<f32> = cuts.iter().map(|_| 0.01 + r.random::<f32>()).collect();
+        let views: Vec<CutView> = cuts.iter().map(Cut::view).collect();
+        let mut nodes = Vec::new();
+        for_each_common_node(&views, |h, _, values| nodes.push(CutNode { height: h as u8, value: values.iter().zip(&weights).map(|(v, w)| v * w).sum() }))
+            .expect("same levels");
+        let mut after = Cut::from_nodes(levels, nodes).expect("a tiling");
+        after.merge_equal_siblings();
+        assert_eq!(weighted_sum(&views, &weights).expect("matching weights").nodes(), after.nodes(), "seed {seed}");
+    }
+}
+
+#[test]
 fn common_refinement_is_the_finest_of_the_operands() {
     // Each visited node lies inside exactly one node of every operand, with that node's value,
     // and the visited nodes tile the leaves in order.
