@@ -186,6 +186,21 @@ fn the_bundled_robot_leaves_the_statue_and_far_ground_as_without_it_and_casts_a_
         let reason = transfer_reason(line);
         assert!(reason.contains("kept for statue.glb") && reason.contains("robot.glb (has a motion"), "frame {f}: {reason}");
     }
+    // The statue keeps its trace, so its per-vertex ambient serves only as the light it
+    // reflects onto the robot (`cuts::reuse`): evaluated on frame 0, then kept (it does not move
+    // and the robot's field never reaches it); the robot's is evaluated every frame.
+    let object_cuts = |f: usize| -> Vec<String> {
+        let skipped = lines[f]["passes"]["skipped"].as_array().cloned().unwrap_or_default();
+        skipped.iter().filter(|s| s["pass"] == "object_cuts").filter_map(|s| s["reason"].as_str().map(str::to_owned)).collect()
+    };
+    let first = object_cuts(0);
+    assert!(first.len() == 1 && first[0].starts_with("statue.glb: it keeps its traced per-pixel transfer"), "{first:?}");
+    let count: usize = first[0].split("all ").nth(1).and_then(|r| r.split(' ').next()).and_then(|n| n.parse().ok()).unwrap_or(0);
+    assert!(count > 1000, "the statue's vertices evaluated on frame 0: {first:?}");
+    for f in 1..lines.len() {
+        let notes = object_cuts(f);
+        assert!(notes.len() == 1 && notes[0].contains(&format!("{count} of {count} vertices reuse their last value")), "frame {f}: {notes:?}");
+    }
     // The receivers the cuts serve: on frame 0 every one is evaluated; on a move, only those
     // within the robot's field reach (its outermost sphere) at its old or new place, the others
     // keep their last value (`render::compositor`'s `cut_cache`; measured 1 653 + 19 and
