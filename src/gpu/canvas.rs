@@ -24,6 +24,8 @@ use glam::{DMat4, DVec2, DVec3, DVec4, Mat4};
 pub const NEAR_M: f64 = 0.02;
 /// Extra canvas pixels around the warped footage, so bilinear taps and MSAA edges stay inside.
 const CANVAS_MARGIN_PX: f64 = 2.0;
+/// Canvas shifts (pixels) this close to a whole pixel are none (see `Canvas::new`).
+const PHASE_EPS_PX: f64 = 1e-6;
 /// Largest canvas side the passes accept (a lens model whose inverse explodes at the border
 /// would otherwise ask for an enormous canvas).
 const MAX_CANVAS_SIDE: f64 = 8192.0;
@@ -80,9 +82,21 @@ impl Canvas {
             hi = DVec2::new((w as f64 - k.cx) / k.fx, (h as f64 - k.cy) / k.fy);
         }
         let (fx, fy) = (k.fx * ss, k.fy * ss);
-        let width = ((hi.x - lo.x) * fx + 2.0 * CANVAS_MARGIN_PX).ceil().clamp(1.0, MAX_CANVAS_SIDE);
-        let height = ((hi.y - lo.y) * fy + 2.0 * CANVAS_MARGIN_PX).ceil().clamp(1.0, MAX_CANVAS_SIDE);
-        let (cx, cy) = (-lo.x * fx + CANVAS_MARGIN_PX, -lo.y * fy + CANVAS_MARGIN_PX);
+        // The canvas's principal point, moved by less than a pixel so that the lens's centre
+        // (where the warp is a pure scale by `ss`) falls on the same phase of the canvas's pixel
+        // grid as the footage pixel there: `ss·(c + ½) − ½` (OpenCV centres), the point between
+        // a 2× canvas's texels or a 1× canvas's texel centre. Near the centre the composite's
+        // taps then land on texel centres instead of between them (see `warp_footprint`).
+        // (A lens-free camera at 1× is on that phase already: no shift, also when rounding puts
+        // it a hair below.)
+        let shift = |c: f64, lo: f64, f: f64| {
+            let s = (ss * (c + 0.5) - 0.5 - (-lo * f + CANVAS_MARGIN_PX)).rem_euclid(1.0);
+            if s > 1.0 - PHASE_EPS_PX { 0.0 } else { s }
+        };
+        let (sx, sy) = (shift(k.cx, lo.x, fx), shift(k.cy, lo.y, fy));
+        let width = ((hi.x - lo.x) * fx + 2.0 * CANVAS_MARGIN_PX + sx).ceil().clamp(1.0, MAX_CANVAS_SIDE);
+        let height = ((hi.y - lo.y) * fy + 2.0 * CANVAS_MARGIN_PX + sy).ceil().clamp(1.0, MAX_CANVAS_SIDE);
+        let (cx, cy) = (-lo.x * fx + CANVAS_MARGIN_PX + sx, -lo.y * fy + CANVAS_MARGIN_PX + sy);
         let warp = norm
             .iter()
             .map(|p| match p {
@@ -328,4 +342,5 @@ mod tests {
         let (centre, corner) = (f[320 * 120 + 160], f[0]);
         assert!(corner[2] > centre[2] * 1.05 && centre[2] > 0.9 && centre[2] < 1.1, "{centre:?} {corner:?}");
     }
+
 }
