@@ -11,6 +11,15 @@
 //! and the canvas layers are sampled there bilinearly. Untouched video pixels are never
 //! resampled, so the footage stays exactly as it came in.
 //!
+//! The canvas's principal point is moved by less than a pixel so that the lens's centre lies on
+//! the footage pixel's phase of the canvas grid (`ss·(c + ½) − ½`): where the lens is near
+//! identity, a 1× canvas is then read at texel centres (each texel's own MSAA box) and a 2× one
+//! by the composite's four taps on the four texels under the footage pixel (a box over it), as
+//! the reference renderer's box filter over each pixel does, instead of taps between texels that
+//! widen the filter by up to a pixel (issue 13; `tests/suite/render/lens_filter.rs`, and
+//! docs/measurements.md, "the canvas on the footage's pixel phase": the winter composite's frame
+//! 3 3.30 → 2.88% at MSAA 4).
+//!
 //! Projection: OpenCV camera frame to wgpu clip space with reversed depth and an infinite far
 //! plane, `z_ndc = near / z`: the ends of the shadow volumes (points at infinity, `w = 0`) land
 //! at depth 0 and are never clipped, so z-fail counting needs no far cap (Everitt & Kilgard,
@@ -343,4 +352,26 @@ mod tests {
         assert!(corner[2] > centre[2] * 1.05 && centre[2] > 0.9 && centre[2] < 1.1, "{centre:?} {corner:?}");
     }
 
+    #[test]
+    fn the_lens_centre_falls_on_the_footage_pixels_phase_of_the_canvas_grid() {
+        // With the lens: the principal point's canvas point is the canvas's own principal point
+        // (the distortion vanishes there); it lies on the phase `ss·(c + ½) − ½` of the grid, a
+        // texel centre at 1× and the point between two texels at 2×, to rounding.
+        for ss in [1.0, 2.0, 3.0] {
+            let cam = camera([-0.08, 0.012, 0.0005, -0.0003, 0.0]);
+            let canvas = Canvas::new(&cam, ss);
+            for (got, c) in [(canvas.intrinsics.cx, cam.intrinsics.cx), (canvas.intrinsics.cy, cam.intrinsics.cy)] {
+                let off = got - (ss * (c + 0.5) - 0.5);
+                assert!((off - off.round()).abs() < 1e-9, "ss {ss}: {got} against the phase of {c} ({off})");
+            }
+            // The shift (under a pixel) keeps every footage pixel on the canvas.
+            assert!(canvas.warp.iter().all(|p| p[0] >= 0.0), "ss {ss}: a pixel fell off the canvas");
+        }
+        // Without a lens the 1× canvas is the footage's grid moved by the margin: no shift.
+        let canvas = Canvas::new(&camera([0.0; 5]), 1.0);
+        for (i, p) in canvas.warp.iter().enumerate() {
+            let (col, row) = ((i % 320) as f32, (i / 320) as f32);
+            assert!((p[0] - col - CANVAS_MARGIN_PX as f32).abs() < 1e-3 && (p[1] - row - CANVAS_MARGIN_PX as f32).abs() < 1e-3, "{i}: {p:?}");
+        }
+    }
 }
