@@ -78,7 +78,8 @@ struct CanvasSample {
 // Footprints up to this many canvas pixels are sampled with one bilinear tap (no supersampling:
 // the lens's own local scale stays near 1); larger ones (a supersampled canvas) with four taps
 // at ±1/4 of the footprint, a box filter over the output pixel (exact for a 2× canvas, whose
-// four taps land on the four canvas texels under the pixel).
+// four taps land on the four canvas texels under the pixel where the lens is near identity:
+// src/gpu/canvas.rs puts the canvas grid on the footage's phase at the lens's centre).
 const ONE_TAP_FOOTPRINT: f32 = 1.25;
 
 fn canvas_sample(px: vec2<i32>) -> CanvasSample {

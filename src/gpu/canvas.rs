@@ -11,6 +11,15 @@
 //! and the canvas layers are sampled there bilinearly. Untouched video pixels are never
 //! resampled, so the footage stays exactly as it came in.
 //!
+//! The canvas's principal point is moved by less than a pixel so that the lens's centre lies on
+//! the footage pixel's phase of the canvas grid (`ss·(c + ½) − ½`): where the lens is near
+//! identity, a 1× canvas is then read at texel centres (each texel's own MSAA box) and a 2× one
+//! by the composite's four taps on the four texels under the footage pixel (a box over it), as
+//! the reference renderer's box filter over each pixel does, instead of taps between texels that
+//! widen the filter by up to a pixel (issue 13; `tests/suite/render/lens_filter.rs`, and
+//! docs/measurements.md, "the canvas on the footage's pixel phase": the winter composite's frame
+//! 3 3.30 → 2.88% at MSAA 4).
+//!
 //! Projection: OpenCV camera frame to wgpu clip space with reversed depth and an infinite far
 //! plane, `z_ndc = near / z`: the ends of the shadow volumes (points at infinity, `w = 0`) land
 //! at depth 0 and are never clipped, so z-fail counting needs no far cap (Everitt & Kilgard,
@@ -24,6 +33,8 @@ use glam::{DMat4, DVec2, DVec3, DVec4, Mat4};
 pub const NEAR_M: f64 = 0.02;
 /// Extra canvas pixels around the warped footage, so bilinear taps and MSAA edges stay inside.
 const CANVAS_MARGIN_PX: f64 = 2.0;
+/// Canvas shifts (pixels) this close to a whole pixel are none (see `Canvas::new`).
+const PHASE_EPS_PX: f64 = 1e-6;
 /// Largest canvas side the passes accept (a lens model whose inverse explodes at the border
 /// would otherwise ask for an enormous canvas).
 const MAX_CANVAS_SIDE: f64 = 8192.0;
@@ -80,9 +91,21 @@ impl Canvas {
             hi = DVec2::new((w as f64 - k.cx) / k.fx, (h as f64 - k.cy) / k.fy);
         }
         let (fx, fy) = (k.fx * ss, k.fy * ss);
-        let width = ((hi.x - lo.x) * fx + 2.0 * CANVAS_MARGIN_PX).ceil().clamp(1.0, MAX_CANVAS_SIDE);
-        let height = ((hi.y - lo.y) * fy + 2.0 * CANVAS_MARGIN_PX).ceil().clamp(1.0, MAX_CANVAS_SIDE);
-        let (cx, cy) = (-lo.x * fx + CANVAS_MARGIN_PX, -lo.y * fy + CANVAS_MARGIN_PX);
+        // The canvas's principal point, moved by less than a pixel so that the lens's centre
+        // (where the warp is a pure scale by `ss`) falls on the same phase of the canvas's pixel
+        // grid as the footage pixel there: `ss·(c + ½) − ½` (OpenCV centres), the point between
+        // a 2× canvas's texels or a 1× canvas's texel centre. Near the centre the composite's
+        // taps then land on texel centres instead of between them (see `warp_footprint`).
+        // (A lens-free camera at 1× is on that phase already: no shift, also when rounding puts
+        // it a hair below.)
+        let shift = |c: f64, lo: f64, f: f64| {
+            let s = (ss * (c + 0.5) - 0.5 - (-lo * f + CANVAS_MARGIN_PX)).rem_euclid(1.0);
+            if s > 1.0 - PHASE_EPS_PX { 0.0 } else { s }
+        };
+        let (sx, sy) = (shift(k.cx, lo.x, fx), shift(k.cy, lo.y, fy));
+        let width = ((hi.x - lo.x) * fx + 2.0 * CANVAS_MARGIN_PX + sx).ceil().clamp(1.0, MAX_CANVAS_SIDE);
+        let height = ((hi.y - lo.y) * fy + 2.0 * CANVAS_MARGIN_PX + sy).ceil().clamp(1.0, MAX_CANVAS_SIDE);
+        let (cx, cy) = (-lo.x * fx + CANVAS_MARGIN_PX + sx, -lo.y * fy + CANVAS_MARGIN_PX + sy);
         let warp = norm
             .iter()
             .map(|p| match p {
@@ -327,5 +350,28 @@ mod tests {
         let f = canvas.warp_footprint();
         let (centre, corner) = (f[320 * 120 + 160], f[0]);
         assert!(corner[2] > centre[2] * 1.05 && centre[2] > 0.9 && centre[2] < 1.1, "{centre:?} {corner:?}");
+    }
+
+    #[test]
+    fn the_lens_centre_falls_on_the_footage_pixels_phase_of_the_canvas_grid() {
+        // With the lens: the principal point's canvas point is the canvas's own principal point
+        // (the distortion vanishes there); it lies on the phase `ss·(c + ½) − ½` of the grid, a
+        // texel centre at 1× and the point between two texels at 2×, to rounding.
+        for ss in [1.0, 2.0, 3.0] {
+            let cam = camera([-0.08, 0.012, 0.0005, -0.0003, 0.0]);
+            let canvas = Canvas::new(&cam, ss);
+            for (got, c) in [(canvas.intrinsics.cx, cam.intrinsics.cx), (canvas.intrinsics.cy, cam.intrinsics.cy)] {
+                let off = got - (ss * (c + 0.5) - 0.5);
+                assert!((off - off.round()).abs() < 1e-9, "ss {ss}: {got} against the phase of {c} ({off})");
+            }
+            // The shift (under a pixel) keeps every footage pixel on the canvas.
+            assert!(canvas.warp.iter().all(|p| p[0] >= 0.0), "ss {ss}: a pixel fell off the canvas");
+        }
+        // Without a lens the 1× canvas is the footage's grid moved by the margin: no shift.
+        let canvas = Canvas::new(&camera([0.0; 5]), 1.0);
+        for (i, p) in canvas.warp.iter().enumerate() {
+            let (col, row) = ((i % 320) as f32, (i / 320) as f32);
+            assert!((p[0] - col - CANVAS_MARGIN_PX as f32).abs() < 1e-3 && (p[1] - row - CANVAS_MARGIN_PX as f32).abs() < 1e-3, "{i}: {p:?}");
+        }
     }
 }

@@ -2,6 +2,24 @@
 //! (`reference/`, rendered with the virtual objects physically present), next to its run time,
 //! for the quality knobs of the compositor: the per-pixel transfer's paths and lattice stride,
 //! MSAA samples and canvas supersampling.
+//!
+//! # The sun-dependent re-trace between reference frames
+//! The reference frames are far apart in the footage's time (the winter scene's are 40 min, the
+//! sun 1.6–27° apart), and a sun move past `bounce_rebuild_deg` starts the sliced re-trace of the
+//! receivers' `b` (`c_v`, `b_v`) and the objects' `R_d` (issue 13 part 4), which completes over
+//! `pool / trace_paths_per_frame` frames (≈ 2 s of 30 fps footage, in which the sun moves by
+//! 0.01°). Composited one after the other, a reference frame would be shown with the previous
+//! one's terms, a lag that footage at any real frame rate does not have. So each reference frame
+//! is measured three ways, and all three are reported:
+//! - **settled** (the main columns): the frame composited again after the re-trace it started
+//!   has completed (the frames the footage has in between, rendered as the same frame);
+//! - **stale** (`stale_*`): a fresh compositor traced for a sun `bounce_rebuild_deg` (× 0.999)
+//!   behind the frame's along its path (towards the previous reference frame's sun), then the
+//!   frame with its own sun: the largest lag a slowly moving sun leaves in a sequence, since no
+//!   re-trace starts below the threshold;
+//! - **lag** (`lag_*`): the frame composited as it comes after the previous reference frame,
+//!   before any slice of its re-trace (what this bench reported before; a jump between
+//!   composited frames no sequence has at a real frame rate).
 
 use crate::common::{frame_bar, load_scene};
 use anyhow::{Context, Result, bail};
@@ -99,7 +117,14 @@ pub(crate) struct RefFrame {
 
 struct Row {
     label: String,
+    /// Each frame after its re-trace has completed.
     errors: Vec<CompositeError>,
+    /// Each frame as composited right after the previous one (before its re-trace's slices).
+    lag_errors: Vec<CompositeError>,
+    /// Each frame with the terms traced for a sun `bounce_rebuild_deg` behind its own.
+    stale_errors: Vec<CompositeError>,
+    /// Most frames a re-trace took to complete.
+    settle_frames: usize,
     traced: usize,
     stride: u32,
     transfer_ms: f64,
@@ -214,46 +239,112 @@ fn sweep(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayS
             }
         };
         let t = std::time::Instant::now();
-        let mut comp = Compositor::for_scene(gpu, scene, ray.clone(), config).with_context(|| format!("setting up the compositor for {}", scene.root.display()))?;
+        let mut comp = Compositor::for_scene(gpu, scene, ray.clone(), config.clone()).with_context(|| format!("setting up the compositor for {}", scene.root.display()))?;
         if options != heliar::render::lamps::LampOptions::default() && !scene.lights.is_empty() {
             let lamps = heliar::lamps::Lamp::load_all(&scene.root.join(heliar::scene::MANIFEST_FILE), &scene.lights)?;
             comp.set_lamps(&lamps, options)?;
         }
         let setup_ms = ms(t);
         let (mut errors, mut frame_ms, mut transfer_ms, mut traced) = (Vec::new(), Vec::new(), 0.0f64, 0usize);
-        for f in frames {
+        let (mut lag_errors, mut stale_errors, mut settle_frames) = (Vec::new(), Vec::new(), 0usize);
+        for (k, f) in frames.iter().enumerate() {
             comp.set_probes(&f.grid);
-            // A cold frame (transfer and receivers traced as on a run's first frame), then the
-            // steady frame time of the same frame.
+            // A cold frame (transfer and receivers traced as on a run's first frame, or the
+            // previous frame's terms while this frame's re-trace has just started) …
             let (out, report) = comp.render(&f.video, &f.lighting)?;
             transfer_ms = transfer_ms.max(report.timings.transfer_ms);
             traced = traced.max(report.transfer_traced);
-            let e = composite_error(&f.classes, &out.image, &f.reference);
-            eprintln!(
-                "{label}, frame {}: {:.2}% (object {:.2}%, shadow {:.2}%, {} px); object mean {:.4} against the reference's {:.4}, shadow mean {:.5} against {:.5}",
-                f.index,
-                100.0 * e.object_and_shadow,
-                100.0 * e.object,
-                100.0 * e.shadow,
-                e.pixels,
-                e.object_mean,
-                e.object_mean_reference,
-                e.shadow_mean,
-                e.shadow_mean_reference
-            );
+            let lag = composite_error(&f.classes, &out.image, &f.reference);
+            // … then the frames the footage has before this one's re-trace completes …
+            let n = settle(&mut comp, f)?;
+            settle_frames = settle_frames.max(n);
+            let e = if n == 0 { lag } else { composite_error(&f.classes, &comp.render(&f.video, &f.lighting)?.0.image, &f.reference) };
+            print_error(&label, f.index, "settled", &e);
+            if n > 0 {
+                print_error(&label, f.index, &format!("lag (before the {n} frames of its re-trace)"), &lag);
+            }
+            // … and the terms a slowly moving sun leaves behind (a fresh compositor).
+            let toward = if k > 0 { Some((frames[k - 1].lighting.sun_dir, 1.0)) } else { frames.get(1).map(|g| (g.lighting.sun_dir, -1.0)) };
+            let stale = match toward {
+                Some((other, sign)) => {
+                    let sun = sun_towards(f.lighting.sun_dir, other, sign * STALE_SHARE * config.bounce_rebuild_deg);
+                    let mut fresh = Compositor::for_scene(comp.gpu().clone(), scene, ray.clone(), config.clone())?;
+                    if options != heliar::render::lamps::LampOptions::default() && !scene.lights.is_empty() {
+                        let lamps = heliar::lamps::Lamp::load_all(&scene.root.join(heliar::scene::MANIFEST_FILE), &scene.lights)?;
+                        fresh.set_lamps(&lamps, options)?;
+                    }
+                    fresh.set_probes(&f.grid);
+                    fresh.render(&f.video, &Lighting { sun_dir: sun, ..f.lighting })?;
+                    settle(&mut fresh, f)?;
+                    let e = composite_error(&f.classes, &fresh.render(&f.video, &f.lighting)?.0.image, &f.reference);
+                    print_error(&label, f.index, &format!("stale (terms traced {:.3}° behind)", STALE_SHARE * config.bounce_rebuild_deg), &e);
+                    e
+                }
+                None => e,
+            };
             errors.push(e);
+            lag_errors.push(lag);
+            stale_errors.push(stale);
+            // The steady frame time of the same frame.
             comp.invalidate();
             let t = std::time::Instant::now();
             comp.render(&f.video, &f.lighting)?;
             frame_ms.push(ms(t));
         }
         let stride = comp.transfer().map(|t| t.stride()).unwrap_or(0);
-        rows.push(Row { label, errors, traced, stride, transfer_ms, setup_ms, frame_ms: median(&frame_ms) });
+        rows.push(Row { label, errors, lag_errors, stale_errors, settle_frames, traced, stride, transfer_ms, setup_ms, frame_ms: median(&frame_ms) });
         pb.inc(1);
     }
     pb.finish_and_clear();
 
     Ok(rows)
+}
+
+/// The share of `bounce_rebuild_deg` by which the stale measurement's sun lags (just under the
+/// threshold, so that the frame with its own sun starts no re-trace).
+const STALE_SHARE: f64 = 0.999;
+
+/// Most frames a re-trace may take before the bench gives up (the default budget completes the
+/// winter scene's in 64).
+const MAX_SETTLE_FRAMES: usize = 100_000;
+
+/// Renders `f` until no sun-dependent re-trace is in progress; returns the frames rendered.
+fn settle(comp: &mut Compositor, f: &RefFrame) -> Result<usize> {
+    let busy = |c: &Compositor| c.receivers().retrace_progress().is_some() || c.transfer().is_some_and(|t| t.retrace_progress().is_some());
+    let mut n = 0;
+    while busy(comp) {
+        if n == MAX_SETTLE_FRAMES {
+            bail!("frame {}: the re-trace did not complete in {MAX_SETTLE_FRAMES} frames", f.index);
+        }
+        comp.render(&f.video, &f.lighting)?;
+        n += 1;
+    }
+    Ok(n)
+}
+
+/// `sun` turned by `deg` degrees towards `other` along the great circle through both (away
+/// from it for a negative `deg`); `sun` itself when the two are parallel.
+fn sun_towards(sun: glam::Vec3, other: glam::Vec3, deg: f64) -> glam::Vec3 {
+    let axis = sun.cross(other);
+    if axis.length() < 1e-6 {
+        return sun;
+    }
+    (glam::Quat::from_axis_angle(axis.normalize(), (deg as f32).to_radians()) * sun).normalize()
+}
+
+/// One line of a frame's error on stderr.
+fn print_error(label: &str, index: usize, what: &str, e: &CompositeError) {
+    eprintln!(
+        "{label}, frame {index}, {what}: {:.2}% (object {:.2}%, shadow {:.2}%, {} px); object mean {:.4} against the reference's {:.4}, shadow mean {:.5} against {:.5}",
+        100.0 * e.object_and_shadow,
+        100.0 * e.object,
+        100.0 * e.shadow,
+        e.pixels,
+        e.object_mean,
+        e.object_mean_reference,
+        e.shadow_mean,
+        e.shadow_mean_reference
+    );
 }
 
 /// Prints the table, writes the CSV and the plot.
@@ -266,11 +357,13 @@ fn report(a: &RenderSweep, rows: &[Row], frames: &[RefFrame]) -> Result<()> {
         Knob::TraceBudget => "trace_paths_per_frame",
         Knob::MovingSun => "moving_sun",
     };
-    let mut table = Table::new(&[name, "worst_pct", "mean_pct", "object_pct", "shadow_pct", "interior_pct", "traced_px", "stride", "transfer_ms", "frame_ms", "setup_ms"]);
+    let mut table = Table::new(&[name, "worst_pct", "mean_pct", "object_pct", "shadow_pct", "interior_pct", "traced_px", "stride", "transfer_ms", "frame_ms", "setup_ms", "stale_worst_pct", "stale_mean_pct", "lag_worst_pct", "lag_mean_pct", "settle_frames"]);
     let mut pts = Vec::new();
     for r in rows {
         let n = r.errors.len().max(1) as f64;
         let worst = r.errors.iter().map(|e| e.object_and_shadow).fold(0.0, f64::max);
+        let worst_of = |v: &[CompositeError]| 100.0 * v.iter().map(|e| e.object_and_shadow).fold(0.0, f64::max);
+        let mean_of = |v: &[CompositeError]| 100.0 * v.iter().map(|e| e.object_and_shadow).sum::<f64>() / v.len().max(1) as f64;
         let mean = |f: &dyn Fn(&CompositeError) -> f64| 100.0 * r.errors.iter().map(f).sum::<f64>() / n;
         table.push(vec![
             r.label.clone(),
@@ -284,6 +377,11 @@ fn report(a: &RenderSweep, rows: &[Row], frames: &[RefFrame]) -> Result<()> {
             format!("{:.0}", r.transfer_ms),
             format!("{:.1}", r.frame_ms),
             format!("{:.0}", r.setup_ms),
+            format!("{:.2}", worst_of(&r.stale_errors)),
+            format!("{:.2}", mean_of(&r.stale_errors)),
+            format!("{:.2}", worst_of(&r.lag_errors)),
+            format!("{:.2}", mean_of(&r.lag_errors)),
+            r.settle_frames.to_string(),
         ]);
         let cost = match a.knob {
             Knob::TransferPaths | Knob::TransferStride => r.transfer_ms,
@@ -293,7 +391,7 @@ fn report(a: &RenderSweep, rows: &[Row], frames: &[RefFrame]) -> Result<()> {
     }
     let frame_list: Vec<String> = frames.iter().map(|f| f.index.to_string()).collect();
     println!(
-        "compositor sweep on {} (reference frames {}: relative RMSE over the objects and their shadow, all channels; mean and worst over the frames; transfer_ms: one trace, frame_ms: median steady frame incl. readback)",
+        "compositor sweep on {} (reference frames {}: relative RMSE over the objects and their shadow, all channels, each frame after the re-trace its sun move started has completed; mean and worst over the frames; stale_*: the terms traced for a sun bounce_rebuild_deg behind; lag_*: each frame right after the previous one, before its re-trace, in settle_frames frames; transfer_ms: one trace, frame_ms: median steady frame incl. readback)",
         a.scene.display(),
         frame_list.join(", ")
     );

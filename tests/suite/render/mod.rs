@@ -8,6 +8,7 @@ mod lamp_bounce;
 mod lamp_ground;
 mod lamp_penumbra;
 mod lamps;
+mod lens_filter;
 mod report_order;
 mod robust;
 mod shading;
