@@ -37,7 +37,11 @@ impl Estimator {
         self.entries.clear();
         self.band_rows.clear();
         // The horizon band is a column at twilight under the shaped sky (`super::sky_band`).
-        self.band = super::sky_band::BandFrame { on: !overcast && self.sun_sky.as_ref().is_some_and(|s| s.band.is_some()), report: None };
+        self.band = super::sky_band::BandFrame { on: !overcast && self.sun_sky.as_ref().is_some_and(|s| s.band.is_some()), ..Default::default() };
+        if !self.band.on {
+            // Past twilight (or under an overcast sky) the band's prior starts afresh.
+            self.band_track = None;
+        }
         let mut counts = SampleCounts { available, drawn: n, ..Default::default() };
         let mut clipped_lit = 0;
         // Censoring: count drawn and clipped samples per (node, lit, lamp band) group first (the

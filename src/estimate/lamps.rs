@@ -195,7 +195,8 @@ impl Estimator {
         let mut fits: [MultiFit; 3] = Default::default();
         for c in 0..3 {
             let r = &self.rows[c];
-            let mut cols = vec![r.a.clone()];
+            let (a, band) = self.sky_columns(c);
+            let mut cols = vec![a];
             if two {
                 cols.push(r.b.clone());
             }
@@ -206,9 +207,7 @@ impl Estimator {
                 }
                 cols.push(col);
             }
-            if self.band.on {
-                cols.push(self.band_column(c));
-            }
+            cols.extend(band);
             let mut y = r.y.clone();
             let mut off = vec![0.0; n];
             for &(j, _) in held {
@@ -225,6 +224,7 @@ impl Estimator {
     pub(super) fn fit_channels_lamps(&mut self, two: bool, rng: &mut SmallRng) -> Option<[ChannelFit; 3]> {
         let frame = self.lamp_frame.clone()?;
         let max_cond = self.config.max_condition;
+        self.band.fixed = None;
         let mut groups: Vec<Vec<usize>> = frame.fit.iter().map(|&j| vec![j]).collect();
         let mut held: Vec<(usize, f64)> = Vec::new();
         // The largest condition number of the columns merged, before the merge.
@@ -233,7 +233,7 @@ impl Estimator {
         let fits = loop {
             let fits = self.fit_groups(two, &groups, &held, rng)?;
             // The twilight band goes first when it cannot be told apart (`super::sky_band`).
-            if self.band.on && !self.band_kept(&fits, base + groups.len()) {
+            if self.band.on && self.band.fixed.is_none() && !self.band_kept(&fits, base + groups.len()) {
                 continue;
             }
             let kappa = |k: usize| fits.iter().map(|f| f.column_condition[base + k]).fold(1.0, f64::max);
@@ -252,6 +252,19 @@ impl Estimator {
             }
             groups = (0..groups.len()).filter(|k| !bad.contains(k)).map(|k| groups[k].clone()).collect();
         };
+        if self.band.on && self.band_prior_applies(&fits, base + groups.len()) {
+            // The band's ratio from the earlier frames and this one (`super::sky_band`, "At
+            // night"): fitted again with the sky as one column, and once more at `β + σ_β` for
+            // the share of `k`'s standard error that the ratio's uncertainty carries.
+            let kappa = fits.iter().map(|f| f.column_condition[base + groups.len()]).fold(1.0, f64::max);
+            let fixed = self.fit_groups(two, &groups, &held, rng)?;
+            let plus = self.fit_at_ratio_plus_se(|e, rng| e.fit_groups(two, &groups, &held, rng), rng);
+            self.record_lamps(&fixed, &groups, &held, base, merged.unwrap_or(COND_CAP));
+            if let Some(plus) = &plus {
+                self.widen_lamp_se(&fixed, plus, &groups, base);
+            }
+            return Some(self.band_channels_fixed(&fixed, plus.as_ref(), two, kappa));
+        }
         self.record_lamps(&fits, &groups, &held, base, merged.unwrap_or(COND_CAP));
         if self.band.on {
             return Some(self.band_channels(&fits, two, base + groups.len()));
@@ -297,6 +310,23 @@ impl Estimator {
             r.condition_number = Some(kappa);
             r.status = LampStatus::NotSeparable;
             r.reason = Some(format!("cannot be told apart from the other light on these samples (κ = {kappa:.3} > max_condition): kept at its prior scale"));
+        }
+    }
+
+    /// Adds to each fitted lamp's standard error the change of its `k` between `fits` and `plus`
+    /// (the same fit with the band's ratio one standard error higher), in quadrature.
+    fn widen_lamp_se(&mut self, fits: &[MultiFit; 3], plus: &[MultiFit; 3], groups: &[Vec<usize>], base: usize) {
+        let Some(lc) = self.lamps.as_ref() else { return };
+        let priors: Vec<f64> = lc.lamps.iter().map(|l| l.light.scale).collect();
+        let Some(frame) = self.lamp_frame.as_mut() else { return };
+        for (k, g) in groups.iter().enumerate() {
+            for &j in g {
+                if let Some(se) = frame.reports[j].k_se.as_mut() {
+                    for c in 0..3 {
+                        se[c] = se[c].hypot((plus[c].x[base + k] - fits[c].x[base + k]) * priors[j]);
+                    }
+                }
+            }
         }
     }
 

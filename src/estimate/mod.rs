@@ -123,6 +123,11 @@ pub struct Estimator {
     band_rows: Vec<[f64; 3]>,
     /// This frame's horizon band.
     band: sky_band::BandFrame,
+    /// The band's ratio to the sky's shape carried from the earlier twilight frames (the prior
+    /// of [`sky_band`]'s "At night"); `None` before the first or after the sun rose past the band.
+    band_track: Option<sky_band::BandTrack>,
+    /// The frame's sun elevation, degrees (the clock of the band's prior).
+    sun_elevation_deg: f64,
 }
 
 fn luma(v: &[f64; 3]) -> f64 {
@@ -211,6 +216,8 @@ impl Estimator {
             entries: Vec::new(),
             band_rows: Vec::new(),
             band: sky_band::BandFrame::default(),
+            band_track: None,
+            sun_elevation_deg: 0.0,
         })
     }
 
@@ -243,6 +250,12 @@ impl Estimator {
     /// each channel (`a` the sky's column, `b` the sun's, `y` the observations as fitted).
     pub fn frame_rows(&self) -> (&[u32], &[ChannelRows; 3]) {
         (&self.entries, &self.rows)
+    }
+
+    /// The last frame's horizon-band coefficients per fitted row (`sky_band`; empty when the band
+    /// was not a column).
+    pub fn frame_band_rows(&self) -> &[[f64; 3]] {
+        &self.band_rows
     }
 
     /// The current sun state, after the first frame.
@@ -324,6 +337,7 @@ impl Estimator {
     ) -> Result<FrameEstimate, EstimateError> {
         let (pos, dir) = self.sun_at(time)?;
         let above = pos.above_horizon();
+        self.sun_elevation_deg = f64::from(dir.normalize_or_zero().y.clamp(-1.0, 1.0)).asin().to_degrees();
         self.noise_floor = match frame.data {
             crate::io::frames::FrameData::Ldr { .. } => LDR_NOISE_FLOOR_REL,
             crate::io::frames::FrameData::Hdr(_) => HDR_NOISE_FLOOR_REL,

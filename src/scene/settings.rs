@@ -88,6 +88,10 @@ pub struct SkyTermsConfig {
     /// At twilight (the sun below the horizon or less than 3° up) under the Hošek–Wilkie shape,
     /// fit a horizon band's scale beside the shape's (`estimate::sky_band`); default true.
     pub twilight_band: bool,
+    /// Carry the band's ratio to the shape from frame to frame as a prior whose spread grows
+    /// with the sun's motion (`estimate::sky_band`, "At night"); false: a free column on every
+    /// frame. Default true.
+    pub twilight_band_prior: bool,
     /// The albedo `terrain_albedo = "map"` resolved to (`envmap::bake::terrain::resolve_scene`);
     /// not part of `scene.toml`.
     #[serde(skip)]
@@ -214,7 +218,7 @@ pub const SKY_TURBIDITY_RANGE: (f64, f64) = (1.0, 10.0);
 
 impl Default for SkyTermsConfig {
     fn default() -> Self {
-        Self { shape: SkyShape::HosekWilkie, turbidity: Turbidity::Value(3.0), terrain_albedo: TerrainAlbedo::Map, directions: 512, twilight_band: true, resolved_terrain: None }
+        Self { shape: SkyShape::HosekWilkie, turbidity: Turbidity::Value(3.0), terrain_albedo: TerrainAlbedo::Map, directions: 512, twilight_band: true, twilight_band_prior: true, resolved_terrain: None }
     }
 }
 

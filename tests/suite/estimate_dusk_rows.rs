@@ -24,6 +24,7 @@
 //! it has set): the walls get 2–11% more sky light than the model says, the paving 2–3% less.
 
 use heliar::estimate::noise::robust_fit_noise;
+use heliar::estimate::sky_band::SkyBandStatus;
 use heliar::estimate::solve::HDR_NOISE_FLOOR_REL;
 use heliar::estimate::{Estimator, LampStatus, LUMA};
 use heliar::geometry::raycast::RayScene;
@@ -96,6 +97,8 @@ struct Row {
     a: [f64; 3],
     b: [f64; 3],
     g: [f64; 3],
+    /// The twilight band's coefficient (0 when the band was not a column).
+    h: [f64; 3],
     sky: [f64; 3],
     sun: [f64; 3],
     lamp: [f64; 3],
@@ -111,20 +114,55 @@ fn luma(v: &[f64; 3]) -> f64 {
     (0..3).map(|c| LUMA[c] * v[c]).sum()
 }
 
-/// `k` (luma) of a refit of `rows` with `y` replaced by `y(row)` (`two`: with the sun column).
-fn refit(rows: &[Row], two: bool, read_noise: f64, y: impl Fn(&Row, usize) -> f64) -> f64 {
+/// The twilight band in a refit.
+#[derive(Clone, Copy)]
+enum Band {
+    Off,
+    /// A free non-negative column.
+    Free,
+    /// Fixed at this ratio to the sky shape per channel (the sky column is `a + β·h`).
+    Fixed([f64; 3]),
+}
+
+/// `k` (luma) of a refit of `rows` with `y` replaced by `y(row)` (`two`: with the sun column) and
+/// the twilight band as `band`.
+fn refit_band(rows: &[Row], two: bool, read_noise: f64, band: Band, y: &dyn Fn(&Row, usize) -> f64) -> f64 {
     let mut k = [0.0; 3];
     for c in 0..3 {
-        let mut cols = vec![rows.iter().map(|r| r.a[c]).collect::<Vec<_>>()];
+        let beta = if let Band::Fixed(b) = band { b[c] } else { 0.0 };
+        let mut cols = vec![rows.iter().map(|r| r.a[c] + beta * r.h[c]).collect::<Vec<_>>()];
         if two {
             cols.push(rows.iter().map(|r| r.b[c]).collect());
         }
         cols.push(rows.iter().map(|r| r.g[c]).collect());
+        if let Band::Free = band {
+            cols.push(rows.iter().map(|r| r.h[c]).collect());
+        }
         let ys: Vec<f64> = rows.iter().map(|r| y(r, c)).collect();
         let f = robust_fit_noise(&cols, &ys, HDR_NOISE_FLOOR_REL, read_noise, &mut SmallRng::seed_from_u64(17)).expect("fit");
-        k[c] = *f.x.last().unwrap();
+        k[c] = f.x[1 + two as usize];
     }
     luma(&k)
+}
+
+/// Per channel, the band ratio `β` at which `a·Pa + β·h·Pa` best fits the generator's sky light
+/// `S` on `rows` (least squares on `S/Pa`, two columns).
+fn true_band_ratio(rows: &[&Row], pa: [f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|c| {
+        let (mut aa, mut ah, mut hh, mut as_, mut hs) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for r in rows {
+            let s = r.sky[c] / pa[c];
+            aa += r.a[c] * r.a[c];
+            ah += r.a[c] * r.h[c];
+            hh += r.h[c] * r.h[c];
+            as_ += r.a[c] * s;
+            hs += r.h[c] * s;
+        }
+        let det = aa * hh - ah * ah;
+        let alpha = (as_ * hh - hs * ah) / det;
+        let beta = (aa * hs - ah * as_) / det;
+        beta / alpha
+    })
 }
 
 /// `k` (luma) of a refit whose sky column is split in two, the paving's and the rest's (each
@@ -168,6 +206,11 @@ fn the_rows_that_pull_the_dusk_lamps_k_down() {
         .collect();
     // Per frame 1–3 of every seed: k as estimated, with the sky and sun exact, with the noise alone.
     let (mut k_as_is, mut k_sky_exact) = (Vec::new(), Vec::new());
+    // Frames 3–4: k with the band fixed at the generator's own ratio, and with the person's and
+    // wet patch's rows made exact on top.
+    let mut k_night: Vec<(f64, f64)> = Vec::new();
+    // Frames 3–4: k as estimated with the person's and wet patch's rows left out.
+    let mut k_left_out: Vec<f64> = Vec::new();
     for seed in seeds {
         let mut scene = base.clone();
         scene.estimator.seed = seed;
@@ -180,6 +223,7 @@ fn the_rows_that_pull_the_dusk_lamps_k_down() {
             // Two columns when Pd was fitted, or (frame 1) when the sun's bounce separated it.
             let two = (e.fallback.is_none() && e.pd.is_some_and(|pd| pd.iter().any(|&v| v > 0.0))) || e.condition_number.is_some_and(|c| c != 1.0);
             let (entries, chan) = est.frame_rows();
+            let hrows = est.frame_band_rows().to_vec();
             let pool = est.pool();
             let lc = est.lamp_columns().unwrap();
             let w = sky.width;
@@ -209,6 +253,7 @@ fn the_rows_that_pull_the_dusk_lamps_k_down() {
                         a: std::array::from_fn(|c| chan[c].a[r]),
                         b: std::array::from_fn(|c| chan[c].b[r]),
                         g: lc.g(0, ent),
+                        h: hrows.get(r).copied().unwrap_or([0.0; 3]),
                         sky: f(sky),
                         sun: f(sun),
                         lamp: f(lamp),
@@ -234,15 +279,23 @@ fn the_rows_that_pull_the_dusk_lamps_k_down() {
             eprintln!("{line}");
             // Refits with one mismatch taken off the rows at a time.
             let model_sd = |r: &Row, c: usize| r.a[c] * tpa[c] + if two { r.b[c] * tpd[c] } else { 0.0 };
-            let as_is = refit(&rows, two, read_noise, |r, c| r.y[c]);
-            let fix_class = |classes: &[Class]| refit(&rows, two, read_noise, |r, c| if classes.contains(&r.class) { r.y[c] - r.lamp[c] - r.sky[c] - r.sun[c] + r.g[c] + model_sd(r, c) } else { r.y[c] });
-            let lamp_exact = refit(&rows, two, read_noise, |r, c| r.y[c] - r.lamp[c] + r.g[c]);
-            let sky_exact = refit(&rows, two, read_noise, |r, c| r.y[c] - r.sky[c] - r.sun[c] + model_sd(r, c));
-            let noise_only = refit(&rows, two, read_noise, |r, c| r.y[c] - r.lamp[c] - r.sky[c] - r.sun[c] + r.g[c] + model_sd(r, c));
+            // The estimator's sky columns: the band free, fixed at its carried ratio, or none.
+            let est_band = match e.sky_band.as_ref() {
+                Some(b) if b.status == SkyBandStatus::Prior => Band::Fixed(b.prior.as_ref().expect("prior").used.ratio),
+                Some(b) if b.status == SkyBandStatus::Fitted => Band::Free,
+                _ => Band::Off,
+            };
+            let refit = |rows: &[Row], two: bool, read_noise: f64, y: &dyn Fn(&Row, usize) -> f64| refit_band(rows, two, read_noise, est_band, y);
+            let as_is = refit(&rows, two, read_noise, &|r, c| r.y[c]);
+            let fix_class = |classes: &[Class]| refit(&rows, two, read_noise, &|r, c| if classes.contains(&r.class) { r.y[c] - r.lamp[c] - r.sky[c] - r.sun[c] + r.g[c] + model_sd(r, c) } else { r.y[c] });
+            let lamp_exact = refit(&rows, two, read_noise, &|r, c| r.y[c] - r.lamp[c] + r.g[c]);
+            let sky_exact = refit_band(&rows, two, read_noise, Band::Off, &|r, c| r.y[c] - r.sky[c] - r.sun[c] + model_sd(r, c));
+            let noise_only = refit_band(&rows, two, read_noise, Band::Off, &|r, c| r.y[c] - r.lamp[c] - r.sky[c] - r.sun[c] + r.g[c] + model_sd(r, c));
             let dropped: Vec<Row> = rows.iter().filter(|r| r.class != Class::PersonShadow && r.class != Class::PersonSeen).map(|r| Row { ..*r }).collect();
-            let drop_person = refit(&dropped, two, read_noise, |r, c| r.y[c]);
-            // The same rows and columns as the estimator's fit; only the LMedS start's random draws differ.
-            assert!((as_is - k_est).abs() < 2e-3, "frame {i}: the refit repeats the estimator's fit ({as_is} against {k_est})");
+            let drop_person = refit(&dropped, two, read_noise, &|r, c| r.y[c]);
+            // The same rows and columns as the estimator's fit; only the LMedS start's random draws
+            // differ (up to 0.004 measured, seed 3 frame 4, against k_se 0.03).
+            assert!((as_is - k_est).abs() < 6e-3, "frame {i}: the refit repeats the estimator's fit ({as_is} against {k_est})");
             // With every row's light made the model's at the truth, only the sensor noise is left:
             // measured 0.948–1.042 over seeds 0–4 and frames 1–5 (k_se 0.03–0.1).
             assert!((noise_only - 1.0).abs() < 0.07, "seed {seed} frame {i}: k {noise_only} from the noise alone");
@@ -283,17 +336,56 @@ fn the_rows_that_pull_the_dusk_lamps_k_down() {
                 sky_line += &format!(" [{name}: {} rows, S/model {:.3} (alt {:.3}), L/g {:.3}, lamp share {:.2}]", rs.len(), gen_sd / model.max(1e-300), alt_sd / model.max(1e-300), lamp / g.max(1e-300), lamp / (lamp + gen_sd).max(1e-300));
             }
             eprintln!("    rest's sky:{sky_line}");
+            if rows.iter().any(|r| r.h != [0.0; 3]) {
+                let rest: Vec<&Row> = rows.iter().filter(|r| r.class == Class::Rest).collect();
+                let beta = true_band_ratio(&rest, tpa);
+                let band = e.sky_band.as_ref().expect("band report");
+                let est_beta: [f64; 3] = std::array::from_fn(|c| band.scale[c] / band.shape_pa[c].max(1e-300));
+                let fixed = refit_band(&rows, two, read_noise, Band::Fixed(beta), &|r, c| r.y[c]);
+                let no_band = refit_band(&rows, two, read_noise, Band::Off, &|r, c| r.y[c]);
+                let fixed_sky_exact = refit_band(&rows, two, read_noise, Band::Off, &|r, c| r.y[c] - r.sky[c] - r.sun[c] + model_sd(r, c));
+                let fixed_exact_but_lamp = refit_band(&rows, two, read_noise, Band::Fixed(beta), &|r, c| if r.class == Class::Rest { r.y[c] } else { r.y[c] - r.lamp[c] - r.sky[c] - r.sun[c] + r.g[c] + model_sd(r, c) });
+                // The person's and wet patch's rows left out (what a flag carried from the bright
+                // frames, where they are far outside the noise, would do), at the estimator's band.
+                let kept: Vec<Row> = rows.iter().filter(|r| r.class == Class::Rest).map(|r| Row { ..*r }).collect();
+                let unmodelled_dropped = refit(&kept, two, read_noise, &|r, c| r.y[c]);
+                eprintln!("    person and wet patch rows left out: k {unmodelled_dropped:.3}");
+                if i == 3 || i == 4 {
+                    k_left_out.push(unmodelled_dropped);
+                }
+                let fixed_lamp_exact = refit_band(&rows, two, read_noise, Band::Fixed(beta), &|r, c| r.y[c] - r.lamp[c] + r.g[c]);
+                if i == 3 || i == 4 {
+                    k_night.push((fixed, fixed_exact_but_lamp));
+                }
+                eprintln!(
+                    "    band: β fitted {:.3} {:.3} {:.3}, β of the generator's sky {:.3} {:.3} {:.3}; k without band {no_band:.3}, band fixed at the generator's β {fixed:.3}, and person+wet exact {fixed_exact_but_lamp:.3}, and lamp exact {fixed_lamp_exact:.3}; sky exact {fixed_sky_exact:.3}",
+                    est_beta[0], est_beta[1], est_beta[2], beta[0], beta[1], beta[2]
+                );
+            }
             if !alt_given {
                 continue;
             }
-            let alt_k = refit(&rows, two, read_noise, |r, c| r.y[c] - r.sky[c] + r.sky_alt[c]);
-            let alt_clean = refit(&rows, two, read_noise, |r, c| if r.class == Class::Rest { r.y[c] - r.sky[c] + r.sky_alt[c] } else { r.y[c] - r.lamp[c] - r.sky[c] - r.sun[c] + r.g[c] + model_sd(r, c) });
+            let alt_k = refit(&rows, two, read_noise, &|r, c| r.y[c] - r.sky[c] + r.sky_alt[c]);
+            let alt_clean = refit(&rows, two, read_noise, &|r, c| if r.class == Class::Rest { r.y[c] - r.sky[c] + r.sky_alt[c] } else { r.y[c] - r.lamp[c] - r.sky[c] - r.sun[c] + r.g[c] + model_sd(r, c) });
             eprintln!("    refit k with the alternative sky: {alt_k:.3}; and the person and wet rows exact: {alt_clean:.3}; split sky column: {:.3}", refit_split(&rows, two, read_noise));
         }
     }
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
     let (as_is, sky_exact) = (mean(&k_as_is), mean(&k_sky_exact));
     eprintln!("frames 1–3: mean k {as_is:.3} as estimated, {sky_exact:.3} with the sky and sun exact");
-    // Measured over seeds 0–4: 0.834 and 0.969. The sky's mismatch is most of the low bias.
-    assert!(sky_exact - as_is > 0.08 && (sky_exact - 1.0).abs() < 0.05, "{as_is} → {sky_exact}");
+    // Measured over seeds 0–4 (before the twilight band): 0.834 and 0.969. With the band (its
+    // ratio carried from frame to frame) the estimate is 0.944 / 0.967 / 0.920 on frames 1–3 and
+    // the sky's mismatch is mostly gone: within 0.03 of the sky made exact.
+    assert!((sky_exact - as_is).abs() < 0.05 && (sky_exact - 1.0).abs() < 0.05, "{as_is} → {sky_exact}");
+    // Frames 3–4 (2026-12-05): the band at the generator's ratio gives 0.925 on the mean, the
+    // person's and wet patch's rows made exact 0.982: the rest of the low k at night is the
+    // light the proxy does not model (the sky's shape is fitted).
+    let (fixed, clean) = (mean(&k_night.iter().map(|k| k.0).collect::<Vec<_>>()), mean(&k_night.iter().map(|k| k.1).collect::<Vec<_>>()));
+    eprintln!("frames 3–4: mean k {fixed:.3} with the band at the generator's ratio, {clean:.3} with the person and wet patch exact");
+    assert!(clean - fixed > 0.03 && (clean - 1.0).abs() < 0.05, "{fixed} → {clean}");
+    // Leaving those rows out (what a per-surface flag carried from the bright frames would do):
+    // measured 0.975 on the mean of frames 3–4 over seeds 0–4 (0.984, 0.967).
+    let left_out = mean(&k_left_out);
+    eprintln!("frames 3–4: mean k {left_out:.3} with the person's and wet patch's rows left out");
+    assert!((left_out - 1.0).abs() < 0.05 && left_out - fixed > 0.03, "{left_out}");
 }
