@@ -109,6 +109,97 @@ impl FrameCuts {
         obj.positions.len().min(obj.svc.cuts.len())
     }
 
+    /// One needed object's first pass ([`Self::object_ambient_reusing`]): per vertex its ambient
+    /// and whether it lies outside the proxy box, the fields met where it was evaluated, and how
+    /// many vertices reused their last value (where object `k` did not move and no moved object
+    /// reaches the vertex at its old or new pose).
+    #[allow(clippy::type_complexity)]
+    fn first_pass(&self, lighting: &Arc<UnitLighting>, poses: &[Pose], eye: Vec3, k: usize, moved: &[bool], last: Option<&Last>) -> Result<(Vec<(VertexAmbient, bool)>, Vec<Option<Occluders>>, usize), CutsError> {
+        let n = self.cuts.objects.len();
+        let count = self.vertex_count(k);
+        let stored = last.filter(|_| !moved[k]).and_then(|l| l.first[k].as_ref().filter(|f| f.len() == count).map(|f| (l, f)));
+        let keep: Vec<bool> = match stored {
+            Some((l, _)) => (0..count)
+                .into_par_iter()
+                .map(|v| {
+                    let x = self.vertex_point(poses, k, v);
+                    (0..n).all(|b| b == k || !moved[b] || !(self.field_reaches(b, &l.poses[b], x) || self.field_reaches(b, &poses[b], x)))
+                })
+                .collect(),
+            None => vec![false; count],
+        };
+        let frame = if keep.iter().all(|k| *k) { None } else { Some(self.object_frame(lighting, poses, k)?) };
+        let rows: Vec<((VertexAmbient, bool), Option<Occluders>)> = (0..count)
+            .into_par_iter()
+            .map(|v| match (&frame, stored) {
+                (Some(frame), _) if !keep[v] => self.vertex_ambient(frame, poses, k, v, eye).map(|(a, out, occ)| ((a, out), Some(occ))),
+                (_, Some((_, f))) => Ok((f[v], None)),
+                _ => Err(CutsError::Operands("a vertex kept without a stored value".into())),
+            })
+            .collect::<Result<_, _>>()?;
+        let reused = keep.iter().filter(|k| **k).count();
+        let (vals, occ): (Vec<(VertexAmbient, bool)>, Vec<Option<Occluders>>) = rows.into_iter().unzip();
+        Ok((vals, occ, reused))
+    }
+
+    /// Adds to each shown object's rows the light it reflects onto itself
+    /// (`crate::cuts::self_bounce`), from its radiance.
+    fn add_self_bounce(&self, ambient: &mut ObjectAmbient, poses: &[Pose], eye: Vec3, bounce: &Bounce, shown: &[bool], radiance: &[Option<ObjectRadiance>]) -> Result<(), CutsError> {
+        for a in (0..shown.len()).filter(|&a| shown[a]) {
+            let Some(rad) = &radiance[a] else { continue };
+            let gather = &bounce.own[a];
+            let rows: Vec<VertexAmbient> = (0..self.vertex_count(a))
+                .into_par_iter()
+                .map(|v| {
+                    let (_, n_local, _, r) = self.vertex_geometry(poses, a, v, eye)?;
+                    Ok(gather.vertex_ambient(v, &rad.pa, &rad.pd, n_local, poses[a].local_dir(r)))
+                })
+                .collect::<Result<_, CutsError>>()?;
+            add_rows(&mut ambient.vertices[a], &rows);
+        }
+        Ok(())
+    }
+
+    /// Adds to each shown object's rows the light the other objects reflect onto it, their
+    /// radiance clustered in its frame (reused from `last` with all of a source's vertices);
+    /// returns those clusterings for the next frame.
+    #[allow(clippy::too_many_arguments, clippy::type_complexity)]
+    fn add_others_bounce(&self, ambient: &mut ObjectAmbient, poses: &[Pose], eye: Vec3, shown: &[bool], radiance: &[Option<ObjectRadiance>], last: Option<&Last>, all_reused: &[bool], fields: &[Vec<Option<Occluders>>]) -> Result<Vec<Vec<Option<(Option<[u32; 9]>, Arc<Clustered>)>>>, CutsError> {
+        let n = shown.len();
+        let mut clustered: Vec<Vec<Option<(Option<[u32; 9]>, Arc<Clustered>)>>> = vec![vec![None; n]; n];
+        if n > 1 {
+            let mut added: Vec<(usize, Vec<VertexAmbient>)> = Vec::new();
+            for a in (0..n).filter(|&a| shown[a]) {
+                let rot = poses[a].rotation;
+                let key = rotation_bits(rot);
+                let mut lights: Vec<Option<Clustered>> = vec![None; n];
+                for b in (0..n).filter(|&b| b != a) {
+                    let Some(rad) = &radiance[b] else { continue };
+                    let old = last.and_then(|l| l.clustered[a][b].clone()).filter(|(k, _)| all_reused[b] && *k == key);
+                    let c = match old {
+                        Some((_, c)) => c,
+                        None => Arc::new(rad.clustered(&self.tree, rot)),
+                    };
+                    lights[b] = Some((*c).clone());
+                    clustered[a][b] = Some((key, c));
+                }
+                let remaps: Vec<Option<LeafRemap>> = poses.iter().map(|p| relative(p.rotation, rot).map(|q| LeafRemap::new(&self.tree, &self.index, q))).collect();
+                let rows: Vec<VertexAmbient> = (0..self.vertex_count(a))
+                    .into_par_iter()
+                    .map(|v| match fields[a].get(v).and_then(Option::as_ref) {
+                        Some(f) => self.vertex_bounce(poses, a, v, eye, &lights, f),
+                        None => self.vertex_bounce(poses, a, v, eye, &lights, &self.vertex_fields(poses, a, v, &remaps)?),
+                    })
+                    .collect::<Result<_, _>>()?;
+                added.push((a, rows));
+            }
+            for (a, rows) in added {
+                add_rows(&mut ambient.vertices[a], &rows);
+            }
+        }
+        Ok(clustered)
+    }
+
     /// [`Self::object_ambient_bounced`] for the objects at `poses`, keeping in `cache` what can
     /// serve the next frame; `unused[k]`: object `k`'s ambient is not shown (module docs). The
     /// rows of every object not `unused` equal [`Self::object_ambient_bounced`]'s bit for bit
@@ -145,33 +236,12 @@ impl FrameCuts {
                 uses.push(ObjectUse::Skipped);
                 continue;
             }
-            let stored = last.as_ref().filter(|_| !moved[k]).and_then(|l| l.first[k].as_ref().filter(|f| f.len() == count).map(|f| (l, f)));
-            let keep: Vec<bool> = match stored {
-                Some((l, _)) => (0..count)
-                    .into_par_iter()
-                    .map(|v| {
-                        let x = self.vertex_point(poses, k, v);
-                        (0..n).all(|b| b == k || !moved[b] || !(self.field_reaches(b, &l.poses[b], x) || self.field_reaches(b, &poses[b], x)))
-                    })
-                    .collect(),
-                None => vec![false; count],
-            };
-            let frame = if keep.iter().all(|k| *k) { None } else { Some(self.object_frame(lighting, poses, k)?) };
-            let rows: Vec<((VertexAmbient, bool), Option<Occluders>)> = (0..count)
-                .into_par_iter()
-                .map(|v| match (&frame, stored) {
-                    (Some(frame), _) if !keep[v] => self.vertex_ambient(frame, poses, k, v, eye).map(|(a, out, occ)| ((a, out), Some(occ))),
-                    (_, Some((_, f))) => Ok((f[v], None)),
-                    _ => Err(CutsError::Operands("a vertex kept without a stored value".into())),
-                })
-                .collect::<Result<_, _>>()?;
-            let reused = keep.iter().filter(|k| **k).count();
+            let (vals, occ, reused) = self.first_pass(lighting, poses, eye, k, &moved, last.as_ref())?;
             all_reused[k] = reused == count;
             uses.push(match shown[k] {
                 true => ObjectUse::Shown { evaluated: count - reused, reused },
                 false => ObjectUse::SourceOnly { evaluated: count - reused, reused },
             });
-            let (vals, occ): (Vec<(VertexAmbient, bool)>, Vec<Option<Occluders>>) = rows.into_iter().unzip();
             ambient.outside_proxy_box += vals.iter().filter(|r| r.1).count();
             ambient.vertices.push(vals.iter().map(|r| r.0).collect());
             first.push(Some(vals));
@@ -194,50 +264,9 @@ impl FrameCuts {
 
         // The light onto the shown objects: their own (self-bounce), then the others'.
         if own {
-            for a in (0..n).filter(|&a| shown[a]) {
-                let Some(rad) = &radiance[a] else { continue };
-                let gather = &bounce.own[a];
-                let rows: Vec<VertexAmbient> = (0..self.vertex_count(a))
-                    .into_par_iter()
-                    .map(|v| {
-                        let (_, n_local, _, r) = self.vertex_geometry(poses, a, v, eye)?;
-                        Ok(gather.vertex_ambient(v, &rad.pa, &rad.pd, n_local, poses[a].local_dir(r)))
-                    })
-                    .collect::<Result<_, CutsError>>()?;
-                add_rows(&mut ambient.vertices[a], &rows);
-            }
+            self.add_self_bounce(&mut ambient, poses, eye, bounce, &shown, &radiance)?;
         }
-        let mut clustered: Vec<Vec<Option<(Option<[u32; 9]>, Arc<Clustered>)>>> = vec![vec![None; n]; n];
-        if n > 1 {
-            let mut added: Vec<(usize, Vec<VertexAmbient>)> = Vec::new();
-            for a in (0..n).filter(|&a| shown[a]) {
-                let rot = poses[a].rotation;
-                let key = rotation_bits(rot);
-                let mut lights: Vec<Option<Clustered>> = vec![None; n];
-                for b in (0..n).filter(|&b| b != a) {
-                    let Some(rad) = &radiance[b] else { continue };
-                    let old = last.as_ref().and_then(|l| l.clustered[a][b].clone()).filter(|(k, _)| all_reused[b] && *k == key);
-                    let c = match old {
-                        Some((_, c)) => c,
-                        None => Arc::new(rad.clustered(&self.tree, rot)),
-                    };
-                    lights[b] = Some((*c).clone());
-                    clustered[a][b] = Some((key, c));
-                }
-                let remaps: Vec<Option<LeafRemap>> = poses.iter().map(|p| relative(p.rotation, rot).map(|q| LeafRemap::new(&self.tree, &self.index, q))).collect();
-                let rows: Vec<VertexAmbient> = (0..self.vertex_count(a))
-                    .into_par_iter()
-                    .map(|v| match fields[a].get(v).and_then(Option::as_ref) {
-                        Some(f) => self.vertex_bounce(poses, a, v, eye, &lights, f),
-                        None => self.vertex_bounce(poses, a, v, eye, &lights, &self.vertex_fields(poses, a, v, &remaps)?),
-                    })
-                    .collect::<Result<_, _>>()?;
-                added.push((a, rows));
-            }
-            for (a, rows) in added {
-                add_rows(&mut ambient.vertices[a], &rows);
-            }
-        }
+        let clustered = self.add_others_bounce(&mut ambient, poses, eye, &shown, &radiance, last.as_ref(), &all_reused, &fields)?;
         cache.last = Some(Last { lighting: lighting.clone(), eye: eye_bits, sun: sun_bits, poses: poses.to_vec(), first, radiance, clustered });
         Ok((ambient, uses))
     }

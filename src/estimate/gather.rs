@@ -22,26 +22,13 @@ impl Estimator {
     /// Draws the frame's samples and fills `rows`, `lit`, `bounce_only` and `rho_over_pi`.
     pub(super) fn gather(&mut self, frame: &Frame, lin: &Linearizer, rng: &mut SmallRng) -> Gathered {
         let overcast = self.overcast();
+        self.clear_rows(overcast);
         let Some(sun) = self.sun.as_ref() else { unreachable!("ensure_sun always sets the state") };
         let sun: &SunState = sun;
         let available = sun.available();
         let n = self.config.samples.min(available);
         let mut drawn = std::mem::take(&mut self.drawn);
         sun.draw(n, rng, &mut drawn);
-        for r in &mut self.rows {
-            r.clear();
-        }
-        self.lit.clear();
-        self.bounce_only.clear();
-        self.rho_over_pi.clear();
-        self.entries.clear();
-        self.band_rows.clear();
-        // The horizon band is a column at twilight under the shaped sky (`super::sky_band`).
-        self.band = super::sky_band::BandFrame { on: !overcast && self.sun_sky.as_ref().is_some_and(|s| s.band.is_some()), ..Default::default() };
-        if !self.band.on {
-            // Past twilight (or under an overcast sky) the band's prior starts afresh.
-            self.band_track = None;
-        }
         let mut counts = SampleCounts { available, drawn: n, ..Default::default() };
         let mut clipped_lit = 0;
         // Censoring: count drawn and clipped samples per (node, lit, lamp band) group first (the
@@ -111,5 +98,23 @@ impl Estimator {
         counts.lit = self.lit.iter().filter(|&&l| l).count();
         let saturated = n > 0 && counts.clipped as f64 > self.config.saturated_fraction * n as f64;
         Gathered { counts, clipped_lit, saturated }
+    }
+
+    /// Empties the last frame's rows and decides whether this frame fits the twilight band.
+    fn clear_rows(&mut self, overcast: bool) {
+        for r in &mut self.rows {
+            r.clear();
+        }
+        self.lit.clear();
+        self.bounce_only.clear();
+        self.rho_over_pi.clear();
+        self.entries.clear();
+        self.band_rows.clear();
+        // The horizon band is a column at twilight under the shaped sky (`super::sky_band`).
+        self.band = super::sky_band::BandFrame { on: !overcast && self.sun_sky.as_ref().is_some_and(|s| s.band.is_some()), ..Default::default() };
+        if !self.band.on {
+            // Past twilight (or under an overcast sky) the band's prior starts afresh.
+            self.band_track = None;
+        }
     }
 }
