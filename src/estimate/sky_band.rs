@@ -244,17 +244,21 @@ impl Estimator {
         false
     }
 
+    /// Per channel, the band's light on the frame's rows per unit of the shape's (`r`).
+    fn band_ratio(&self) -> [f64; 3] {
+        std::array::from_fn(|c| {
+            let a: f64 = self.rows[c].a.iter().sum();
+            let h: f64 = self.band_rows.iter().map(|b| b[c]).sum();
+            if a > 0.0 { h / a } else { 1.0 }
+        })
+    }
+
     /// The channel fits of `Pa` (`Pa_s + r·P_b`, module docs) and `Pd` (when `two`) from fits whose
     /// last column `col` is the band, and the band's report. The condition number is `Pd`'s
     /// against the others (the band's own against `Pa_s` is [`Self::band_kept`]'s test).
     pub(super) fn band_channels(&mut self, fits: &[MultiFit; 3], two: bool, col: usize) -> [ChannelFit; 3] {
         let p = fits[0].x.len();
-        // Per channel, the band's light on the frame's rows per unit of the shape's.
-        let ratio: [f64; 3] = std::array::from_fn(|c| {
-            let a: f64 = self.rows[c].a.iter().sum();
-            let h: f64 = self.band_rows.iter().map(|b| b[c]).sum();
-            if a > 0.0 { h / a } else { 1.0 }
-        });
+        let ratio = self.band_ratio();
         let out = std::array::from_fn(|c| {
             let f = &fits[c];
             let r = ratio[c];
@@ -322,12 +326,7 @@ impl Estimator {
     /// `free_kappa` is the free fit's band condition number.
     pub(super) fn band_channels_fixed(&mut self, fits: &[MultiFit; 3], plus: Option<&[MultiFit; 3]>, two: bool, free_kappa: f64) -> [ChannelFit; 3] {
         let (beta, beta_se) = self.band.fixed.unwrap_or(([0.0; 3], [0.0; 3]));
-        // r per channel as in `band_channels`.
-        let ratio: [f64; 3] = std::array::from_fn(|c| {
-            let a: f64 = self.rows[c].a.iter().sum();
-            let h: f64 = self.band_rows.iter().map(|b| b[c]).sum();
-            if a > 0.0 { h / a } else { 1.0 }
-        });
+        let ratio = self.band_ratio();
         let out = std::array::from_fn(|c| {
             let f = &fits[c];
             let (pa_s, r) = (f.x[0], ratio[c]);
