@@ -11,11 +11,7 @@
 
 use super::support::*;
 use glam::{DVec2, Vec3};
-use heliar::geometry::Material;
 use heliar::geometry::raycast::RayScene;
-use heliar::irradiance::{ProbeGrid, sh};
-use heliar::lighting::Lighting;
-use heliar::render::{CompositorConfig, VideoFrame};
 
 /// Sub-pixel rays per axis of the CPU box filter.
 const SUBSAMPLES: u32 = 8;
@@ -27,22 +23,11 @@ const LENS: [f64; 5] = [-0.08, 0.012, 0.0005, -0.0003, 0.0];
 fn silhouette_error(supersample: f64) -> (f64, f64, usize) {
     let sun = Vec3::new(0.8, 0.5, -0.3).normalize();
     let base = Vec3::new(0.7, 0.7, 0.68);
-    let mat = Material { name: "stone".into(), base_color: [base.x, base.y, base.z, 1.0], base_color_texture: None, metallic: 0.0, roughness: 0.9 };
-    let block = cube(Vec3::new(-0.5, 0.0, -0.5), Vec3::new(0.5, 1.0, 0.5), mat, "block");
-    let (w, h) = (160u32, 120u32);
-    let setup = Setup { camera: camera([3.0, 1.6, 2.4], [0.0, 0.5, 0.0], w, h, LENS), proxy: yard_proxy(), objects: vec![("block".into(), block.clone())] };
-    let mut config = CompositorConfig::from_estimator_settings(&Default::default());
-    config.occlusion_rays = 0;
-    config.transfer_paths = 0;
-    config.supersample = supersample;
-    let mut comp = setup.compositor(config);
-    comp.set_probes(&ProbeGrid::filled(Vec3::new(-6.0, 0.1, -6.0), Vec3::new(6.0, 3.0, 6.0), 1.0, sh::uniform_upper_sky(Vec3::ZERO)));
-    let pd = Vec3::splat(3.0);
     // Black footage: the real pixels stay 0 whatever their darkening, so each pixel's reference
     // is the block's sunlit radiance times the share of the pixel it covers.
-    let video = VideoFrame { width: w, height: h, rgba: vec![[0.0, 0.0, 0.0, 1.0]; (w * h) as usize] };
-    let lighting = Lighting { sun_dir: sun, above_horizon: true, pd, pa: Vec3::ZERO, sky: heliar::lighting::FrameSky::Declared, lamps: heliar::lighting::LampScales::NONE };
-    let (frame, _) = comp.render(&video, &lighting).expect("render");
+    let (setup, block, frame) = sunlit_block(sun, base, LENS, Some(supersample));
+    let pd = Vec3::splat(3.0);
+    let (w, h) = (setup.camera.intrinsics.width, setup.camera.intrinsics.height);
 
     let (objects, proxy) = (RayScene::new(block), RayScene::new(setup.proxy.clone()));
     let eye = setup.camera.pose.translation.as_vec3();

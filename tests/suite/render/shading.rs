@@ -116,18 +116,9 @@ fn a_crease_between_a_sunlit_and_a_shaded_face_keeps_the_lit_faces_share() {
     use heliar::geometry::raycast::RayScene;
     let sun = Vec3::new(0.8, 0.5, -0.3).normalize();
     let base = Vec3::new(0.7, 0.7, 0.68);
-    let block = cube(Vec3::new(-0.5, 0.0, -0.5), Vec3::new(0.5, 1.0, 0.5), material(base.to_array(), 0.0, 0.9, "stone"), "block");
-    let (w, h) = (160u32, 120u32);
-    let setup = Setup { camera: camera([3.0, 1.6, 2.4], [0.0, 0.5, 0.0], w, h, [0.0; 5]), proxy: yard_proxy(), objects: vec![("block".into(), block.clone())] };
-    let mut config = CompositorConfig::from_estimator_settings(&Default::default());
-    config.occlusion_rays = 0;
-    config.transfer_paths = 0;
-    let mut comp = setup.compositor(config);
-    comp.set_probes(&ProbeGrid::filled(Vec3::new(-6.0, 0.1, -6.0), Vec3::new(6.0, 3.0, 6.0), 1.0, sh::uniform_upper_sky(Vec3::ZERO)));
+    let (setup, block, frame) = sunlit_block(sun, base, [0.0; 5], None);
     let pd = Vec3::splat(3.0);
-    let video = VideoFrame { width: w, height: h, rgba: vec![[0.0, 0.0, 0.0, 1.0]; (w * h) as usize] };
-    let lighting = Lighting { sun_dir: sun, above_horizon: true, pd, pa: Vec3::ZERO, sky: heliar::lighting::FrameSky::Declared, lamps: heliar::lighting::LampScales::NONE };
-    let (frame, _) = comp.render(&video, &lighting).expect("render");
+    let (w, h) = (setup.camera.intrinsics.width, setup.camera.intrinsics.height);
 
     // Per pixel: the box-filtered sun radiance, or None unless every sub-pixel ray meets the block
     // and both a face in the sun and one turned away from it show.

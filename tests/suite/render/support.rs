@@ -264,3 +264,30 @@ impl ReferenceRun {
         Self { refs, seq, lin, ray, statue, est }
     }
 }
+
+/// A 1 m stone block on the yard proxy seen from (3, 1.6, 2.4) at 160×120 through `lens`, lit by
+/// the sun `sun` alone (`Pd` 3, `Pa` 0, no transfer or occlusion rays) over black footage, so
+/// that each pixel is the block's sunlit radiance times the share of the pixel it covers; canvas
+/// supersampling `supersample`. Returns the set-up, the block and the rendered frame (for the
+/// shading and lens-filter tests' CPU box filters).
+pub fn sunlit_block(sun: Vec3, base: Vec3, lens: [f64; 5], supersample: Option<f64>) -> (Setup, Mesh, heliar::render::RenderedFrame) {
+    use heliar::irradiance::{ProbeGrid, sh};
+    use heliar::lighting::{FrameSky, LampScales, Lighting};
+    use heliar::render::VideoFrame;
+    let mat = Material { name: "stone".into(), base_color: [base.x, base.y, base.z, 1.0], base_color_texture: None, metallic: 0.0, roughness: 0.9 };
+    let block = cube(Vec3::new(-0.5, 0.0, -0.5), Vec3::new(0.5, 1.0, 0.5), mat, "block");
+    let (w, h) = (160u32, 120u32);
+    let setup = Setup { camera: camera([3.0, 1.6, 2.4], [0.0, 0.5, 0.0], w, h, lens), proxy: yard_proxy(), objects: vec![("block".into(), block.clone())] };
+    let mut config = CompositorConfig::from_estimator_settings(&Default::default());
+    config.occlusion_rays = 0;
+    config.transfer_paths = 0;
+    if let Some(s) = supersample {
+        config.supersample = s;
+    }
+    let mut comp = setup.compositor(config);
+    comp.set_probes(&ProbeGrid::filled(Vec3::new(-6.0, 0.1, -6.0), Vec3::new(6.0, 3.0, 6.0), 1.0, sh::uniform_upper_sky(Vec3::ZERO)));
+    let video = VideoFrame { width: w, height: h, rgba: vec![[0.0, 0.0, 0.0, 1.0]; (w * h) as usize] };
+    let lighting = Lighting { sun_dir: sun, above_horizon: true, pd: Vec3::splat(3.0), pa: Vec3::ZERO, sky: FrameSky::Declared, lamps: LampScales::NONE };
+    let (frame, _) = comp.render(&video, &lighting).expect("render");
+    (setup, block, frame)
+}
