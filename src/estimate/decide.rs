@@ -37,6 +37,7 @@ impl Estimator {
             });
             match bounce_fit {
                 Some(f) => {
+                    self.flag_pd = Some(f.map(|c| c.pd));
                     self.fill_pa_only(out, &Some(f));
                     out.condition_number = Some(f.iter().map(|c| c.condition).fold(1.0, f64::max));
                 }
@@ -50,6 +51,7 @@ impl Estimator {
                     }
                     let fits = self.fit_channels(false, rng);
                     self.fill_pa_only(out, &fits);
+                    self.flag_pd = Some(held_pd.unwrap_or([0.0; 3]));
                 }
             }
             match held_pd {

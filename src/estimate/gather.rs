@@ -5,6 +5,7 @@
 
 use super::pool::SunState;
 use super::{CENSOR_FRACTION, Estimator, SampleCounts};
+use super::surface_flags::SurfaceFlagsReport;
 use crate::io::frames::{Frame, Linearizer, PixelState};
 use rand::rngs::SmallRng;
 
@@ -26,9 +27,14 @@ impl Estimator {
         let Some(sun) = self.sun.as_ref() else { unreachable!("ensure_sun always sets the state") };
         let sun: &SunState = sun;
         let available = sun.available();
-        let n = self.config.samples.min(available);
+        // Flagged surfaces are left out of the draw (`super::surface_flags`).
+        let (excluded, flagged, cap) = self.flags.as_ref().map_or((None, 0, 0), |f| f.exclusion(sun.valid()));
+        let left_out = excluded.as_ref().map_or(0, |x| x.iter().filter(|&&x| x).count());
+        self.flag_report = self.flags.as_ref().map(|_| SurfaceFlagsReport { flagged, excluded: left_out, cap, ..Default::default() });
+        self.flag_pd = None;
+        let n = self.config.samples.min(available - left_out);
         let mut drawn = std::mem::take(&mut self.drawn);
-        sun.draw(n, rng, &mut drawn);
+        sun.draw_excluding(n, rng, &mut drawn, excluded.as_deref());
         let mut counts = SampleCounts { available, drawn: n, ..Default::default() };
         let mut clipped_lit = 0;
         // Censoring: count drawn and clipped samples per (node, lit, lamp band) group first (the
@@ -65,17 +71,7 @@ impl Estimator {
                 }
                 PixelState::Ok if censored(self.pool.node[e], sun.lit[e], band(e)) => counts.censored += 1,
                 PixelState::Ok => {
-                    let (a, b) = match &self.sun_sky {
-                        Some(sky) => {
-                            let a = match self.turbidity_pick.and_then(|i| sky.by_turbidity.get(i)) {
-                                _ if overcast => sky.a_overcast[e],
-                                Some((_, a_t)) => a_t[e],
-                                None => sky.a[e],
-                            };
-                            (a, std::array::from_fn(|c| sun.b[e][c] + sky.b[e][c]))
-                        }
-                        None => (self.pool.a[e], sun.b[e]),
-                    };
+                    let (a, b) = self.entry_columns(sun, e, overcast);
                     for c in 0..3 {
                         self.rows[c].push(a[c] as f64, b[c] as f64, v[c] as f64);
                     }
@@ -98,6 +94,21 @@ impl Estimator {
         counts.lit = self.lit.iter().filter(|&&l| l).count();
         let saturated = n > 0 && counts.clipped as f64 > self.config.saturated_fraction * n as f64;
         Gathered { counts, clipped_lit, saturated }
+    }
+
+    /// The sky's and the sun's coefficients (`a`, `b`) of pool entry `e` in this frame's model.
+    pub(super) fn entry_columns(&self, sun: &SunState, e: usize, overcast: bool) -> ([f32; 3], [f32; 3]) {
+        match &self.sun_sky {
+            Some(sky) => {
+                let a = match self.turbidity_pick.and_then(|i| sky.by_turbidity.get(i)) {
+                    _ if overcast => sky.a_overcast[e],
+                    Some((_, a_t)) => a_t[e],
+                    None => sky.a[e],
+                };
+                (a, std::array::from_fn(|c| sun.b[e][c] + sky.b[e][c]))
+            }
+            None => (self.pool.a[e], sun.b[e]),
+        }
     }
 
     /// Empties the last frame's rows and decides whether this frame fits the twilight band.

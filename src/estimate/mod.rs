@@ -22,6 +22,10 @@
 //!   absolute noise floor beside the relative one and model values clipped at zero.
 //!   [`noise_level`] measures the read noise on the frame when the camera file says `"auto"`, or
 //!   gives none and the sun is at or below the horizon (dusk and night).
+//! - [`surface_flags`]: after each fitted frame, the fitted model on every valid pool entry; the
+//!   entries that it cannot explain on two or more frames (a wet patch, a person: surfaces the
+//!   proxy does not know) are left out of the later frames' draws, so what the bright frames see
+//!   carries into the night, where their departure hides in the read noise.
 //! - [`temporal`]: smooth across frames and detect when the lighting changed enough to relight.
 //!
 //! Thresholds are named constants or [`EstimatorConfig`] fields, documented where defined.
@@ -40,6 +44,7 @@ pub mod sky_band;
 pub mod smoother;
 pub mod solve;
 pub mod solve_multi;
+pub mod surface_flags;
 mod turbidity;
 
 pub use crate::scene::settings::EstimatorConfig;
@@ -128,6 +133,13 @@ pub struct Estimator {
     band_track: Option<sky_band::BandTrack>,
     /// The frame's sun elevation, degrees (the clock of the band's prior).
     sun_elevation_deg: f64,
+    /// Per-surface outlier flags carried across frames ([`surface_flags`]); `None` when off.
+    flags: Option<surface_flags::SurfaceFlags>,
+    /// This frame's flag report, from the draw to the update.
+    flag_report: Option<surface_flags::SurfaceFlagsReport>,
+    /// On a frame whose sun is up but unseen (`Pd` held or unobservable): the `Pd` of its fit's
+    /// model of the shadowed rows (the fitted bounce's, the held one, or 0).
+    flag_pd: Option<[f64; 3]>,
 }
 
 fn luma(v: &[f64; 3]) -> f64 {
@@ -182,6 +194,7 @@ impl Estimator {
             pixel_map_ms,
             pool_ms,
         };
+        let flags = config.surface_flags.then(|| surface_flags::SurfaceFlags::new(pool.len()));
         Ok(Self {
             config,
             observer,
@@ -218,6 +231,9 @@ impl Estimator {
             band: sky_band::BandFrame::default(),
             band_track: None,
             sun_elevation_deg: 0.0,
+            flags,
+            flag_report: None,
+            flag_pd: None,
         })
     }
 
@@ -379,6 +395,7 @@ impl Estimator {
             lamps: Vec::new(),
             read_noise,
             sky_band: None,
+            surface_flags: None,
         };
 
         self.prepare_lamps(time);
@@ -387,11 +404,13 @@ impl Estimator {
             out.estimate_ms = t_start.elapsed().as_secs_f64() * 1e3;
             out.smoothed = self.last_smoothed.map(|s| Intensities { pd: [s[0], s[1], s[2]], pa: [s[3], s[4], s[5]] });
             out.lamps = self.lamp_reports();
+            self.learn_flags(&mut out, frame, lin);
             return Ok(out);
         }
         self.decide(&mut out, above, clipped_lit, saturated, &mut rng);
         out.lamps = self.lamp_reports();
         out.sky_band = self.band.report.take();
+        self.learn_flags(&mut out, frame, lin);
         out.estimate_ms = t_start.elapsed().as_secs_f64() * 1e3;
         self.smooth(&mut out, time, dir);
         Ok(out)

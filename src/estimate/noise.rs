@@ -87,7 +87,7 @@ pub fn clipped_mean(mu: f64, sigma: f64) -> f64 {
 }
 
 /// The relative scale `s ≥ 0` at which the median of `r²/((s·level)² + σ_r²)` is that of χ²₁.
-fn relative_scale(r: &[f64], level: &[f64], read_noise: f64, tmp: &mut Vec<f64>) -> f64 {
+pub(super) fn relative_scale(r: &[f64], level: &[f64], read_noise: f64, tmp: &mut Vec<f64>) -> f64 {
     let mut median_at = |s: f64| {
         tmp.clear();
         tmp.extend(r.iter().zip(level).map(|(r, l)| r * r / ((s * l).powi(2) + read_noise * read_noise)));

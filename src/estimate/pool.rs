@@ -263,14 +263,33 @@ impl SunState {
 
     /// Draws `n` distinct entries, stratified by sun visibility (see the type docs).
     pub fn draw(&self, n: usize, rng: &mut impl rand::Rng, out: &mut Vec<u32>) {
-        out.clear();
-        let (nl, nu) = (self.valid_lit.len(), self.valid_unlit.len());
-        let n = n.min(nl + nu);
-        let take_lit = (n / 2).max(n.saturating_sub(nu)).min(nl);
-        let take_unlit = n - take_lit;
-        out.extend(index::sample(rng, nl, take_lit).into_iter().map(|k| self.valid_lit[k]));
-        out.extend(index::sample(rng, nu, take_unlit).into_iter().map(|k| self.valid_unlit[k]));
+        draw_from(&self.valid_lit, &self.valid_unlit, n, rng, out);
     }
+
+    /// [`SunState::draw`] among the entries whose `excluded` mask is false (the surface flags,
+    /// `super::surface_flags`); with `None` it is [`SunState::draw`], draw for draw.
+    pub fn draw_excluding(&self, n: usize, rng: &mut impl rand::Rng, out: &mut Vec<u32>, excluded: Option<&[bool]>) {
+        let Some(x) = excluded else { return self.draw(n, rng, out) };
+        let keep = |v: &[u32]| -> Vec<u32> { v.iter().copied().filter(|&e| !x.get(e as usize).copied().unwrap_or(false)).collect() };
+        draw_from(&keep(&self.valid_lit), &keep(&self.valid_unlit), n, rng, out);
+    }
+
+    /// The valid entries, sunlit first.
+    pub fn valid(&self) -> impl Iterator<Item = u32> + '_ {
+        self.valid_lit.iter().chain(&self.valid_unlit).copied()
+    }
+}
+
+/// `n` distinct entries, half from `lit` and half from `unlit` when both have enough (all of the
+/// smaller class and the rest from the other otherwise).
+fn draw_from(lit: &[u32], unlit: &[u32], n: usize, rng: &mut impl rand::Rng, out: &mut Vec<u32>) {
+    out.clear();
+    let (nl, nu) = (lit.len(), unlit.len());
+    let n = n.min(nl + nu);
+    let take_lit = (n / 2).max(n.saturating_sub(nu)).min(nl);
+    let take_unlit = n - take_lit;
+    out.extend(index::sample(rng, nl, take_lit).into_iter().map(|k| lit[k]));
+    out.extend(index::sample(rng, nu, take_unlit).into_iter().map(|k| unlit[k]));
 }
 
 impl SunState {

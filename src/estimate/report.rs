@@ -167,6 +167,10 @@ pub struct FrameEstimate {
     /// the band was not a column.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sky_band: Option<super::sky_band::SkyBandReport>,
+    /// The per-surface outlier flags (`estimate::surface_flags`): entries flagged, left out of
+    /// this frame's draw, and this frame's update; absent with `surface_flags = false`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub surface_flags: Option<super::surface_flags::SurfaceFlagsReport>,
 }
 
 /// Where the read noise of a frame's fit came from.

@@ -52,6 +52,11 @@ pub struct EstimatorConfig {
     pub relight_sun_deg: f64,
     /// Seed of all random draws.
     pub seed: u64,
+    /// Per-surface outlier flags: pool entries that the fitted model cannot explain on two
+    /// consecutive frames where the departure is beyond the robust fit's band are left out of the
+    /// later frames' draws (at most a tenth of them), until a frame sees them consistent again
+    /// (`estimate::surface_flags`).
+    pub surface_flags: bool,
     /// The sky's shape and the terrain below the horizon (`[estimator.sky]`).
     pub sky: SkyTermsConfig,
 }
@@ -293,6 +298,7 @@ impl Default for EstimatorConfig {
             relight_threshold: 0.02,
             relight_sun_deg: 0.5,
             seed: 0,
+            surface_flags: true,
             sky: SkyTermsConfig::default(),
         }
     }

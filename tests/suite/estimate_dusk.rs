@@ -28,7 +28,12 @@ use std::sync::Arc;
 /// refit (`estimate_dusk_rows`) gives 0.926 on the mean of frames 3–4 over the seeds, and 0.982
 /// with the person's and the wet patch's rows made exact (docs/measurements.md, "The twilight
 /// band's ratio carried to the night"). The free band had lifted frame 4 by absorbing them. The
-/// issue's target is 5%: frame 4 misses it by 0.016 here, frames 3–4 on most seeds.
+/// surface flags (`estimate::surface_flags`, on by default) learn those surfaces on frames 0–1 and
+/// leave them out of the later draws: 1.171, 0.952, 1.006, 0.942, 0.997 here (`k_se` 0.120,
+/// 0.046, 0.036, 0.032, 0.027), over the seeds a mean of 0.944, 0.977, 0.968, 0.993, 1.014 and a
+/// range on frames 2–5 of 0.933–1.048 (docs/measurements.md, "Per-surface outlier flags"). The
+/// issue's target is 5%: frame 4 misses it by 0.008 here (1.8 `k_se`), and the seeds' frames 2–5
+/// reach 0.067 from 1, so the bound stays 0.07.
 const K_TOL: f64 = 0.07;
 /// [`K_TOL`] of frame 1 (1.7 of its `k_se`).
 const K_TOL_FRAME1: f64 = 0.2;
@@ -39,7 +44,9 @@ const K_SE_TOL: f64 = 2.5;
 /// Largest relative error of `Pa` per frame on frames 1–5. Measured with the band's carried
 /// ratio: 1.7%, 1.5%, 2.9%, 4.6%, 5.2% (the free band 1.7%, 1.8%, 2.8%, 6.2%, 4.0%; without it
 /// 1.4%, 0.5%, 1.4%, 3.4%, 1.0%; before the read-noise model 1.1%, 2.1%, 11.7% on frames 1–3).
-/// Frame 5's standard error is 13–20% of `Pa` over the seeds (sky 1% of sunset's).
+/// Frame 5's standard error is 13–20% of `Pa` over the seeds (sky 1% of sunset's). With the
+/// surface flags: 1.6%, 0.6%, 0.6%, 0.0%, 1.2% (over the seeds up to 3.7% on frames 1–3 and
+/// 13.9% on frames 4–5).
 const PA_TOL: f64 = 0.15;
 /// Largest condition number of the band's column (`sky_band.condition_number`): measured 8–10.4
 /// over the seeds, below the estimator's `max_condition` of 12 that would drop it.
@@ -208,7 +215,11 @@ fn rel_diff(a: Option<[f64; 3]>, b: Option<[f64; 3]>) -> f64 {
 #[test]
 fn the_dusk_read_noise_measured_on_the_frames_agrees_with_the_file() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/dusk");
-    let scene = Scene::load(&root).unwrap();
+    let mut scene = Scene::load(&root).unwrap();
+    // The surface flags (`estimate::surface_flags`) learn from each frame's noise, so fits with
+    // different read noises would draw different samples on later frames; compared here is the
+    // read noise's effect on one frame's fit, on the same draws.
+    scene.estimator.surface_flags = false;
     let seq = scene.sequences[0].clone();
     let file_lin = seq.photometry.linearizer();
     let mut auto = seq.photometry.clone();

@@ -156,6 +156,10 @@ fn the_turbidity_chosen_by_residual_is_reported_and_reproducible() {
     for variant in ["snow", "asphalt"] {
         let (mut s, ray) = scene(&format!("winter/{variant}"));
         s.estimator.sky.turbidity = Turbidity::Fit;
+        // The surface flags carry each frame's fitted model into the later frames' draws, so a
+        // run at a fixed turbidity draws differently once anything is flagged; the property here
+        // is per frame (same draw, same fit).
+        s.estimator.surface_flags = false;
         let fit = estimate_all(&s, ray.clone());
         let chosen: Vec<f64> = fit.iter().map(|(e, _, _)| e.turbidity_fit.as_ref().expect("a turbidity fit").chosen).collect();
         let (d, a) = means(&fit);
