@@ -274,6 +274,13 @@ impl Estimator {
         &self.band_rows
     }
 
+    /// The pixels (row-major indices) of the pool entries flagged by [`surface_flags`] (empty
+    /// when they are off), for diagnostics.
+    pub fn flagged_pixels(&self) -> Vec<u32> {
+        let Some(f) = self.flags.as_ref() else { return Vec::new() };
+        (0..self.pool.len()).filter(|&e| f.is_flagged(e)).map(|e| self.pool.pixel[e]).collect()
+    }
+
     /// The current sun state, after the first frame.
     pub fn sun_state(&self) -> Option<&SunState> {
         self.sun.as_ref()

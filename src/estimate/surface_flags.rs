@@ -65,8 +65,9 @@
 //!
 //! # What it does on `scenes/dusk`
 //! Five estimator seeds (`docs/measurements.md`, "Per-surface outlier flags carried from the
-//! bright frames to the night"): 160–190 of 4096 entries flagged on frames 0–1 (the person and the
-//! wet patch were 3–5% of the rows); the lamp's `k` on frames 3–4 from a mean of 0.920, 0.921 to
+//! bright frames to the night"): 160–190 of 4096 entries flagged on frames 0–1; on seed 0, 160 of
+//! its 161 are the person and the wet patch, with 88% of the wet patch's entries
+//! (`tests/suite/estimate_dusk_rows.rs`); the lamp's `k` on frames 3–4 from a mean of 0.920, 0.921 to
 //! 0.968, 0.993; `Pa`'s mean error on frames 2–5 from 1.6, 2.5, 4.5, 13.9% to 0.4, 1.1, 4.1, 8.6%;
 //! the night composite (frame 4, MSAA 4) from 10.4% to 8.5% on the mean. A rule of two
 //! consecutive single-frame strikes flagged only a third as many (the pixels' own scatter about
