@@ -66,6 +66,7 @@ pub mod bounce;
 pub mod cut;
 pub mod eval;
 pub mod file;
+pub mod flat;
 pub mod frame;
 pub mod lighting;
 pub mod packed;
