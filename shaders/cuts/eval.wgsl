@@ -19,11 +19,15 @@ const MIN_BRDF_COS: f32 = 0.052;
 
 struct Params {
     // Tree depth, heap nodes, vertices, lighting parts present (bit 0 sky per Pa, 1 surface per
-    // Pa, 2 surface per Pd).
+    // Pa, 2 surface per Pd), segments per walk and their height (`cuts::flat`, "Segments").
     levels: u32,
     nodes: u32,
     vertices: u32,
     lights: u32,
+    segments: u32,
+    segment_height: u32,
+    pad0: u32,
+    pad1: u32,
 }
 
 struct Vertex {
@@ -47,6 +51,8 @@ struct Op {
 @group(0) @binding(4) var<storage, read> vertices: array<Vertex>;
 @group(0) @binding(5) var<storage, read> ops: array<Op>;
 @group(0) @binding(6) var<storage, read_write> out: array<vec4<f32>>;
+// Per vertex, lighting part and segment: E_n, E_r over the segment.
+@group(0) @binding(7) var<storage, read_write> partial: array<vec4<f32>>;
 
 // The walk's state per operand: bank, pointer (node index within the bank), end of the cut,
 // counter, height and value of the current node, group and weight.
@@ -61,13 +67,13 @@ var<private> weight: array<f32, MAX_OPS>;
 var<private> sums: array<f32, MAX_GROUPS>;
 
 fn height_at(b: u32, g: u32) -> u32 {
-    let w = words[words[4u * b + 1u] + (g >> 3u)];
+    let w = words[words[8u * b + 1u] + (g >> 3u)];
     return (w >> ((g & 7u) * 4u)) & 15u;
 }
 
 fn value_at(b: u32, g: u32) -> f32 {
-    let encoding = words[4u * b];
-    let base = words[4u * b + 2u];
+    let encoding = words[8u * b];
+    let base = words[8u * b + 2u];
     if encoding == 1u {
         return f32((words[base + (g >> 5u)] >> (g & 31u)) & 1u);
     }
@@ -77,16 +83,18 @@ fn value_at(b: u32, g: u32) -> f32 {
     return f32((words[base + (g >> 1u)] >> ((g & 1u) * 16u)) & 65535u) * INV_65535;
 }
 
-// Step 1: every pointer at its cut's first node, every counter at zero.
-fn start(first: u32, count: u32) -> u32 {
+// Step 1 at segment `seg`: every pointer at the node holding the segment's first leaf, its
+// counter at the leaves of that node before it (a table of `cuts::flat`).
+fn start(first: u32, count: u32, seg: u32) -> u32 {
     var groups = 0u;
     for (var j = 0u; j < count; j++) {
         let op = ops[first + j];
-        let offsets = words[4u * op.bank + 3u];
+        let offsets = words[8u * op.bank + 3u];
+        let at = words[8u * op.bank + 4u] + 2u * (op.cut * params.segments + seg);
         bank[j] = op.bank;
-        pointer[j] = words[offsets + op.cut];
+        pointer[j] = words[at];
         end_node[j] = words[offsets + op.cut + 1u];
-        counter[j] = 0u;
+        counter[j] = words[at + 1u];
         height[j] = height_at(op.bank, pointer[j]);
         value[j] = value_at(op.bank, pointer[j]);
         group[j] = op.group;
@@ -96,47 +104,54 @@ fn start(first: u32, count: u32) -> u32 {
     return groups;
 }
 
-// Step 3: operand j moves on by `leaves` leaves (over whole nodes when they are skipped).
+fn load(j: u32) {
+    if pointer[j] < end_node[j] {
+        height[j] = height_at(bank[j], pointer[j]);
+        value[j] = value_at(bank[j], pointer[j]);
+    }
+}
+
+// Step 3: operand j moves on by `leaves` leaves (over whole nodes when they are skipped). The
+// common cases, staying in the node or moving to the next one, run no loop (llvmpipe counts
+// loop iterations, `cuts::flat`).
 fn advance(j: u32, leaves: u32) {
     var left = leaves;
+    let rest = (1u << height[j]) - counter[j];
+    if left < rest {
+        counter[j] += left;
+        return;
+    }
+    left -= rest;
+    pointer[j] += 1u;
+    counter[j] = 0u;
+    load(j);
     loop {
         if left == 0u {
             break;
         }
-        let rest = (1u << height[j]) - counter[j];
-        if left >= rest {
-            left -= rest;
-            pointer[j] += 1u;
-            counter[j] = 0u;
-            if pointer[j] < end_node[j] {
-                height[j] = height_at(bank[j], pointer[j]);
-                value[j] = value_at(bank[j], pointer[j]);
-            }
-        } else {
-            counter[j] += left;
-            left = 0u;
+        let size = 1u << height[j];
+        if left < size {
+            counter[j] = left;
+            break;
         }
+        left -= size;
+        pointer[j] += 1u;
+        load(j);
     }
 }
 
-struct Sums {
-    // E_n and E_r of the first light, then of the second (`two`).
-    n0: vec3<f32>,
-    r0: vec3<f32>,
-    n1: vec3<f32>,
-    r1: vec3<f32>,
-}
-
-// The walk over `count` operands from `first`, summing lights `l0` (and `l1` when `two`) times
-// the product over the nodes of the common refinement (Steps 1–4, and Eq. 3's sum).
-fn walk(first: u32, count: u32, l0: u32, l1: u32, two: bool, n: vec3<f32>, r: vec3<f32>) -> Sums {
-    var s = Sums(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
-    let groups = start(first, count);
+// The walk over `count` operands from `first` over segment `seg`, summing the light at `l` times
+// the product over the nodes of the common refinement that start in the segment (Steps 1–4, and
+// Eq. 3's sum): `E_n` and `E_r` in a 2×4 matrix's columns.
+fn walk(first: u32, count: u32, seg: u32, l: u32, n: vec3<f32>, r: vec3<f32>) -> mat2x4<f32> {
+    var en = vec3<f32>(0.0);
+    var er = vec3<f32>(0.0);
+    let groups = start(first, count, seg);
     let levels = params.levels;
-    let total = 1u << levels;
-    var leaf = 0u;
+    var leaf = seg << params.segment_height;
+    let end = leaf + (1u << params.segment_height);
     loop {
-        if leaf >= total {
+        if leaf >= end {
             break;
         }
         // Step 2: the lowest current node; each group's weighted sum, their product.
@@ -158,58 +173,67 @@ fn walk(first: u32, count: u32, l0: u32, l1: u32, two: bool, n: vec3<f32>, r: ve
             h = height[0];
             product = 0.0;
         }
-        if product != 0.0 {
+        // The node starts at `node_start`: before the segment only on its first step, and then it
+        // is the segment's where it starts that sums it.
+        let node_start = leaf & ~((1u << h) - 1u);
+        if product != 0.0 && node_start == leaf {
             let k = ((1u << (levels - h)) - 1u) + (leaf >> h);
             let d = dirs[k].xyz;
             let spec = max(dot(r, d), 0.0) / max(dot(n, d), MIN_BRDF_COS);
-            let lv0 = lights[l0 + k].xyz * product;
-            s.n0 += lv0;
-            s.r0 += lv0 * spec;
-            if two {
-                let lv1 = lights[l1 + k].xyz * product;
-                s.n1 += lv1;
-                s.r1 += lv1 * spec;
-            }
+            let lv = lights[l + k].xyz * product;
+            en += lv;
+            er += lv * spec;
         }
-        let step = 1u << h;
+        let step = node_start + (1u << h) - leaf;
         for (var j = 0u; j < count; j++) {
             advance(j, step);
         }
         leaf += step;
     }
-    return s;
+    return mat2x4<f32>(vec4<f32>(en, 0.0), vec4<f32>(er, 0.0));
 }
 
+// One thread per vertex, lighting part and segment. The parts (`FrameCuts::vertex_ambient`): the
+// sky per unit Pa over the product with the proxy field, the surface per unit Pa and per unit Pd
+// over the objects' visibility only; a part that is absent stays zero. One walk per thread, over
+// one segment (llvmpipe's loop limit, `cuts::flat`, "Segments").
 @compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let v = id.x;
+fn walk_segments(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let t = id.x + id.y * groups.x * 64u;
+    let segs = params.segments;
+    let v = t / (3u * segs);
+    let part = (t / segs) % 3u;
+    let seg = t % segs;
     if v >= params.vertices {
         return;
     }
     let vx = vertices[v];
-    let n = vx.normal.xyz;
-    let r = vx.reflected.xyz;
-    let nodes = params.nodes;
-    let mask = params.lights;
-    // The surface parts with the objects' visibility only, the sky with the proxy field too
-    // (`FrameCuts::vertex_ambient`).
-    var surf = Sums(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
-    if (mask & 6u) != 0u {
-        let has_pa = (mask & 2u) != 0u;
-        let has_pd = (mask & 4u) != 0u;
-        let l0 = select(2u * nodes, nodes, has_pa);
-        surf = walk(vx.ops.x, vx.ops.y, l0, 2u * nodes, has_pa && has_pd, n, r);
-        if !has_pa {
-            // Only the part per Pd: it was summed as the first light.
-            surf = Sums(vec3<f32>(0.0), vec3<f32>(0.0), surf.n0, surf.r0);
-        } else if !has_pd {
-            surf.n1 = vec3<f32>(0.0);
-            surf.r1 = vec3<f32>(0.0);
-        }
+    var sums = mat2x4<f32>(vec4<f32>(0.0), vec4<f32>(0.0));
+    if ((params.lights >> part) & 1u) != 0u {
+        let count = select(vx.ops.y, vx.ops.z, part == 0u);
+        sums = walk(vx.ops.x, count, seg, part * params.nodes, vx.normal.xyz, vx.reflected.xyz);
     }
-    let sky = walk(vx.ops.x, vx.ops.z, 0u, 0u, false, n, r);
-    out[4u * v] = vec4<f32>(sky.n0 + surf.n0, 1.0);
-    out[4u * v + 1u] = vec4<f32>(sky.r0 + surf.r0, 0.0);
-    out[4u * v + 2u] = vec4<f32>(surf.n1, 0.0);
-    out[4u * v + 3u] = vec4<f32>(surf.r1, 0.0);
+    partial[2u * t] = sums[0];
+    partial[2u * t + 1u] = sums[1];
+}
+
+// One thread per vertex and lighting part: its segments added in order into its two rows of
+// `out` (six per vertex; `cuts::flat::FrameOps::ambient` adds the parts as the CPU does).
+@compute @workgroup_size(64)
+fn add_segments(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let t = id.x + id.y * groups.x * 64u;
+    if t >= 3u * params.vertices {
+        return;
+    }
+    let segs = params.segments;
+    var en = vec4<f32>(0.0);
+    var er = vec4<f32>(0.0);
+    for (var s = 0u; s < segs; s++) {
+        en += partial[2u * (t * segs + s)];
+        er += partial[2u * (t * segs + s) + 1u];
+    }
+    let v = t / 3u;
+    let part = t % 3u;
+    out[6u * v + 2u * part] = en;
+    out[6u * v + 2u * part + 1u] = er;
 }

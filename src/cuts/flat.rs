@@ -13,6 +13,8 @@
 //!   `g`'s height is bits `4(g mod 8)..` of word `g / 8`, and its value bit `g mod 32` of word
 //!   `g / 32` (1 bit), byte `g mod 4` of word `g / 4` (8 bits) or half `g mod 2` of word `g / 2`
 //!   (16 bits). The cut offsets are the bank's first node per cut and the node count.
+//!   Then, per cut and per segment (below), the node holding the segment's first leaf and the
+//!   leaves of that node before it; the head's fifth word is where these start.
 //! - **Directions, uploaded once** ([`node_dirs`]): each heap node's representative direction.
 //! - **Lighting, per frame** ([`flat_lighting`]): `l_k` of the sky per unit `Pa`, the surface per
 //!   unit `Pa`, the surface per unit `Pd`, one after the other in heap order (zero when absent).
@@ -36,6 +38,16 @@
 //! refinements agree: everywhere except where an interpolated field happens to be equal on two
 //! siblings whose neighbouring cuts differ (weights that balance exactly).
 //! Turned objects (`super::rotate`) are not laid out: [`FrameOps::new`] refuses them.
+//!
+//! # Segments
+//! One thread walks one lighting part of one vertex over one subtree of `2^SEGMENT_HEIGHT` leaves
+//! (its pointers start where the segment starts, from the table above), and a second dispatch
+//! adds the segments in order. A product node higher than a segment is summed by the segment
+//! where it starts, so the nodes and their directions are those of the whole walk. The reason is
+//! Mesa's llvmpipe (lavapipe and GL alike): it stops every loop of an invocation once the
+//! invocation has run 65 535 loop iterations in all (`LP_MAX_TGSI_LOOP_ITERATIONS`), silently. A
+//! whole walk at `S = 2^13` ran past that (sums too small by up to 95%, docs/measurements.md); a
+//! segment runs at most `2^8` steps of at most `2·41 + 1` iterations.
 
 use super::frame::{FrameCuts, ObjectAmbient, VertexAmbient};
 use super::frame::UnitLighting;
@@ -79,11 +91,24 @@ pub struct OpRecord {
     pub weight: f32,
 }
 
+/// Height of the subtrees one thread walks (module docs, "Segments"): `2^8` leaves.
+pub const SEGMENT_HEIGHT: u32 = 8;
+
+/// Words per bank in the head of [`FlatBanks::words`].
+const HEAD_WORDS: usize = 8;
+
+/// Segments of a tree of `levels` (`2^(levels − SEGMENT_HEIGHT)`, at least 1).
+pub fn segments(levels: u32) -> u32 {
+    1 << levels.saturating_sub(SEGMENT_HEIGHT)
+}
+
 /// Every bank of a scene's cuts in one `u32` array (module docs).
 #[derive(Clone, Debug, PartialEq)]
 pub struct FlatBanks {
-    /// Head, heights, values and offsets.
+    /// Head, heights, values, offsets and segment starts.
     pub words: Vec<u32>,
+    /// Segments per cut.
+    pub segments: u32,
     /// Per object, its self-visibility bank and its field's bank.
     pub objects: Vec<(u32, u32)>,
     /// The proxy field's bank.
@@ -112,21 +137,46 @@ impl FlatBanks {
             banks.push(&p.cuts);
             banks.len() as u32 - 1
         });
-        let mut words = vec![0u32; 4 * banks.len()];
+        let segments = segments(frame.tree.levels());
+        let mut words = vec![0u32; HEAD_WORDS * banks.len()];
         for (b, bank) in banks.iter().enumerate() {
             let (heights, values) = bank.raw();
             let too_big = |_| CutsError::Operands(format!("bank {b}: more than 2^32 words"));
-            words[4 * b] = bank.encoding().bits() as u32;
-            words[4 * b + 1] = u32::try_from(words.len()).map_err(too_big)?;
+            let at = HEAD_WORDS * b;
+            words[at] = bank.encoding().bits() as u32;
+            words[at + 1] = u32::try_from(words.len()).map_err(too_big)?;
             words.extend(words_of(heights));
-            words[4 * b + 2] = u32::try_from(words.len()).map_err(too_big)?;
+            words[at + 2] = u32::try_from(words.len()).map_err(too_big)?;
             words.extend(words_of(values));
-            words[4 * b + 3] = u32::try_from(words.len()).map_err(too_big)?;
+            words[at + 3] = u32::try_from(words.len()).map_err(too_big)?;
             for &o in bank.offsets() {
                 words.push(u32::try_from(o).map_err(too_big)?);
             }
+            words[at + 4] = u32::try_from(words.len()).map_err(too_big)?;
+            segment_starts(bank, frame.tree.levels(), segments, &mut words);
+            u32::try_from(words.len()).map_err(too_big)?;
         }
-        Ok(Self { words, objects, proxy })
+        Ok(Self { words, segments, objects, proxy })
+    }
+}
+
+/// Appends, per cut of `bank` and per segment, the node (index in the bank) holding the
+/// segment's first leaf and how many of its leaves lie before it (the walk's pointer and counter
+/// there, Step 1 started mid-tree).
+fn segment_starts(bank: &PackedCuts, levels: u32, segments: u32, out: &mut Vec<u32>) {
+    let span = (1u64 << levels) / segments as u64;
+    for k in 0..bank.len() {
+        let view = bank.view(k);
+        let start = bank.offsets()[k];
+        let (mut node, mut first) = (0usize, 0u64);
+        for s in 0..segments as u64 {
+            let leaf = s * span;
+            while first + (1u64 << view.height(node)) <= leaf {
+                first += 1u64 << view.height(node);
+                node += 1;
+            }
+            out.extend([(start + node) as u32, (leaf - first) as u32]);
+        }
     }
 }
 
@@ -189,19 +239,28 @@ impl FrameOps {
         Ok(out)
     }
 
-    /// The pass's output (four `vec4` per vertex, [`VertexAmbient`]) split per object.
+    /// The pass's output split per object: per vertex six `vec4`, `E_n` and `E_r` of the sky
+    /// per unit `Pa`, of the surface per unit `Pa` and of the surface per unit `Pd`, added into a
+    /// [`VertexAmbient`] as `FrameCuts::vertex_ambient` adds them.
     pub fn ambient(&self, rows: &[[f32; 4]]) -> Result<ObjectAmbient, CutsError> {
-        if rows.len() != 4 * self.vertices.len() {
+        if rows.len() != 6 * self.vertices.len() {
             return Err(CutsError::Operands(format!("{} output rows for {} vertices", rows.len(), self.vertices.len())));
         }
         let mut vertices = Vec::with_capacity(self.counts.len());
         let mut at = 0;
         for &n in &self.counts {
-            vertices.push(rows[4 * at..4 * (at + n)].chunks_exact(4).map(|c| -> VertexAmbient { [c[0], c[1], c[2], c[3]] }).collect());
+            vertices.push(rows[6 * at..6 * (at + n)].chunks_exact(6).map(vertex_ambient).collect());
             at += n;
         }
         Ok(ObjectAmbient { vertices, outside_proxy_box: self.outside_proxy_box })
     }
+}
+
+/// One vertex's six rows added up (`FrameCuts::vertex_ambient`'s `amb`).
+fn vertex_ambient(c: &[[f32; 4]]) -> VertexAmbient {
+    let add = |a: [f32; 4], b: [f32; 4]| [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
+    let [n, r] = [add(c[0], c[2]), add(c[1], c[3])];
+    [[n[0], n[1], n[2], 1.0], [r[0], r[1], r[2], 0.0], [c[4][0], c[4][1], c[4][2], 0.0], [c[5][0], c[5][1], c[5][2], 0.0]]
 }
 
 /// Vertex `v` of object `k`: its operands, how many walk without the proxy field, its normal

@@ -39,7 +39,7 @@ impl GpuFrameCuts {
     /// Uploads the banks and the tree's node directions of `frame` (once).
     pub fn new(gpu: &Gpu, frame: &FrameCuts) -> Result<Self, CutsGpuError> {
         let banks = FlatBanks::new(frame)?;
-        let pass = CutsPass::new(gpu, frame.tree.levels(), &banks.words, &node_dirs(&frame.tree))?;
+        let pass = CutsPass::new(gpu, frame.tree.levels(), banks.segments, &banks.words, &node_dirs(&frame.tree))?;
         Ok(Self { banks, pass })
     }
 
