@@ -44,9 +44,9 @@
 //! (its pointers start where the segment starts, from the table above), and a second dispatch
 //! adds the segments in order. A product node higher than a segment is summed by the segment
 //! where it starts, so the nodes and their directions are those of the whole walk. The reason is
-//! Mesa's llvmpipe (lavapipe and GL alike): it stops every loop of an invocation once the
-//! invocation has run 65 535 loop iterations in all (`LP_MAX_TGSI_LOOP_ITERATIONS`), silently. A
-//! whole walk at `S = 2^13` ran past that (sums too small by up to 95%, docs/measurements.md); a
+//! Mesa's llvmpipe (lavapipe and GL alike): its loop limiter (`LP_MAX_TGSI_LOOP_ITERATIONS`,
+//! 65 535) silently ends the loops of an invocation, by what was seen here counting all of its
+//! loops' iterations together. A whole walk at `S = 2^13` ran past that (sums too small by up to 95%, docs/measurements.md); a
 //! segment runs at most `2^8` steps of at most `2·41 + 1` iterations.
 
 use super::frame::{FrameCuts, ObjectAmbient, VertexAmbient};
