@@ -99,7 +99,9 @@ impl CutScene<'_> {
     }
 
     /// The interpolated fields of every object but `skip` that can reach the point `x` with
-    /// normal `n` (bounding sphere not wholly below the tangent plane, §V-B).
+    /// normal `n` (bounding sphere not wholly below the tangent plane, §V-B). An object beyond its
+    /// field's outermost sphere is left out (its field exactly 1 there), as `super::frame`'s
+    /// occluders and the receivers do, instead of clamping to that sphere's cuts.
     pub(crate) fn occluder_cuts(&self, x: Vec3, n: Vec3, skip: Option<usize>) -> Result<Vec<Cut>, CutsError> {
         let mut cuts = Vec::new();
         for (b, obj) in self.objects.iter().enumerate() {
@@ -109,6 +111,9 @@ impl CutScene<'_> {
             let t = self.translations[b];
             let centre = obj.vcf.centre + t;
             if n != Vec3::ZERO && n.dot(centre - x) < -obj.vcf.radius_m {
+                continue;
+            }
+            if obj.vcf.beyond_reach(x - t) {
                 continue;
             }
             let (cut, _region): (Cut, FieldRegion) = obj.vcf.lookup(x - t)?;

@@ -50,6 +50,25 @@
 //! - **Frames** ([`frame`], [`receivers`]): the objects' ambient per vertex and the receivers'
 //!   sky visibility for one frame's poses (translated and turned, [`rotate`]), under the relit map split per unit `Pa` and `Pd`; the frame
 //!   loop (`crate::run::motion`) hands them to the compositor.
+//! - **CPU or compute pass** ([`flat`]; issue 15 §2, "evaluation where it is fastest here … measure
+//!   both and say which"). The per-vertex first pass ([`frame::FrameCuts::object_ambient`]) also
+//!   runs in a compute pass (`crate::run::cuts_gpu`, `crate::gpu::cuts`,
+//!   `shaders/cuts/eval.wgsl`): the same pointer/counter walk over the self-visibility cut and the
+//!   eight neighbouring cuts of each other field and of the proxy field, one thread per vertex,
+//!   lighting part and `2^8`-leaf segment of the tree; equal to the CPU within 3·10⁻⁶ relative
+//!   (`tests/suite/object_cuts_gpu.rs`). **The CPU is faster here, and stays the frame loop's
+//!   path**: on the courtyard's statue and robot (5 742 vertices, `benches/bench_cuts.rs`, debug
+//!   build) a frame takes 0.15–0.61 s with rayon on the 2 cores against 1.3–2.6 s in the pass at
+//!   `S = 2^10`, 0.47 s against 9.8–10.6 s at `S = 2^13`, on lavapipe and on GL/llvmpipe alike
+//!   (docs/measurements.md, "Per-frame cuts: CPU or compute pass"). The software adapters run the
+//!   shader on the same two cores, eight lanes a vector, and the walk is what vectors do worst:
+//!   every lane's pointers, counters and loads differ (divergence, gathers, per-lane arrays in
+//!   scratch memory), and llvmpipe's limit of 65 535 loop iterations per invocation forces the
+//!   segments, which repeat each operand's set-up per segment and walk the two surface parts
+//!   apart. On a real GPU thousands of lanes would hide the gathers, and the uploads per frame
+//!   (the lighting, 3 × 2S − 1 `vec4`, and the operands, ~100 k × 16 bytes) are small, so the
+//!   pass may win there; without one to measure on, it stays a benchmarked alternative. The paper
+//!   too evaluates on the CPU, in parallel over vertices (§V-B, last paragraph).
 //!
 //! # Frames
 //! Every cut is over the directions of its object's *cut frame* (its pose when the cuts were
@@ -66,6 +85,7 @@ pub mod bounce;
 pub mod cut;
 pub mod eval;
 pub mod file;
+pub mod flat;
 pub mod frame;
 pub mod lighting;
 pub mod packed;

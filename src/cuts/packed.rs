@@ -187,6 +187,11 @@ impl PackedCuts {
         2 * self.node_count() + self.values.len() + 4 * self.len()
     }
 
+    /// Each cut's first node, then the node count (the compute pass's layout, `super::flat`).
+    pub(crate) fn offsets(&self) -> &[usize] {
+        &self.offsets
+    }
+
     /// The raw parts `(heights, values)`, for files.
     pub(crate) fn raw(&self) -> (&[u8], &[u8]) {
         (&self.heights, &self.values)

@@ -26,7 +26,7 @@
 //!   10 r the object's cap is `2π(1 − √0.99) ≈ 0.031` sr, 0.25 % of the sphere); a caller may
 //!   instead leave the object out there ([`VisibilityCutField::beyond_reach`]): the real
 //!   receivers do (`super::receivers`) and so do the objects' vertices (`super::frame`'s
-//!   occluders, the bounce's sun visibility), so that a receiver or a vertex no moved object
+//!   occluders, the bounce's sun visibility, and the static reference `super::eval::CutScene`), so that a receiver or a vertex no moved object
 //!   reaches keeps its value exactly (`super::reuse`).
 
 use super::cut::{Cut, check_threshold};

@@ -8,12 +8,14 @@
 //! | [`readback`] | textures and buffers copied back to the CPU |
 //! | [`shaders`] | the WGSL sources embedded in the binary, `#include` resolution, module creation |
 //! | [`mesh`] | vertex and index buffers of the proxy and the virtual objects, per-material bind groups |
+//! | [`cuts`] | the compute pass of the visibility cuts' per-vertex sum (arrays laid out by `cuts::flat`) |
 //! | [`canvas`] | the undistorted pinhole canvas of a camera (reversed, infinite-far projection) and the lens warp back to the footage |
 //!
 //! Nothing here knows about lighting: the outdoor compositor (`render`) and the VEM renderer
 //! (`render::vem`) build their passes on these pieces.
 
 pub mod canvas;
+pub mod cuts;
 pub mod device;
 pub mod mesh;
 pub mod readback;

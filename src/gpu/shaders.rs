@@ -21,6 +21,7 @@ pub const SOURCES: &[(&str, &str)] = &[
     ("common/sh.wgsl", include_str!("../../shaders/common/sh.wgsl")),
     ("common/vem_lights.wgsl", include_str!("../../shaders/common/vem_lights.wgsl")),
     ("composite.wgsl", include_str!("../../shaders/composite.wgsl")),
+    ("cuts/eval.wgsl", include_str!("../../shaders/cuts/eval.wgsl")),
     ("depth_prepass.wgsl", include_str!("../../shaders/depth_prepass.wgsl")),
     ("lamps.wgsl", include_str!("../../shaders/lamps.wgsl")),
     ("shadow_mask.wgsl", include_str!("../../shaders/shadow_mask.wgsl")),

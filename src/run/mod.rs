@@ -15,6 +15,7 @@
 //! | [`source`] | frame sources (folder, video file, camera) and the resolution of the shared input options into a source, a clock and a photometric calibration |
 //! | [`outdoor`] | the outdoor lighting stage: estimator and probe source, the relight hook |
 //! | [`motion`] | moving virtual objects posed on the frame clock and handed to the compositor |
+//! | [`cuts_gpu`] | the objects' per-vertex ambient from the cuts in a compute pass (benchmarked against the CPU path; not the default) |
 //! | [`motion_cuts`] | their visibility cuts, loaded or computed, evaluated for the objects' translations |
 //! | [`session`] | the outdoor stage joined to the compositor: one frame end to end |
 //! | [`vem`] | the VEM stage (capture → decomposer) and its renderer's side; the `heliar vem` loop |
@@ -30,6 +31,7 @@
 
 pub mod augment;
 pub mod clock;
+pub mod cuts_gpu;
 pub mod motion;
 pub mod motion_cuts;
 pub mod outdoor;

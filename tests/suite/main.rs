@@ -28,6 +28,7 @@ mod live;
 mod live_drag;
 mod object_cuts;
 mod object_cuts_far;
+mod object_cuts_gpu;
 mod object_cuts_turned;
 mod object_cuts_two;
 mod object_motion;

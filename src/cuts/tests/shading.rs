@@ -174,3 +174,41 @@ fn an_object_moving_out_of_the_proxy_box_is_flagged_and_stays_finite() {
         assert!(s.radiance.is_finite());
     }
 }
+
+#[test]
+fn an_object_beyond_its_outermost_sphere_is_left_out_exactly() {
+    // `CutScene` leaves an object out beyond its field's outermost sphere (10 r here, 5 m), as
+    // `FrameCuts` does: a vertex or a receiver there sees exactly what it sees without the object
+    // (clamping to the outermost sphere's cuts would hide a cap of ~0.031 sr).
+    let tree = DirectionTree::new(9).expect("valid levels");
+    let lighting = ClusteredLighting::from_fn(&tree, upper_sky);
+    let sampling = VcfSampling { spheres: 4, rows: 8, cols: 8, ..VcfSampling::default() };
+    let mesh = icosphere(Vec3::ZERO, 0.5, 1);
+    let one = ObjectCuts::compute("a", &mesh, &tree, &SvcSettings::default(), &sampling, &no_progress).expect("valid mesh");
+    let objects = [one.clone(), one];
+    let reach = objects[1].vcf.sphere_radius_m(sampling.spheres - 1);
+    let lambert = Reflectance::Lambert(Vec3::ONE);
+    let alone_t = [Vec3::ZERO];
+    let alone = CutScene { tree: &tree, lighting: &lighting, objects: &objects[..1], translations: &alone_t, proxy: None };
+    let weights = ReceiverWeights::new(&tree, &lighting, Vec3::Y).expect("same tree");
+    let receiver = Vec3::new(0.0, -0.6, 0.0);
+    for (dx, inside) in [(0.9 * reach, true), (1.2 * reach, false), (40.0, false)] {
+        let t = [Vec3::ZERO, Vec3::new(dx, 0.4, 0.0)];
+        let scene = CutScene { tree: &tree, lighting: &lighting, objects: &objects, translations: &t, proxy: None };
+        let top_side = (0..mesh.positions.len()).max_by(|&a, &b| mesh.positions[a].x.total_cmp(&mesh.positions[b].x)).unwrap_or(0);
+        let with = scene.vertex_radiance(0, top_side, &lambert, Vec3::X).expect("valid scene");
+        let without = alone.vertex_radiance(0, top_side, &lambert, Vec3::X).expect("valid scene");
+        // The receiver under object a sees a's field either way.
+        let rv = scene.receiver_visibility(&weights, receiver, Vec3::Y).expect("valid scene");
+        let rv_alone = alone.receiver_visibility(&weights, receiver, Vec3::Y).expect("valid scene");
+        if inside {
+            // Within reach b's field enters and hides part of the sky.
+            assert_eq!((with.occluders, rv.occluders), (1, 2));
+            assert!(with.radiance.x < without.radiance.x && rv.visibility < rv_alone.visibility, "{with:?} {rv:?} {rv_alone:?}");
+        } else {
+            assert_eq!((with.occluders, rv.occluders), (0, 1), "object at {dx} m, reach {reach} m");
+            assert_eq!(with.radiance, without.radiance);
+            assert_eq!(rv.visibility, rv_alone.visibility);
+        }
+    }
+}
