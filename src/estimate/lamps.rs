@@ -352,7 +352,7 @@ impl Estimator {
     /// Smooths every lamp's `k` at `t_s` (seconds since the first frame) into `reports`
     /// ([`LampSmoother`]): a lamp off resets its filter; a fitted one is a measurement.
     pub(super) fn smooth_lamps(&mut self, reports: &mut [LampReport], t_s: f64) {
-        let rate = self.config.smoothing_rate_per_sqrt_s;
+        let rate = self.config.lamp_smoothing_rate_per_sqrt_s;
         let Some(lc) = self.lamps.as_mut() else { return };
         for ((r, f), lamp) in reports.iter_mut().zip(&mut lc.smoothers).zip(&lc.lamps) {
             let meas = match (r.status, r.k_se) {

@@ -158,18 +158,34 @@ impl LampSmoother {
         let dt = self.clock.advance(time_s, self.k.is_some());
         let Some(k) = self.k.as_mut() else {
             let (z, se) = meas?;
-            self.k = Some(z);
-            self.var = std::array::from_fn(|c| (se[c] * se[c]).max(REL_VAR_FLOOR * z[c] * z[c]));
-            return self.k;
+            return self.update_first(z, se);
         };
         let level = k.iter().fold(prior.abs(), |m, v| m.max(v.abs()));
         let q = rate_per_sqrt_s * level;
         for c in 0..3 {
             self.var[c] += q * q * dt;
-            if let Some((z, se)) = meas {
-                correct(&mut k[c], &mut self.var[c], z[c], se[c]);
-            }
         }
+        let Some((z, se)) = meas else { return self.k };
+        // A frame beyond the robust band of the prediction in any channel: the luminaire changed
+        // (warm-up, dimming), not the noise; start afresh from it.
+        let departs = (0..3).any(|c| {
+            let r = (se[c] * se[c]).max(REL_VAR_FLOOR * z[c] * z[c]);
+            (z[c] - k[c]).abs() > super::solve::TUKEY_C * (self.var[c] + r).sqrt()
+        });
+        if departs {
+            *self = Self { clock: self.clock.clone(), ..Self::default() };
+            return self.update_first(z, se);
+        }
+        for c in 0..3 {
+            correct(&mut k[c], &mut self.var[c], z[c], se[c]);
+        }
+        self.k
+    }
+
+    /// The first fit after a (re)start is taken as it is.
+    fn update_first(&mut self, z: [f64; 3], se: [f64; 3]) -> Option<[f64; 3]> {
+        self.k = Some(z);
+        self.var = std::array::from_fn(|c| (se[c] * se[c]).max(REL_VAR_FLOOR * z[c] * z[c]));
         self.k
     }
 }
@@ -341,5 +357,34 @@ mod tests {
         g.update(0.0, 0.1, true, 1.0, Some(([0.0; 3], [1e-6; 3])));
         let k = g.update(600.0, 0.1, true, 1.0, Some(([1.0; 3], [0.05; 3]))).unwrap();
         assert!(k[0] > 0.9, "{k:?}");
+    }
+
+    #[test]
+    fn a_steady_lamp_is_averaged_over_minutes_and_a_step_restarts_the_filter() {
+        use crate::scene::settings::LAMP_SMOOTHING_RATE as RATE;
+        // Frames ten minutes apart (the dusk scene's clock), k = 1 measured with se 0.03 in
+        // alternating ±0.03 errors: the drift allowance over 600 s is 0.0005·√600 = 1.2% of k, so
+        // the filter's variance settles at v = (−a + √(a² + 4ab))/2 (a = 0.0122², b = 0.03²):
+        // σ ≈ 0.017 and a gain of 0.33, and the alternating errors leave ±0.006.
+        let mut f = LampSmoother::default();
+        let mut last = [0.0; 3];
+        for i in 0..20 {
+            let z = if i % 2 == 0 { 1.03 } else { 0.97 };
+            last = f.update(600.0 * i as f64, RATE, true, 1.0, Some(([z; 3], [0.03; 3]))).unwrap();
+        }
+        // After a frame at 0.97 the estimate sits near 1, not on the frame.
+        assert!((last[0] - 1.0).abs() < 0.008, "{last:?}");
+        // Dimmed to half: 0.5 is 0.5/√(v + a + 0.03²) ≈ 14 σ from the prediction, beyond Tukey's
+        // 4.685: taken at once rather than crept towards.
+        let dimmed = f.update(600.0 * 20.0, RATE, true, 1.0, Some(([0.5; 3], [0.03; 3]))).unwrap();
+        assert_eq!(dimmed, [0.5; 3]);
+        // At 30 fps the allowance per frame is 0.0005·√(1/30) = 0.009% of k: a 1% error in one
+        // frame moves the estimate by little once the filter has settled.
+        let mut g = LampSmoother::default();
+        for i in 0..300 {
+            g.update(i as f64 / 30.0, RATE, true, 1.0, Some(([1.0; 3], [0.03; 3])));
+        }
+        let k = g.update(10.0, RATE, true, 1.0, Some(([1.01; 3], [0.03; 3]))).unwrap();
+        assert!(k[0] > 1.0 && k[0] < 1.001, "{k:?}");
     }
 }

@@ -83,15 +83,17 @@ pub fn frame_sky(e: &FrameEstimate) -> FrameSky {
     }
 }
 
-/// The scale of each lamp for the render (issue 16 §3): the report's `k` (fitted, or the prior
-/// when the lamp was unreached, not separable or the frame not fitted), and zero for a lamp off
-/// by its schedule. A negative or non-finite `k` gives no light.
+/// The scale of each lamp for the render (issue 16 §3): as for `Pd` and `Pa`, the smoothed `k`
+/// when there is one (`k_smoothed`, [`crate::estimate::smoother::LampSmoother`]), else the
+/// report's `k` (the frame's fit, or the prior when the lamp was unreached, not separable or no
+/// frame since its switch-on was fitted), and zero for a lamp off by its schedule. A negative or
+/// non-finite `k` gives no light.
 pub fn lamp_scales(lamps: &[LampReport]) -> LampScales {
     let k: Vec<[f32; 3]> = lamps
         .iter()
         .map(|l| match l.status {
             LampStatus::Off => [0.0; 3],
-            _ => l.k.map(|k| if k.is_finite() && k > 0.0 { k as f32 } else { 0.0 }),
+            _ => l.k_smoothed.unwrap_or(l.k).map(|k| if k.is_finite() && k > 0.0 { k as f32 } else { 0.0 }),
         })
         .collect();
     LampScales::from_slice(&k)
@@ -202,5 +204,8 @@ mod tests {
         // fitted and prior scales pass; off, negative and NaN give no light
         assert_eq!(s.as_slice(), &[[2.0, 1.0, 0.0], [0.0; 3], [1.0, 0.5, 0.0], [0.0; 3]]);
         assert!(lamp_scales(&[]).is_empty());
+        // The smoothed scale, when there is one, is the one rendered (as for Pd and Pa).
+        let smoothed = LampReport { k_smoothed: Some([0.9, 0.8, 0.7]), ..report(LampStatus::Fitted, 2.0) };
+        assert_eq!(lamp_scales(&[smoothed]).as_slice(), &[[0.9, 0.8, 0.7]]);
     }
 }

@@ -46,6 +46,11 @@ pub struct EstimatorConfig {
     pub saturated_fraction: f64,
     /// Random-walk rate of the smoother, relative per √s (see `estimate::smoother`).
     pub smoothing_rate_per_sqrt_s: f64,
+    /// Random-walk rate of each lamp's scale `k`, relative per √s: a luminaire's output is steady
+    /// where daylight is not, so the lamps' filter averages over far longer than the sun's and
+    /// sky's (a frame that departs from it beyond the robust band restarts it: a warm-up, a
+    /// dimming step; see `estimate::smoother`).
+    pub lamp_smoothing_rate_per_sqrt_s: f64,
     /// Relative change of `Pd` or `Pa` that triggers a relight.
     pub relight_threshold: f64,
     /// Sun motion that triggers a relight, degrees.
@@ -120,6 +125,14 @@ pub enum Turbidity {
     /// Chosen per frame by residual among [`FIT_TURBIDITIES`].
     Fit,
 }
+
+/// Default random-walk rate of a lamp's scale, relative per √s: 1.2% over ten minutes, 2% over
+/// half an hour, 0.05% over a second. A luminaire's output is steady once it is on (a driven LED
+/// holds it within a few percent over the first half hour's heating and about a percent after;
+/// a warmed-up discharge lamp within a few percent over tens of minutes); what changes it faster
+/// (a discharge lamp's warm-up after switch-on, a dimming step) is a departure beyond the robust
+/// band, which restarts the filter (`estimate::smoother::LampSmoother`).
+pub const LAMP_SMOOTHING_RATE: f64 = 0.0005;
 
 /// Candidates of `turbidity = "fit"`: clear (2) to hazy (6) skies.
 pub const FIT_TURBIDITIES: [f64; 4] = [2.0, 3.0, 4.0, 6.0];
@@ -295,6 +308,7 @@ impl Default for EstimatorConfig {
             no_sun_ratio: 0.05,
             saturated_fraction: 0.5,
             smoothing_rate_per_sqrt_s: 0.1,
+            lamp_smoothing_rate_per_sqrt_s: LAMP_SMOOTHING_RATE,
             relight_threshold: 0.02,
             relight_sun_deg: 0.5,
             seed: 0,
@@ -324,6 +338,7 @@ impl EstimatorConfig {
             ("max_condition", self.max_condition),
             ("no_sun_ratio", self.no_sun_ratio),
             ("smoothing_rate_per_sqrt_s", self.smoothing_rate_per_sqrt_s),
+            ("lamp_smoothing_rate_per_sqrt_s", self.lamp_smoothing_rate_per_sqrt_s),
             ("relight_threshold", self.relight_threshold),
             ("relight_sun_deg", self.relight_sun_deg),
         ] {
