@@ -16,9 +16,9 @@ TIMING_KEYS = {"estimate_ms", "sun_rebuild_ms", "decode_ms", "composite_ms", "en
 
 
 def strip_timings(v):
-    """A report value without its timing fields, recursively."""
+    """A report value without its timing fields (the named ones and every `*_ms`), recursively."""
     if isinstance(v, dict):
-        return {k: strip_timings(x) for k, x in v.items() if k not in TIMING_KEYS}
+        return {k: strip_timings(x) for k, x in v.items() if k not in TIMING_KEYS and not k.endswith("_ms")}
     if isinstance(v, list):
         return [strip_timings(x) for x in v]
     return v
