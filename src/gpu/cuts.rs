@@ -9,6 +9,7 @@
 //! except the output (no uniform steers a branch, `tests/suite/uniform_branches.rs`).
 
 use super::{Gpu, GpuError, readback, shaders};
+use shaders::compute_storage as storage;
 use wgpu::util::DeviceExt;
 
 /// Threads per workgroup (matches `@workgroup_size` in the shader).
@@ -72,15 +73,6 @@ impl Growing {
     }
 }
 
-fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { read_only }, has_dynamic_offset: false, min_binding_size: None },
-        count: None,
-    }
-}
-
 /// The pipeline, the static buffers and the per-frame ones.
 pub struct CutsPass {
     walk: wgpu::ComputePipeline,
@@ -117,16 +109,7 @@ impl CutsPass {
             entries: &[storage(0, true), storage(1, true), storage(2, true), storage(3, true), storage(4, true), storage(5, true), storage(6, false), storage(7, false)],
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("cuts eval"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
-        let make = |entry: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pl),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
+        let make = |entry: &str| shaders::compute_pipeline(device, &pl, &module, entry);
         let s = wgpu::BufferUsages::STORAGE;
         let init = |label: &str, bytes: &[u8], usage| device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: bytes, usage });
         let pad = |b: &[u8]| if b.is_empty() { vec![0u8; 16] } else { b.to_vec() };

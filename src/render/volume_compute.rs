@@ -10,6 +10,7 @@
 use super::RenderError;
 use super::occluder::Occluder;
 use crate::gpu::shaders;
+use shaders::compute_storage as storage;
 use super::volume::max_triangles;
 use glam::Vec3;
 use wgpu::util::DeviceExt;
@@ -47,15 +48,6 @@ pub struct GpuOccluder {
     capacity: u32,
 }
 
-fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { read_only }, has_dynamic_offset: false, min_binding_size: None },
-        count: None,
-    }
-}
-
 impl ComputeVolumes {
     /// Builds the pipelines.
     pub fn new(device: &wgpu::Device) -> Result<Self, RenderError> {
@@ -78,16 +70,7 @@ impl ComputeVolumes {
             ],
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("volume compute"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
-        let make = |entry: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pl),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
+        let make = |entry: &str| shaders::compute_pipeline(device, &pl, &module, entry);
         Ok(Self { silhouettes: make("silhouettes"), caps: make("caps"), triangles: make("triangles"), layout })
     }
 
