@@ -75,9 +75,9 @@ fn the_renderer_takes_the_turbidity_fitted_for_the_frame() {
     scene.estimator.sky.turbidity = Turbidity::Fit;
     // What is tested is that the renderer follows a fitted turbidity other than the declared one;
     // it needs a reference frame where the fit picks another. With the surface flags
-    // (`estimate::surface_flags`) the fit leaves out the entries the model cannot explain and picks
-    // the truth's T = 3, the declared one, on every reference frame; without them it picks T = 6 on
-    // frame 0, which is the case this test needs.
+    // (`estimate::surface_flags`) the fit picks the truth's T = 3, the declared one, on both
+    // reference frames (0 and 3); without them it picks T = 4 on frame 3 (`heliar estimate`,
+    // 2026-12-05), which is the case this test needs.
     scene.estimator.surface_flags = false;
     let ReferenceRun { refs, seq, lin, ray, statue, mut est } = ReferenceRun::new(&scene);
     let config = CompositorConfig::for_scene(&scene);
