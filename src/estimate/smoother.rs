@@ -28,10 +28,14 @@
 //!
 //! **Lamps.** Each lamp's scale `k` (RGB, [`LampSmoother`]) is smoothed the same way, with a
 //! drift of `q·k̄·√Δt` (`k̄` the larger of its largest channel and its prior scale, so a `k`
-//! fitted near zero can recover). A lamp's scale is a property of the luminaire and its
-//! exposure, so it is a good candidate for averaging; what breaks that is the lamp switching, so
-//! a frame where it is off resets the filter and the first fit after it starts afresh. Frames
-//! that do not fit it (unreached, held for separability, a dark frame) only predict.
+//! fitted near zero can recover) at its own rate `q`, `lamp_smoothing_rate_per_sqrt_s` (default
+//! [`crate::scene::settings::LAMP_SMOOTHING_RATE`], far slower than the daylight's). A lamp's
+//! scale is a property of the luminaire and its exposure, so it is a good candidate for
+//! averaging; what breaks that is the lamp switching, so a frame where it is off resets the
+//! filter and the first fit after it starts afresh, and a fit beyond Tukey's band of the
+//! prediction in any channel (a warm-up, a dimming step) restarts it from that fit. Frames that
+//! do not fit it (unreached, held for separability, a dark frame) only predict. The renderer
+//! takes the smoothed `k` (`run::outdoor::lamp_scales`).
 //!
 //! # Change detection
 //! [`ChangeDetector`] compares the smoothed lighting with the lighting that the last relight used.
