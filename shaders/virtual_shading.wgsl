@@ -46,13 +46,13 @@
 // VertexOut (common/object.wgsl) with the vertex's cut ambient, interpolated over the triangle.
 struct ShadeVertex {
     @invariant @builtin(position) position: vec4<f32>,
-    @location(0) world: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) uv: vec2<f32>,
-    @location(3) pa_n: vec4<f32>,
-    @location(4) pa_r: vec3<f32>,
-    @location(5) pd_n: vec3<f32>,
-    @location(6) pd_r: vec3<f32>,
+    @location(0) @interpolate(perspective, centroid) world: vec3<f32>,
+    @location(1) @interpolate(perspective, centroid) normal: vec3<f32>,
+    @location(2) @interpolate(perspective, centroid) uv: vec2<f32>,
+    @location(3) @interpolate(perspective, centroid) pa_n: vec4<f32>,
+    @location(4) @interpolate(perspective, centroid) pa_r: vec3<f32>,
+    @location(5) @interpolate(perspective, centroid) pd_n: vec3<f32>,
+    @location(6) @interpolate(perspective, centroid) pd_r: vec3<f32>,
 }
 
 // vs_object's invariant position arithmetic (the depth test against the prepass passes exactly

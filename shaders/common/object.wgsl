@@ -28,11 +28,19 @@ struct VertexIn {
     @location(2) uv: vec2<f32>,
 }
 
+// Centroid interpolation: with MSAA a fragment is shaded once per pixel, at the pixel's centre
+// unless told otherwise, even when the triangle covers only some of its samples. A face seen at a
+// grazing angle (the statue's pedestal top, one pixel row high) then takes its position, normal
+// and texture coordinate extrapolated far past its covered samples: at night the pedestal top's
+// pixels looked up the lamp's shadow map under the sphere and came out 3–4× too dark (dusk scene,
+// frame 4: object 7.1% → 3.4% relative RMSE against the path-traced reference; docs/measurements.md,
+// "Centroid interpolation"). Every struct that carries a surface's attributes to a shading
+// fragment shader uses it (`ShadeVertex` in virtual_shading.wgsl, `CutVertex` in vem/shading.wgsl).
 struct VertexOut {
     @invariant @builtin(position) position: vec4<f32>,
-    @location(0) world: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) uv: vec2<f32>,
+    @location(0) @interpolate(perspective, centroid) world: vec3<f32>,
+    @location(1) @interpolate(perspective, centroid) normal: vec3<f32>,
+    @location(2) @interpolate(perspective, centroid) uv: vec2<f32>,
 }
 
 // The same invariant position arithmetic as the depth prepass, so the shading pass's depth test

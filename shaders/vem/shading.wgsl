@@ -206,11 +206,11 @@ fn fs_receiver(in: ReceiverOut) -> FragOut {
 // triangle.
 struct CutVertex {
     @invariant @builtin(position) position: vec4<f32>,
-    @location(0) world: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) uv: vec2<f32>,
-    @location(3) e_n: vec4<f32>,
-    @location(4) e_r: vec3<f32>,
+    @location(0) @interpolate(perspective, centroid) world: vec3<f32>,
+    @location(1) @interpolate(perspective, centroid) normal: vec3<f32>,
+    @location(2) @interpolate(perspective, centroid) uv: vec2<f32>,
+    @location(3) @interpolate(perspective, centroid) e_n: vec4<f32>,
+    @location(4) @interpolate(perspective, centroid) e_r: vec3<f32>,
 }
 
 // vs_object's invariant position arithmetic, plus the vertex's light from the cuts.

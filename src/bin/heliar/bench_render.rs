@@ -103,6 +103,10 @@ pub struct RenderSweep {
     /// (`gen-courtyard --dusk-parts DIR`; `bench_render_parts`).
     #[arg(long, value_name = "DIR")]
     parts: Option<PathBuf>,
+    /// Write each setting's settled composite of every reference frame, cropped as the
+    /// reference (`<setting>_frame_NNN.exr`), into this folder, to look at where the error is
+    #[arg(long, value_name = "DIR")]
+    dump: Option<PathBuf>,
 }
 
 /// One reference frame: its footage, lighting, reference image and pixel classes.
@@ -157,7 +161,11 @@ pub fn run(a: RenderSweep) -> Result<()> {
         return crate::bench_render_parts::run(&scene, &ray, &frames, seq.truth.as_deref(), parts, options);
     }
     let values = knob_values(a.knob, &CompositorConfig::for_scene(&scene));
-    let rows = sweep(&scene, &ray, &frames, values, options)?;
+    if let Some(dir) = &a.dump {
+        heliar::io::guard::OutputGuard::new(Some(&scene.root), &[], a.force).check_dir(dir)?;
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let rows = sweep(&scene, &ray, &frames, values, options, a.dump.as_deref())?;
     report(&a, &rows, &frames)
 }
 
@@ -225,7 +233,7 @@ fn knob_values(knob: Knob, base: &CompositorConfig) -> Vec<(String, CompositorCo
 }
 
 /// Runs the compositor once per setting over the reference frames, with the lamps' `options`.
-fn sweep(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayScene>, frames: &[RefFrame], values: Vec<(String, CompositorConfig, u32)>, options: heliar::render::lamps::LampOptions) -> Result<Vec<Row>> {
+fn sweep(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayScene>, frames: &[RefFrame], values: Vec<(String, CompositorConfig, u32)>, options: heliar::render::lamps::LampOptions, dump: Option<&std::path::Path>) -> Result<Vec<Row>> {
     let mut gpus: Vec<(u32, Arc<Gpu>)> = Vec::new();
     let pb = frame_bar(values.len(), "sweep");
     let mut rows = Vec::new();
@@ -258,7 +266,11 @@ fn sweep(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayS
             // … then the frames the footage has before this one's re-trace completes …
             let n = settle(&mut comp, f)?;
             settle_frames = settle_frames.max(n);
-            let e = if n == 0 { lag } else { composite_error(&f.classes, &comp.render(&f.video, &f.lighting)?.0.image, &f.reference) };
+            let settled = if n == 0 { out.image } else { comp.render(&f.video, &f.lighting)?.0.image };
+            let e = if n == 0 { lag } else { composite_error(&f.classes, &settled, &f.reference) };
+            if let Some(dir) = dump {
+                dump_crop(&dir.join(format!("{label}_frame_{:03}.exr", f.index)), &settled, &f.classes)?;
+            }
             print_error(&label, f.index, "settled", &e);
             if n > 0 {
                 print_error(&label, f.index, &format!("lag (before the {n} frames of its re-trace)"), &lag);
@@ -300,6 +312,13 @@ fn sweep(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayS
     Ok(rows)
 }
 
+/// Writes the reference's crop of `image` to `path`.
+fn dump_crop(path: &std::path::Path, image: &heliar::io::image::LinearImage, classes: &Classes) -> Result<()> {
+    let c = classes.crop;
+    let crop = heliar::io::image::LinearImage::from_fn(c.width, c.height, |x, y| image.get(c.x + x, c.y + y));
+    crate::common::write_output(path, |tmp| Ok(crop.write_exr(tmp, heliar::io::image::ExrPrecision::Float)?))
+}
+
 /// The share of `bounce_rebuild_deg` by which the stale measurement's sun lags (just under the
 /// threshold, so that the frame with its own sun starts no re-trace).
 const STALE_SHARE: f64 = 0.999;
@@ -335,11 +354,13 @@ fn sun_towards(sun: glam::Vec3, other: glam::Vec3, deg: f64) -> glam::Vec3 {
 /// One line of a frame's error on stderr.
 fn print_error(label: &str, index: usize, what: &str, e: &CompositeError) {
     eprintln!(
-        "{label}, frame {index}, {what}: {:.2}% (object {:.2}%, shadow {:.2}%, {} px); object mean {:.4} against the reference's {:.4}, shadow mean {:.5} against {:.5}",
+        "{label}, frame {index}, {what}: {:.2}% (object {:.2}%, shadow {:.2}%, {} px; away from 1-px edges {:.2}%, {} px); object mean {:.4} against the reference's {:.4}, shadow mean {:.5} against {:.5}",
         100.0 * e.object_and_shadow,
         100.0 * e.object,
         100.0 * e.shadow,
         e.pixels,
+        100.0 * e.interior,
+        e.interior_pixels,
         e.object_mean,
         e.object_mean_reference,
         e.shadow_mean,

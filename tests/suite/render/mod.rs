@@ -9,6 +9,7 @@ mod lamp_ground;
 mod lamp_penumbra;
 mod lamps;
 mod lens_filter;
+mod night;
 mod report_order;
 mod robust;
 mod shading;
