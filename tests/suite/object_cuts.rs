@@ -200,13 +200,11 @@ fn a_moved_frame_takes_ambient_and_contact_shadow_from_the_cuts() {
     }
 }
 
-/// Relative RMSE allowed over the statue's pixels against the traced transfer: measured 5.6%
-/// (the re-trace path's probes × ambient occlusion: 4.5%). The sun term is common; the rest is
-/// the per-vertex ambient's two known errors (docs/measurements.md, "Moving objects"): the
-/// pedestal's top is two triangles, so the contact shadow under the sphere falls between its
-/// vertices, and the cuts leave out the light the sunlit pedestal reflects onto the sphere's
-/// underside (the paper's Eq. 3 has no interreflection). 6.5% leaves room for the Monte Carlo
-/// noise of the reference.
-const OBJECT_TOLERANCE: f64 = 0.065;
+/// Relative RMSE allowed over the statue's pixels against the traced transfer: issue 15 §3's 5%.
+/// Measured 2.3% (debug build, lavapipe) since the light the statue reflects onto itself
+/// (`cuts::self_bounce`) and the split long edges (`geometry::subdivide`); 5.6% before them, when
+/// the pedestal's two-triangle top put the contact shadow between its vertices and the cuts left
+/// out the sunlit pedestal's light on the sphere's underside.
+const OBJECT_TOLERANCE: f64 = 0.05;
 /// Relative RMSE allowed over the contact region (issue 15 §3 asks ≤ 8%).
 const CONTACT_TOLERANCE: f64 = 0.08;

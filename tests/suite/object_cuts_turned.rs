@@ -89,10 +89,10 @@ fn a_turned_frame_takes_ambient_and_contact_shadow_from_the_cuts() {
 }
 
 /// Relative RMSE allowed over the statue's pixels against the traced transfer of the statue
-/// placed and turned there: the translated case's bound (`object_cuts`, 6.5%, whose known
-/// errors, the pedestal's two-triangle top and the missing interreflection, are the same here).
-/// Measured: 4.9% at 90°, 4.4% at 37° (translation alone: 4.9%).
-const OBJECT_TOLERANCE: f64 = 0.065;
+/// placed and turned there: issue 15 §3's 5%, as for translation (`object_cuts`). Measured 2.4%
+/// at 90° and 3.0% at 37° with the statue's light on itself and the split edges (4.9% and 4.4%
+/// before them).
+const OBJECT_TOLERANCE: f64 = 0.05;
 /// Relative RMSE allowed over the contact region (issue 15 §3 asks ≤ 8%). Measured: 6.3% at 90°,
 /// 6.9% at 37° (translation alone: 6.2%); the cuts darken the region a little more than the
 /// trace (mean 0.105 against 0.085 at 90°), as for translation. Times measured on the same run
