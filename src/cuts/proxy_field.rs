@@ -11,6 +11,12 @@
 //! beyond it. A lookup interpolates the eight neighbouring cuts trilinearly (§V-A.4). A point
 //! outside the box is clamped onto it and reported as [`FieldRegion::OutsideBox`] so the caller
 //! can warn; a lookup never gives NaN.
+//!
+//! Grid points that fall inside the proxy's solids (at the `[irradiance]` spacing of 1 m the
+//! courtyard's points at x = −3 m lie inside its 0.4 m wall) see nothing, and a lookup beside
+//! the wall interpolates toward them; finer spacings (`heliar precompute --proxy-spacing`) trade
+//! that for the other errors measured in docs/measurements.md, "The static case and the wall's
+//! sky shadow".
 
 use super::cut::{Cut, check_threshold};
 use super::packed::{PackedCuts, ValueEncoding};

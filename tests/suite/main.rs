@@ -29,6 +29,7 @@ mod live_drag;
 mod object_cuts;
 mod object_cuts_far;
 mod object_cuts_gpu;
+mod object_cuts_static;
 mod object_cuts_turned;
 mod object_cuts_two;
 mod object_motion;
