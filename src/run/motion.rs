@@ -414,12 +414,36 @@ impl MovingObjects {
                             report.skip(pass::OBJECT_CUTS, format!("{}: {why}", o.name));
                         }
                     }
+                    for (o, p) in self.objects.iter().zip(c.product_uses()) {
+                        if let Some(why) = product_note(p) {
+                            report.skip(pass::OBJECT_CUTS, format!("{}: {why}", o.name));
+                        }
+                    }
                 }
                 CutOutcome::Skipped(reason) => report.skip(pass::VISIBILITY_CUTS, reason.clone()),
             },
             Err(reason) => report.skip(pass::VISIBILITY_CUTS, reason.clone()),
         }
     }
+}
+
+/// What an object's vertices did with their visibility products this frame
+/// (`crate::cuts::products`), for the report; `None` when nothing was kept or left out.
+fn product_note(p: &crate::cuts::products::ProductUse) -> Option<String> {
+    let mut out = (p.reused > 0).then(|| {
+        format!(
+            "{} of {} vertices evaluated sum their kept visibility product (SVC × Π VCF × proxy field) under the new lighting: it did not move and no moved object's cut field reaches them",
+            p.reused,
+            p.reused + p.walked
+        )
+    });
+    if let Some(n) = &p.not_kept {
+        out = Some(match out {
+            Some(o) => format!("{o}; {n}"),
+            None => n.clone(),
+        });
+    }
+    out
 }
 
 /// Why an object's per-vertex ambient was not (all) evaluated this frame, for the report
