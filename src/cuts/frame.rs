@@ -54,7 +54,7 @@ use super::packed::CutView;
 use super::rotate::{LeafIndex, LeafRemap, Pose, relative};
 use super::tree::{DirectionTree, node_index};
 use super::vcf::FieldRegion;
-use super::products::VertexProduct;
+use super::products::{VertexProduct, walk_into};
 use super::walk::product_for_each;
 use super::{Cut, CutsError};
 use crate::io::image::LinearImage;
@@ -347,19 +347,21 @@ impl FrameCuts {
         views.push(obj.svc.cuts.view(v));
         views.extend(others.iter().map(|(_, c)| c.view()));
         let levels = self.tree.levels();
-        let (mut ids, mut values) = (Vec::new(), Vec::new());
         let record = |ids: &mut Vec<u16>, values: &mut Vec<f32>, h: u32, first: u32, value: f32| {
             if value != 0.0 {
                 ids.push(node_index(levels, h, first) as u16);
                 values.push(value);
             }
         };
-        product_for_each(&views, |h, first, value| record(&mut ids, &mut values, h, first, value))?;
-        let sky_at = ids.len();
-        if let Some(p) = &proxy {
-            views.push(p.view());
-            product_for_each(&views, |h, first, value| record(&mut ids, &mut values, h, first, value))?;
-        }
+        let (ids, values, sky_at) = walk_into(|ids, values| {
+            product_for_each(&views, |h, first, value| record(ids, values, h, first, value))?;
+            let sky_at = ids.len();
+            if let Some(p) = &proxy {
+                views.push(p.view());
+                product_for_each(&views, |h, first, value| record(ids, values, h, first, value))?;
+            }
+            Ok::<_, CutsError>(sky_at)
+        })?;
         Ok((VertexProduct::new(ids, values, proxy.is_some().then_some(sky_at), outside), others))
     }
 

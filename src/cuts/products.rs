@@ -31,6 +31,7 @@
 //!   hash map. Past the budget (default [`DEFAULT_BUDGET_BYTES`]) an object's products or further
 //!   receivers' are not kept, and the report says so with the bytes needed.
 
+use std::cell::RefCell;
 use std::collections::HashMap;
 
 use super::rotate::Pose;
@@ -55,6 +56,24 @@ impl Default for ProductBudget {
 /// headers (16).
 const PER_PRODUCT_BYTES: usize = 56;
 
+thread_local! {
+    /// Per thread, the buffers a product is walked into before it is copied out at its size.
+    static SCRATCH: RefCell<(Vec<u16>, Vec<f32>)> = const { RefCell::new((Vec::new(), Vec::new())) };
+}
+
+/// Runs `fill` on this thread's scratch buffers (emptied first) and returns them copied into
+/// slices of their exact size (one allocation each, none while walking), with `fill`'s result.
+pub(super) fn walk_into<R, E>(fill: impl FnOnce(&mut Vec<u16>, &mut Vec<f32>) -> Result<R, E>) -> Result<(Box<[u16]>, Box<[f32]>, R), E> {
+    SCRATCH.with(|cell| {
+        let mut guard = cell.borrow_mut();
+        let (ids, values) = &mut *guard;
+        ids.clear();
+        values.clear();
+        let r = fill(ids, values)?;
+        Ok((Box::from(&ids[..]), Box::from(&values[..]), r))
+    })
+}
+
 /// A vertex's product cuts (module docs): non-zero nodes in the walk's order.
 #[derive(Clone, Debug, PartialEq)]
 pub struct VertexProduct {
@@ -68,8 +87,8 @@ pub struct VertexProduct {
 
 impl VertexProduct {
     /// The surface nodes `ids[..sky_at]`, then the sky's (`None`: the same as the surface's).
-    pub(super) fn new(ids: Vec<u16>, values: Vec<f32>, sky_at: Option<usize>, outside: bool) -> Self {
-        Self { ids: ids.into_boxed_slice(), values: values.into_boxed_slice(), sky_at: sky_at.map(|s| s as u32), outside }
+    pub(super) fn new(ids: Box<[u16]>, values: Box<[f32]>, sky_at: Option<usize>, outside: bool) -> Self {
+        Self { ids, values, sky_at: sky_at.map(|s| s as u32), outside }
     }
 
     /// `SVC × Π VCF`: heap ids and values.
@@ -204,11 +223,16 @@ impl ReceiverProducts {
             let moved: Vec<usize> = (0..poses.len()).filter(|&b| !same_pose(&self.poses[b], &poses[b])).collect();
             if !moved.is_empty() {
                 let old = std::mem::take(&mut self.poses);
-                self.kept.retain(|k, _| {
+                let mut dropped = 0;
+                self.kept.retain(|k, p| {
                     let x = key_point(k);
-                    !moved.iter().any(|&b| reaches(b, &old[b], x) || reaches(b, &poses[b], x))
+                    let keep = !moved.iter().any(|&b| reaches(b, &old[b], x) || reaches(b, &poses[b], x));
+                    if !keep {
+                        dropped += p.bytes();
+                    }
+                    keep
                 });
-                self.bytes = self.kept.values().map(ReceiverProduct::bytes).sum();
+                self.bytes -= dropped;
             }
         }
         self.poses = poses.to_vec();

@@ -28,7 +28,7 @@
 
 use super::frame::{FrameCuts, UnitLighting};
 use super::lighting::ReceiverWeights;
-use super::products::{ReceiverKey, ReceiverProduct, ReceiverProductUse, ReceiverProducts, receiver_key};
+use super::products::{ReceiverKey, ReceiverProduct, ReceiverProductUse, ReceiverProducts, receiver_key, walk_into};
 use super::tree::node_index;
 use super::walk::product_for_each;
 use super::rotate::{LeafRemap, Pose, relative};
@@ -206,17 +206,19 @@ impl ReceiverCuts {
     /// The product of `cuts` in object `frame`'s frame, its non-zero nodes (`super::products`).
     fn product_of(&self, frame: Option<usize>, cuts: &[Cut]) -> Result<ReceiverProduct, CutsError> {
         let levels = self.cuts.tree.levels();
-        let (mut ids, mut values) = (Vec::new(), Vec::new());
-        if !cuts.is_empty() {
-            let views: Vec<_> = cuts.iter().map(Cut::view).collect();
-            product_for_each(&views, |h, first, v| {
-                if v != 0.0 {
-                    ids.push(node_index(levels, h, first) as u16);
-                    values.push(v);
-                }
-            })?;
-        }
-        Ok(ReceiverProduct { frame, occluded: !cuts.is_empty(), ids: ids.into_boxed_slice(), values: values.into_boxed_slice() })
+        let (ids, values, ()) = walk_into(|ids, values| {
+            if !cuts.is_empty() {
+                let views: Vec<_> = cuts.iter().map(Cut::view).collect();
+                product_for_each(&views, |h, first, v| {
+                    if v != 0.0 {
+                        ids.push(node_index(levels, h, first) as u16);
+                        values.push(v);
+                    }
+                })?;
+            }
+            Ok::<_, CutsError>(())
+        })?;
+        Ok(ReceiverProduct { frame, occluded: !cuts.is_empty(), ids, values })
     }
 
     /// The pair remaps and the weights pushed into every turned object's frame.
