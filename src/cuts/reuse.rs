@@ -23,6 +23,13 @@
 //!   light it reflects clustered in another object's frame while that object's rotation is the
 //!   same.
 //!
+//! - **Products** (`super::products`). Where the value cannot be kept because the lighting or the
+//!   eye changed (every frame of the captured-VEM mode, a frame whose sun planes moved), a vertex
+//!   whose object did not move and that no object moved since reaches keeps its *product cut*
+//!   and sums it with the new lighting, bit for bit the fresh value; the others walk theirs
+//!   again. [`AmbientCache::product_uses`] says per object how many did which, and why a product
+//!   was not kept (its budget).
+//!
 //! [`ObjectUse`] says per object what was done, for the pass report.
 
 use super::bounce::{Bounce, ObjectRadiance, add_rows};
