@@ -464,3 +464,20 @@ fn object_cuts_note(u: ObjectUse) -> Option<String> {
         ObjectUse::Shown { .. } => None,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cuts::products::ProductUse;
+
+    /// The pass report names the vertices that summed their kept product and why, and a product
+    /// not kept for its budget; nothing when every product was walked and kept.
+    #[test]
+    fn the_report_says_which_vertices_reused_their_visibility_product() {
+        let note = product_note(&ProductUse { reused: 3000, walked: 1060, not_kept: None }).unwrap();
+        assert!(note.starts_with("3000 of 4060 vertices evaluated sum their kept visibility product") && note.contains("did not move"), "{note}");
+        assert_eq!(product_note(&ProductUse { reused: 0, walked: 4060, not_kept: None }), None);
+        let over = product_note(&ProductUse { reused: 0, walked: 10, not_kept: Some("its products need 900 bytes and the budget of 0 bytes has 0 left: not kept for the next frame".into()) }).unwrap();
+        assert!(over.contains("budget"), "{over}");
+    }
+}

@@ -17,10 +17,10 @@
 
 use super::Observer;
 use super::sink::Thumbs;
-use super::vem_cuts::VemCuts;
+pub use super::vem_cuts::CutRecord;
+use super::vem_cuts::{VemCuts, product_records};
 use super::vem_motion::{MotionRecord, VemMotion};
 use super::vem_summary::{ConfigOut, ProductTotal, RenderSummary, SkipCount};
-use crate::cuts::products::ProductUse;
 use crate::gpu::{Gpu, GpuOptions};
 use crate::io::frames::Frame;
 use crate::io::image::{LinearImage, Rgb8};
@@ -194,59 +194,6 @@ pub struct FrameRender {
     pub report: VemReport,
 }
 
-/// What the visibility cuts did in a frame (`--object-light cuts`).
-#[derive(Clone, Debug, Serialize)]
-pub struct CutRecord {
-    /// The lighting clustered, the objects' vertices and the receivers evaluated, ms (CPU,
-    /// before the render; not in `timings.total_ms`).
-    pub cuts_ms: f64,
-    /// Receiver pixels near an object whose ratio came from the cuts.
-    pub receivers: usize,
-    /// Of those, the receivers whose visibility product (Π VCF) was kept from the last frame
-    /// (no moved object reaches them) and summed under this frame's light
-    /// (`crate::cuts::products`).
-    pub receivers_reused_product: usize,
-    /// Per object (scene order), what its vertices did with their visibility products, and why.
-    pub products: Vec<ProductRecord>,
-    /// Bytes of the visibility products kept for the next frame.
-    pub products_kept_bytes: usize,
-}
-
-/// One object's visibility products in a frame (`--object-light cuts`, `crate::cuts::products`).
-#[derive(Clone, Debug, Serialize)]
-pub struct ProductRecord {
-    /// The object (its file name).
-    pub object: String,
-    /// Vertices whose product SVC × Π VCF × proxy field was kept from the last frame and summed
-    /// under this frame's light.
-    pub reused: usize,
-    /// Vertices whose product was walked again.
-    pub walked: usize,
-    /// Why.
-    pub reason: String,
-}
-
-/// Why `u`'s vertices reused their products or not (`moved`: the object moved this frame).
-fn product_reason(u: &ProductUse, moved: bool, first: bool) -> String {
-    let total = u.reused + u.walked;
-    let mut why = if first {
-        "first frame: every product walked".to_owned()
-    } else if moved {
-        "it moved: every product walked".to_owned()
-    } else if u.walked == 0 {
-        format!("it did not move and no moved object's cut field reaches it: all {total} vertices sum their kept product under the new VEM frame")
-    } else if u.reused == 0 {
-        "it did not move, but a moved object's cut field reaches every vertex (at its old or new pose), or nothing was kept: every product walked".to_owned()
-    } else {
-        format!("it did not move: {} of {total} vertices sum their kept product; {} walked again where a moved object's cut field reaches them (at its old or new pose)", u.reused, u.walked)
-    };
-    if let Some(n) = &u.not_kept {
-        why.push_str("; ");
-        why.push_str(n);
-    }
-    why
-}
-
 /// The renderer's side of a VEM run over a scene: backgrounds, GPU render, PNG frames, the
 /// contact sheet and the run's render summary.
 pub struct VemScene {
@@ -354,18 +301,7 @@ impl VemScene {
                 self.overlay.set_cut_light(&f.vertices, &f.ratio);
                 let cuts_ms = t.elapsed().as_secs_f64() * 1e3;
                 self.cut_ms.push(cuts_ms);
-                let moved = |name: &str| motion.as_ref().is_some_and(|m| m.moved.iter().any(|n| n == name));
-                let products = self
-                    .scene
-                    .virtual_objects
-                    .iter()
-                    .zip(&f.products)
-                    .map(|(o, u)| {
-                        let object = o.path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| o.path.display().to_string());
-                        let reason = product_reason(u, moved(&object), first);
-                        ProductRecord { object, reused: u.reused, walked: u.walked, reason }
-                    })
-                    .collect::<Vec<ProductRecord>>();
+                let products = product_records(&self.scene, &f, motion.as_ref().map_or(&[][..], |m| &m.moved[..]), first);
                 for p in &products {
                     self.product_totals.entry(p.object.clone()).or_default().add(p.reused, p.walked, f.receiver_products.reused);
                 }

@@ -44,6 +44,7 @@ use crate::io::image::LinearImage;
 use crate::scene::Scene;
 use crate::vem::polar::PolarMap;
 use glam::{Mat4, Vec3};
+use serde::Serialize;
 use std::sync::Arc;
 
 /// Receivers within this many bounding radii of an object's centre get their visibility from
@@ -179,6 +180,75 @@ impl VemCuts {
         };
         Ok(VemCutFrame { vertices, ratio, receivers_evaluated: near.len(), products, receiver_products, kept_bytes })
     }
+}
+
+/// What the visibility cuts did in a frame (`--object-light cuts`).
+#[derive(Clone, Debug, Serialize)]
+pub struct CutRecord {
+    /// The lighting clustered, the objects' vertices and the receivers evaluated, ms (CPU,
+    /// before the render; not in `timings.total_ms`).
+    pub cuts_ms: f64,
+    /// Receiver pixels near an object whose ratio came from the cuts.
+    pub receivers: usize,
+    /// Of those, the receivers whose visibility product (Π VCF) was kept from the last frame
+    /// (no moved object reaches them) and summed under this frame's light
+    /// (`crate::cuts::products`).
+    pub receivers_reused_product: usize,
+    /// Per object (scene order), what its vertices did with their visibility products, and why.
+    pub products: Vec<ProductRecord>,
+    /// Bytes of the visibility products kept for the next frame.
+    pub products_kept_bytes: usize,
+}
+
+/// One object's visibility products in a frame (`--object-light cuts`, `crate::cuts::products`).
+#[derive(Clone, Debug, Serialize)]
+pub struct ProductRecord {
+    /// The object (its file name).
+    pub object: String,
+    /// Vertices whose product SVC × Π VCF × proxy field was kept from the last frame and summed
+    /// under this frame's light.
+    pub reused: usize,
+    /// Vertices whose product was walked again.
+    pub walked: usize,
+    /// Why.
+    pub reason: String,
+}
+
+/// Why `u`'s vertices reused their products or not (`moved`: the object moved this frame).
+fn product_reason(u: &ProductUse, moved: bool, first: bool) -> String {
+    let total = u.reused + u.walked;
+    let mut why = if first {
+        "first frame: every product walked".to_owned()
+    } else if moved {
+        "it moved: every product walked".to_owned()
+    } else if u.walked == 0 {
+        format!("it did not move and no moved object's cut field reaches it: all {total} vertices sum their kept product under the new VEM frame")
+    } else if u.reused == 0 {
+        "it did not move, but a moved object's cut field reaches every vertex (at its old or new pose), or nothing was kept: every product walked".to_owned()
+    } else {
+        format!("it did not move: {} of {total} vertices sum their kept product; {} walked again where a moved object's cut field reaches them (at its old or new pose)", u.reused, u.walked)
+    };
+    if let Some(n) = &u.not_kept {
+        why.push_str("; ");
+        why.push_str(n);
+    }
+    why
+}
+
+/// Per object of `scene` (scene order), what `frame` did with its vertices' visibility products
+/// and why (`moved`: the objects' file names that moved this frame; `first`: the run's first
+/// frame).
+pub fn product_records(scene: &Scene, frame: &VemCutFrame, moved: &[String], first: bool) -> Vec<ProductRecord> {
+    scene
+        .virtual_objects
+        .iter()
+        .zip(&frame.products)
+        .map(|(o, u)| {
+            let object = o.path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| o.path.display().to_string());
+            let reason = product_reason(u, moved.contains(&object), first);
+            ProductRecord { object, reused: u.reused, walked: u.walked, reason }
+        })
+        .collect()
 }
 
 #[cfg(test)]
