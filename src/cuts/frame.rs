@@ -63,6 +63,7 @@ use super::packed::CutView;
 use super::rotate::{LeafIndex, LeafRemap, Pose, relative};
 use super::tree::{DirectionTree, node_index};
 use super::vcf::FieldRegion;
+use super::products::{VertexProduct, walk_into};
 use super::walk::product_for_each;
 use super::{Cut, CutsError};
 use crate::io::image::LinearImage;
@@ -150,20 +151,17 @@ impl UnitLighting {
     }
 }
 
-/// `(E_n, E_r)` of each of `lights` over the product of `views` (module docs).
-fn irradiance_sums(tree: &DirectionTree, lights: &[&ClusteredLighting], views: &[CutView], n: Vec3, r: Vec3) -> Result<Vec<(Vec3, Vec3)>, CutsError> {
+/// `(E_n, E_r)` of each of `lights` over a product cut's non-zero nodes `(heap ids, values)` in
+/// the walk's order (module docs).
+fn product_sums(tree: &DirectionTree, lights: &[&ClusteredLighting], (ids, values): (&[u16], &[f32]), n: Vec3, r: Vec3) -> Vec<(Vec3, Vec3)> {
     let mut out = vec![(Vec3::ZERO, Vec3::ZERO); lights.len()];
     if lights.is_empty() {
-        return Ok(out);
+        return out;
     }
-    let levels = tree.levels();
-    product_for_each(views, |h, first, value| {
-        if value == 0.0 {
-            return;
-        }
-        add_node(&mut out, tree, lights, node_index(levels, h, first), value, n, r);
-    })?;
-    Ok(out)
+    for (&k, &value) in ids.iter().zip(values) {
+        add_node(&mut out, tree, lights, k as usize, value, n, r);
+    }
+    out
 }
 
 /// Adds node `k`'s light of each of `lights` times `weight` to `out`: about the normal `n`, and
@@ -325,10 +323,23 @@ impl FrameCuts {
         Ok((x, n_local, n, (2.0 * n.dot(view) * n - view).normalize_or(n)))
     }
 
-    /// One vertex of [`Self::object_ambient_posed`], and whether its proxy lookup was clamped.
+    /// One vertex of [`Self::object_ambient_posed`], and whether its proxy lookup was clamped:
+    /// its product cuts ([`Self::vertex_product`]) summed against the lighting
+    /// ([`Self::ambient_from_product`]).
     pub(super) fn vertex_ambient(&self, frame: &ObjectFrame, poses: &[Pose], object: usize, v: usize, eye: Vec3) -> Result<(VertexAmbient, bool, Occluders), CutsError> {
-        let (obj, pose) = (&self.cuts.objects[object], poses[object]);
-        let (x, n_local, n, r) = self.vertex_geometry(poses, object, v, eye)?;
+        let (product, others) = self.vertex_product(frame, poses, object, v)?;
+        let amb = self.ambient_from_product(frame, poses, object, v, eye, &product)?;
+        Ok((amb, product.outside, others))
+    }
+
+    /// Vertex `v`'s product cuts (Eq. 4) in its object's frame, as the walk emits them (its
+    /// non-zero nodes, `super::products`): `SVC × Π VCF` for the surface lighting and, with a
+    /// proxy field, `× proxy` for the sky; with the other objects' fields it used. They depend on
+    /// the poses only (the vertex's object's and those of the objects that reach it), not on the
+    /// lighting nor the eye.
+    pub(super) fn vertex_product(&self, frame: &ObjectFrame, poses: &[Pose], object: usize, v: usize) -> Result<(VertexProduct, Occluders), CutsError> {
+        let obj = &self.cuts.objects[object];
+        let (x, _, n, _) = self.vertex_geometry(poses, object, v, Vec3::ZERO)?;
         let others = self.occluders(&frame.others, poses, x, n, object)?;
         let (proxy, outside) = match &self.cuts.proxy {
             Some(field) => {
@@ -341,21 +352,43 @@ impl FrameCuts {
             }
             None => (None, false),
         };
-        // From here on, the object's frame: its normal as stored, `r` turned into it.
-        let (n, r) = (n_local, pose.local_dir(r));
-        let lighting = &*frame.lighting;
         let mut views: Vec<CutView> = Vec::with_capacity(others.len() + 2);
         views.push(obj.svc.cuts.view(v));
         views.extend(others.iter().map(|(_, c)| c.view()));
+        let levels = self.tree.levels();
+        let record = |ids: &mut Vec<u16>, values: &mut Vec<f32>, h: u32, first: u32, value: f32| {
+            if value != 0.0 {
+                ids.push(node_index(levels, h, first) as u16);
+                values.push(value);
+            }
+        };
+        let (ids, values, sky_at) = walk_into(|ids, values| {
+            product_for_each(&views, |h, first, value| record(ids, values, h, first, value))?;
+            let sky_at = ids.len();
+            if let Some(p) = &proxy {
+                views.push(p.view());
+                product_for_each(&views, |h, first, value| record(ids, values, h, first, value))?;
+            }
+            Ok::<_, CutsError>(sky_at)
+        })?;
+        Ok((VertexProduct::new(ids, values, proxy.is_some().then_some(sky_at), outside), others))
+    }
+
+    /// Vertex `v`'s ambient from its product cuts under `frame`'s lighting, seen from `eye`:
+    /// the sums of Eqs. 3–4 over the product's nodes in the walk's order, the same floating-point
+    /// operations in the same order as summing during the walk (`super::products`).
+    pub(super) fn ambient_from_product(&self, frame: &ObjectFrame, poses: &[Pose], object: usize, v: usize, eye: Vec3, product: &VertexProduct) -> Result<VertexAmbient, CutsError> {
+        let (_, n_local, _, r) = self.vertex_geometry(poses, object, v, eye)?;
+        // The object's frame: its normal as stored, `r` turned into it.
+        let (n, r) = (n_local, poses[object].local_dir(r));
+        let lighting = &*frame.lighting;
         let surface: Vec<&ClusteredLighting> = [lighting.surface_pa.as_ref(), lighting.surface_pd.as_ref()].into_iter().flatten().collect();
-        let surf = irradiance_sums(&self.tree, &surface, &views, n, r)?;
+        let surf = product_sums(&self.tree, &surface, product.surface(), n, r);
         let zero = (Vec3::ZERO, Vec3::ZERO);
         let surf_pa = if lighting.surface_pa.is_some() { surf[0] } else { zero };
         let surf_pd = if lighting.surface_pd.is_some() { surf[surf.len() - 1] } else { zero };
-        views.extend(proxy.iter().map(Cut::view));
-        let sky = irradiance_sums(&self.tree, &[&lighting.sky_pa], &views, n, r)?[0];
-        let amb = [rgbw(sky.0 + surf_pa.0, 1.0), rgbw(sky.1 + surf_pa.1, 0.0), rgbw(surf_pd.0, 0.0), rgbw(surf_pd.1, 0.0)];
-        Ok((amb, outside, others))
+        let sky = product_sums(&self.tree, &[&lighting.sky_pa], product.sky(), n, r)[0];
+        Ok([rgbw(sky.0 + surf_pa.0, 1.0), rgbw(sky.1 + surf_pa.1, 0.0), rgbw(surf_pd.0, 0.0), rgbw(surf_pd.1, 0.0)])
     }
 
     /// The receivers' visibility for the objects at `translations` under `lighting`'s sky.

@@ -216,6 +216,12 @@ impl ReceiverWeights {
         self.nodes[0]
     }
 
+    /// The weight of heap node `index`.
+    #[inline]
+    pub fn node(&self, index: usize) -> f32 {
+        self.nodes[index]
+    }
+
     /// The per-leaf weights.
     pub fn leaves(&self) -> &[f32] {
         &self.nodes[(1usize << self.levels) - 1..]

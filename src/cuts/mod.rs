@@ -45,6 +45,10 @@
 //!   motion's still frames equal the static object's bit for bit). Measured on the two statues of
 //!   `tests/suite/object_cuts_two.rs` (docs/measurements.md, "Where the two statues' error was"
 //!   and "Self-bounce and split edges on by default"): 6.3% → 3.7% over both statues.
+//! - **Products kept between frames** ([`products`]): a vertex's or a receiver's product cut
+//!   depends on the poses only, so an object that did not move keeps it (while no moved object
+//!   reaches the point) and a frame whose lighting changed sums it again, bit for bit as a fresh
+//!   walk.
 //! - **Files and sweeps**: [`mod@file`] stores a scene's cuts with a hash of their inputs;
 //!   [`sweep`] measures error against cost.
 //! - **Frames** ([`frame`], [`receivers`]): the objects' ambient per vertex and the receivers'
@@ -89,6 +93,7 @@ pub mod flat;
 pub mod frame;
 pub mod lighting;
 pub mod packed;
+pub mod products;
 pub mod proxy_field;
 pub mod receivers;
 pub mod reuse;

@@ -27,13 +27,16 @@
 //! values bit for bit (`render::compositor`'s `cut_cache`).
 
 use super::frame::{FrameCuts, UnitLighting};
-use super::lighting::{ReceiverWeights, sky_visibility};
+use super::lighting::ReceiverWeights;
+use super::products::{ReceiverKey, ReceiverProduct, ReceiverProductUse, ReceiverProducts, receiver_key, walk_into};
+use super::tree::node_index;
+use super::walk::product_for_each;
 use super::rotate::{LeafRemap, Pose, relative};
 use super::{Cut, CutsError};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::collections::HashMap;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 /// The real receivers' sky visibility with the objects at one frame's poses.
 #[derive(Clone, Debug)]
@@ -41,6 +44,9 @@ pub struct ReceiverCuts {
     cuts: FrameCuts,
     lighting: Arc<UnitLighting>,
     poses: Vec<Pose>,
+    /// The receivers' products kept between frames (`super::products`), shared with the frame
+    /// loop; `None`: every receiver asked for is walked.
+    products: Option<Arc<Mutex<ReceiverProducts>>>,
 }
 
 /// A receiver normal's key in the weights cache: its exact bits (a proxy's receivers take
@@ -63,7 +69,14 @@ struct Remaps {
 impl ReceiverCuts {
     /// The receivers of `cuts` under `lighting`'s sky with the objects at `poses`.
     pub fn new(cuts: FrameCuts, lighting: Arc<UnitLighting>, poses: Vec<Pose>) -> Self {
-        Self { cuts, lighting, poses }
+        Self { cuts, lighting, poses, products: None }
+    }
+
+    /// The same, keeping the receivers' products in `store` between frames (`super::products`);
+    /// the values are the same bit for bit.
+    pub fn with_products(mut self, store: Arc<Mutex<ReceiverProducts>>) -> Self {
+        self.products = Some(store);
+        self
     }
 
     /// The share of sky light the objects leave at each `(point, normal)` (world frame), in
@@ -77,6 +90,36 @@ impl ReceiverCuts {
     /// index out of range gives 1). A receiver's value depends on its own point and normal only:
     /// the weights are per exact normal, so asking for fewer receivers changes none of them.
     pub fn visibility_of(&self, surfaces: &[(Vec3, Vec3)], which: &[usize]) -> Vec<f32> {
+        match &self.products {
+            Some(store) => {
+                let mut store = store.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                self.visibility_reusing(surfaces, which, &mut store)
+            }
+            None => self.evaluate(surfaces, which, None).0,
+        }
+    }
+
+    /// [`Self::visibility_of`], summing the products kept in `store` where no object that moved
+    /// since reaches the receiver, walking (and keeping, within the budget) the others
+    /// (`super::products`); equal bit for bit. `store.last` counts what was done.
+    pub fn visibility_reusing(&self, surfaces: &[(Vec3, Vec3)], which: &[usize], store: &mut ReceiverProducts) -> Vec<f32> {
+        store.advance(&self.poses, |b, pose, x| self.cuts.cuts.objects.get(b).is_some_and(|o| !o.vcf.beyond_reach(pose.local_point(x))));
+        let (values, fresh) = self.evaluate(surfaces, which, Some(store));
+        let mut over = 0;
+        let walked = fresh.len();
+        for (key, p) in fresh {
+            if !store.keep(key, p) {
+                over += 1;
+            }
+        }
+        store.last = ReceiverProductUse { reused: which.len() - walked, walked, over_budget: over };
+        values
+    }
+
+    /// The receivers `which`, with the products of `kept` where it has them; returns the values
+    /// and the products walked afresh.
+    #[allow(clippy::type_complexity)]
+    fn evaluate(&self, surfaces: &[(Vec3, Vec3)], which: &[usize], kept: Option<&ReceiverProducts>) -> (Vec<f32>, Vec<(ReceiverKey, ReceiverProduct)>) {
         let mut normals: HashMap<NormalKey, Vec3> = HashMap::new();
         for (_, n) in which.iter().filter_map(|&i| surfaces.get(i)) {
             normals.entry(normal_key(*n)).or_insert(*n);
@@ -86,18 +129,39 @@ impl ReceiverCuts {
         let weights: HashMap<NormalKey, ReceiverWeights> = list.into_par_iter().filter_map(|(k, n)| ReceiverWeights::new(tree, sky, n).ok().map(|w| (k, w))).collect();
         let turned = self.poses.iter().any(|p| p.rotation.is_some());
         let remaps = turned.then(|| self.remaps(&weights));
-        which
+        let rows: Vec<(f32, Option<(ReceiverKey, ReceiverProduct)>)> = which
             .par_iter()
             .map(|&i| {
-                let Some((x, n)) = surfaces.get(i) else { return 1.0 };
-                let Some(w) = weights.get(&normal_key(*n)) else { return 1.0 };
-                let v = match &remaps {
-                    None => self.translated_visibility(w, *x, *n),
-                    Some(remaps) => self.turned_visibility(remaps, w, normal_key(*n), *x, *n),
+                let Some((x, n)) = surfaces.get(i) else { return (1.0, None) };
+                let Some(w) = weights.get(&normal_key(*n)) else { return (1.0, None) };
+                let key = receiver_key(*x, *n);
+                let value = |product: &ReceiverProduct| {
+                    let weights = match (&remaps, product.frame) {
+                        (Some(remaps), Some(f)) if self.poses[f].rotation.is_some() => remaps.weights.get(&(normal_key(*n), f)).unwrap_or(w),
+                        _ => w,
+                    };
+                    sky_visibility_of(weights, product).clamp(0.0, 1.0)
                 };
-                v.map_or(1.0, |v| v.clamp(0.0, 1.0))
+                if let Some(p) = kept.and_then(|k| k.kept.get(&key)) {
+                    return (value(p), None);
+                }
+                let fresh = match &remaps {
+                    None => self.translated_product(*x, *n),
+                    Some(remaps) => self.turned_product(remaps, *x, *n),
+                };
+                match fresh {
+                    Ok(p) => (value(&p), Some((key, p))),
+                    Err(_) => (1.0, None),
+                }
             })
-            .collect()
+            .collect();
+        let mut values = Vec::with_capacity(rows.len());
+        let mut fresh = Vec::new();
+        for (v, p) in rows {
+            values.push(v);
+            fresh.extend(p);
+        }
+        (values, fresh)
     }
 
     /// True when object `b`'s field enters the product at `x` (world frame): `x` lies within its
@@ -120,9 +184,9 @@ impl ReceiverCuts {
         &self.lighting
     }
 
-    /// One receiver's visibility with no object turned: the fields looked up at `x` less each
+    /// One receiver's product with no object turned: the fields looked up at `x` less each
     /// translation, as `CutScene::receiver_visibility`, with the objects beyond reach left out.
-    fn translated_visibility(&self, weights: &ReceiverWeights, x: Vec3, n: Vec3) -> Result<f32, CutsError> {
+    fn translated_product(&self, x: Vec3, n: Vec3) -> Result<ReceiverProduct, CutsError> {
         let mut cuts: Vec<Cut> = Vec::new();
         for (obj, pose) in self.cuts.cuts.objects.iter().zip(&self.poses) {
             let t = pose.translation;
@@ -136,8 +200,25 @@ impl ReceiverCuts {
             let (cut, _region) = obj.vcf.lookup(x - t)?;
             cuts.push(cut);
         }
-        let views: Vec<_> = cuts.iter().map(Cut::view).collect();
-        sky_visibility(weights, &views)
+        self.product_of(None, &cuts)
+    }
+
+    /// The product of `cuts` in object `frame`'s frame, its non-zero nodes (`super::products`).
+    fn product_of(&self, frame: Option<usize>, cuts: &[Cut]) -> Result<ReceiverProduct, CutsError> {
+        let levels = self.cuts.tree.levels();
+        let (ids, values, ()) = walk_into(|ids, values| {
+            if !cuts.is_empty() {
+                let views: Vec<_> = cuts.iter().map(Cut::view).collect();
+                product_for_each(&views, |h, first, v| {
+                    if v != 0.0 {
+                        ids.push(node_index(levels, h, first) as u16);
+                        values.push(v);
+                    }
+                })?;
+            }
+            Ok::<_, CutsError>(())
+        })?;
+        Ok(ReceiverProduct { frame, occluded: !cuts.is_empty(), ids, values })
     }
 
     /// The pair remaps and the weights pushed into every turned object's frame.
@@ -158,8 +239,8 @@ impl ReceiverCuts {
         Remaps { pairs, weights }
     }
 
-    /// One receiver's visibility with some object turned (module docs).
-    fn turned_visibility(&self, remaps: &Remaps, world: &ReceiverWeights, key: NormalKey, x: Vec3, n: Vec3) -> Result<f32, CutsError> {
+    /// One receiver's product with some object turned (module docs).
+    fn turned_product(&self, remaps: &Remaps, x: Vec3, n: Vec3) -> Result<ReceiverProduct, CutsError> {
         let mut frame: Option<usize> = None;
         let mut cuts: Vec<Cut> = Vec::new();
         for (b, obj) in self.cuts.cuts.objects.iter().enumerate() {
@@ -178,14 +259,22 @@ impl ReceiverCuts {
                 None => cut,
             });
         }
-        let Some(f) = frame else { return Ok(1.0) };
-        let weights = match self.poses[f].rotation {
-            Some(_) => remaps.weights.get(&(key, f)).unwrap_or(world),
-            None => world,
-        };
-        let views: Vec<_> = cuts.iter().map(Cut::view).collect();
-        sky_visibility(weights, &views)
+        self.product_of(frame, &cuts)
     }
+}
+
+/// `Σ w_k v_k / Σ w` over a receiver's product (`super::lighting::sky_visibility`, the same
+/// operations in the same order; the zero nodes left out add `+0`, which changes no sum of
+/// non-negative terms): 1 when no object's field entered it or nothing weighs.
+fn sky_visibility_of(weights: &ReceiverWeights, p: &ReceiverProduct) -> f32 {
+    if !p.occluded || weights.total() <= 0.0 {
+        return 1.0;
+    }
+    let mut seen = 0.0f64;
+    for (&k, &v) in p.ids.iter().zip(p.values.iter()) {
+        seen += (weights.node(k as usize) * v) as f64;
+    }
+    (seen / weights.total() as f64) as f32
 }
 
 #[cfg(test)]

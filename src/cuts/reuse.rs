@@ -23,11 +23,19 @@
 //!   light it reflects clustered in another object's frame while that object's rotation is the
 //!   same.
 //!
+//! - **Products** (`super::products`). Where the value cannot be kept because the lighting or the
+//!   eye changed (every frame of the captured-VEM mode, a frame whose sun planes moved), a vertex
+//!   whose object did not move and that no object moved since reaches keeps its *product cut*
+//!   and sums it with the new lighting, bit for bit the fresh value; the others walk theirs
+//!   again. [`AmbientCache::product_uses`] says per object how many did which, and why a product
+//!   was not kept (its budget).
+//!
 //! [`ObjectUse`] says per object what was done, for the pass report.
 
 use super::bounce::{Bounce, ObjectRadiance, add_rows};
 use super::frame::{FrameCuts, ObjectAmbient, Occluders, UnitLighting, VertexAmbient};
 use super::lighting::ClusteredLighting;
+use super::products::{ProductBudget, ProductCache, ProductUse, VertexProduct, same_pose};
 use super::rotate::{LeafRemap, Pose, relative};
 use super::CutsError;
 use glam::{Mat3, Vec3};
@@ -45,6 +53,35 @@ pub enum ObjectUse {
     SourceOnly { evaluated: usize, reused: usize },
     /// Not shown and its field reaches no shown object's vertex: nothing evaluated.
     Skipped,
+}
+
+/// How a vertex's first pass was had this frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum How {
+    /// Its last value kept.
+    Value,
+    /// Its last product kept, summed under this frame's lighting (`super::products`).
+    Product,
+    /// Its product walked afresh.
+    Walked,
+}
+
+/// One vertex of [`FrameCuts::first_pass`].
+struct Row {
+    value: (VertexAmbient, bool),
+    fields: Option<Occluders>,
+    product: Option<Box<VertexProduct>>,
+    how: How,
+}
+
+/// One object's first pass ([`FrameCuts::first_pass`]).
+struct FirstPass {
+    values: Vec<(VertexAmbient, bool)>,
+    fields: Vec<Option<Occluders>>,
+    products: Vec<Option<Box<VertexProduct>>>,
+    reused: usize,
+    products_reused: usize,
+    walked: usize,
 }
 
 /// A clustered radiance pair (per unit `Pa`, per unit `Pd`).
@@ -69,12 +106,33 @@ struct Last {
 #[derive(Clone, Debug, Default)]
 pub struct AmbientCache {
     last: Option<Last>,
+    /// The vertices' visibility products (`super::products`), kept across lighting changes.
+    products: ProductCache,
+    /// What the last frame did with each object's products.
+    product_uses: Vec<ProductUse>,
 }
 
 impl AmbientCache {
+    /// An empty cache whose visibility products take at most `budget`.
+    pub fn with_budget(budget: ProductBudget) -> Self {
+        Self { products: ProductCache::with_budget(budget), ..Self::default() }
+    }
+
     /// Forgets everything kept (the next frame evaluates all it needs).
     pub fn clear(&mut self) {
         self.last = None;
+        self.products.clear();
+        self.product_uses.clear();
+    }
+
+    /// Per object, what the last frame did with its visibility products (`super::products`).
+    pub fn product_uses(&self) -> &[ProductUse] {
+        &self.product_uses
+    }
+
+    /// Bytes of the visibility products kept now.
+    pub fn product_bytes(&self) -> usize {
+        self.products.bytes()
     }
 }
 
@@ -86,10 +144,6 @@ fn rotation_bits(r: Option<Mat3>) -> Option<[u32; 9]> {
     r.map(|r| r.to_cols_array().map(f32::to_bits))
 }
 
-/// The same pose, bit for bit.
-fn same_pose(a: &Pose, b: &Pose) -> bool {
-    rotation_bits(a.rotation) == rotation_bits(b.rotation) && bits3(a.translation) == bits3(b.translation)
-}
 
 impl FrameCuts {
     /// True when object `b`'s field at `pose` reaches the world point `x` (within its outermost
@@ -110,11 +164,13 @@ impl FrameCuts {
     }
 
     /// One needed object's first pass ([`Self::object_ambient_reusing`]): per vertex its ambient
-    /// and whether it lies outside the proxy box, the fields met where it was evaluated, and how
-    /// many vertices reused their last value (where object `k` did not move and no moved object
-    /// reaches the vertex at its old or new pose).
-    #[allow(clippy::type_complexity)]
-    fn first_pass(&self, lighting: &Arc<UnitLighting>, poses: &[Pose], eye: Vec3, k: usize, moved: &[bool], last: Option<&Last>) -> Result<(Vec<(VertexAmbient, bool)>, Vec<Option<Occluders>>, usize), CutsError> {
+    /// and whether it lies outside the proxy box, the fields met where it was walked, how many
+    /// vertices reused their last value (where object `k` did not move and no moved object
+    /// reaches the vertex at its old or new pose, under the same lighting and eye), and the
+    /// products (`super::products`): kept from `old` and summed under this frame's lighting where
+    /// their operands did not change since `old_poses`, walked afresh elsewhere.
+    #[allow(clippy::type_complexity, clippy::too_many_arguments)]
+    fn first_pass(&self, lighting: &Arc<UnitLighting>, poses: &[Pose], eye: Vec3, k: usize, moved: &[bool], last: Option<&Last>, old_poses: &[Pose], old: Option<Vec<Option<Box<VertexProduct>>>>) -> Result<FirstPass, CutsError> {
         let n = self.cuts.objects.len();
         let count = self.vertex_count(k);
         let stored = last.filter(|_| !moved[k]).and_then(|l| l.first[k].as_ref().filter(|f| f.len() == count).map(|f| (l, f)));
@@ -128,18 +184,50 @@ impl FrameCuts {
                 .collect(),
             None => vec![false; count],
         };
+        // The products' operands: object k did not move since they were walked, and no object
+        // that moved since reaches the vertex at either pose.
+        let old = old.filter(|o| o.len() == count && old_poses.len() == n && same_pose(&old_poses[k], &poses[k]));
+        let changed: Vec<usize> = match &old {
+            Some(_) => (0..n).filter(|&b| b != k && !same_pose(&old_poses[b], &poses[b])).collect(),
+            None => Vec::new(),
+        };
+        let mut old = old.unwrap_or_else(|| vec![None; count]);
         let frame = if keep.iter().all(|k| *k) { None } else { Some(self.object_frame(lighting, poses, k)?) };
-        let rows: Vec<((VertexAmbient, bool), Option<Occluders>)> = (0..count)
-            .into_par_iter()
-            .map(|v| match (&frame, stored) {
-                (Some(frame), _) if !keep[v] => self.vertex_ambient(frame, poses, k, v, eye).map(|(a, out, occ)| ((a, out), Some(occ))),
-                (_, Some((_, f))) => Ok((f[v], None)),
-                _ => Err(CutsError::Operands("a vertex kept without a stored value".into())),
+        let rows: Vec<Row> = old
+            .par_iter_mut()
+            .enumerate()
+            .map(|(v, kept)| {
+                let kept = kept.take();
+                match (&frame, stored) {
+                    (_, Some((_, f))) if keep[v] => Ok(Row { value: f[v], fields: None, product: kept, how: How::Value }),
+                    (Some(frame), _) => {
+                        let x = self.vertex_point(poses, k, v);
+                        let same = || changed.iter().all(|&b| !(self.field_reaches(b, &old_poses[b], x) || self.field_reaches(b, &poses[b], x)));
+                        match kept {
+                            Some(p) if same() => {
+                                let a = self.ambient_from_product(frame, poses, k, v, eye, &p)?;
+                                Ok(Row { value: (a, p.outside), fields: None, product: Some(p), how: How::Product })
+                            }
+                            _ => {
+                                let (p, occ) = self.vertex_product(frame, poses, k, v)?;
+                                let a = self.ambient_from_product(frame, poses, k, v, eye, &p)?;
+                                Ok(Row { value: (a, p.outside), fields: Some(occ), product: Some(Box::new(p)), how: How::Walked })
+                            }
+                        }
+                    }
+                    _ => Err(CutsError::Operands("a vertex kept without a stored value".into())),
+                }
             })
-            .collect::<Result<_, _>>()?;
-        let reused = keep.iter().filter(|k| **k).count();
-        let (vals, occ): (Vec<(VertexAmbient, bool)>, Vec<Option<Occluders>>) = rows.into_iter().unzip();
-        Ok((vals, occ, reused))
+            .collect::<Result<_, CutsError>>()?;
+        let count_of = |h: How| rows.iter().filter(|r| r.how == h).count();
+        let (reused, products_reused, walked) = (count_of(How::Value), count_of(How::Product), count_of(How::Walked));
+        let mut out = FirstPass { values: Vec::with_capacity(count), fields: Vec::with_capacity(count), products: Vec::with_capacity(count), reused, products_reused, walked };
+        for r in rows {
+            out.values.push(r.value);
+            out.fields.push(r.fields);
+            out.products.push(r.product);
+        }
+        Ok(out)
     }
 
     /// Adds to each shown object's rows the light it reflects onto itself
@@ -227,16 +315,32 @@ impl FrameCuts {
         let mut fields: Vec<Vec<Option<Occluders>>> = Vec::with_capacity(n);
         let mut uses = Vec::with_capacity(n);
         let mut all_reused = vec![false; n];
-        for k in 0..n {
+        let old_poses = std::mem::take(&mut cache.products.poses);
+        let mut old_products = std::mem::take(&mut cache.products.objects);
+        old_products.resize(n, None);
+        let (budget, mut spent) = (cache.products.budget.0, 0usize);
+        let mut products = Vec::with_capacity(n);
+        let mut product_uses = Vec::with_capacity(n);
+        for (k, old) in old_products.into_iter().enumerate().take(n) {
             let count = self.vertex_count(k);
             if !needed[k] {
                 ambient.vertices.push(vec![[[0.0; 4]; 4]; count]);
                 first.push(None);
                 fields.push(Vec::new());
                 uses.push(ObjectUse::Skipped);
+                products.push(None);
+                product_uses.push(ProductUse::default());
                 continue;
             }
-            let (vals, occ, reused) = self.first_pass(lighting, poses, eye, k, &moved, last.as_ref())?;
+            let pass = self.first_pass(lighting, poses, eye, k, &moved, last.as_ref(), &old_poses, old)?;
+            let bytes: usize = pass.products.iter().flatten().map(|p| p.bytes()).sum();
+            let not_kept = (spent + bytes > budget).then(|| format!("its products need {bytes} bytes and the budget of {budget} bytes has {} left: not kept for the next frame", budget - spent));
+            if not_kept.is_none() {
+                spent += bytes;
+            }
+            product_uses.push(ProductUse { reused: pass.products_reused, walked: pass.walked, not_kept: not_kept.clone() });
+            products.push(not_kept.is_none().then_some(pass.products));
+            let (vals, occ, reused) = (pass.values, pass.fields, pass.reused);
             all_reused[k] = reused == count;
             uses.push(match shown[k] {
                 true => ObjectUse::Shown { evaluated: count - reused, reused },
@@ -267,6 +371,9 @@ impl FrameCuts {
             self.add_self_bounce(&mut ambient, poses, eye, bounce, &shown, &radiance)?;
         }
         let clustered = self.add_others_bounce(&mut ambient, poses, eye, &shown, &radiance, last.as_ref(), &all_reused, &fields)?;
+        cache.products.poses = poses.to_vec();
+        cache.products.objects = products;
+        cache.product_uses = product_uses;
         cache.last = Some(Last { lighting: lighting.clone(), eye: eye_bits, sun: sun_bits, poses: poses.to_vec(), first, radiance, clustered });
         Ok((ambient, uses))
     }

@@ -414,12 +414,36 @@ impl MovingObjects {
                             report.skip(pass::OBJECT_CUTS, format!("{}: {why}", o.name));
                         }
                     }
+                    for (o, p) in self.objects.iter().zip(c.product_uses()) {
+                        if let Some(why) = product_note(p) {
+                            report.skip(pass::OBJECT_CUTS, format!("{}: {why}", o.name));
+                        }
+                    }
                 }
                 CutOutcome::Skipped(reason) => report.skip(pass::VISIBILITY_CUTS, reason.clone()),
             },
             Err(reason) => report.skip(pass::VISIBILITY_CUTS, reason.clone()),
         }
     }
+}
+
+/// What an object's vertices did with their visibility products this frame
+/// (`crate::cuts::products`), for the report; `None` when nothing was kept or left out.
+fn product_note(p: &crate::cuts::products::ProductUse) -> Option<String> {
+    let mut out = (p.reused > 0).then(|| {
+        format!(
+            "{} of {} vertices evaluated sum their kept visibility product (SVC × Π VCF × proxy field) under the new lighting: it did not move and no moved object's cut field reaches them",
+            p.reused,
+            p.reused + p.walked
+        )
+    });
+    if let Some(n) = &p.not_kept {
+        out = Some(match out {
+            Some(o) => format!("{o}; {n}"),
+            None => n.clone(),
+        });
+    }
+    out
 }
 
 /// Why an object's per-vertex ambient was not (all) evaluated this frame, for the report
@@ -438,5 +462,22 @@ fn object_cuts_note(u: ObjectUse) -> Option<String> {
         )),
         ObjectUse::Shown { evaluated, reused } if reused > 0 => Some(counts(evaluated, reused)),
         ObjectUse::Shown { .. } => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cuts::products::ProductUse;
+
+    /// The pass report names the vertices that summed their kept product and why, and a product
+    /// not kept for its budget; nothing when every product was walked and kept.
+    #[test]
+    fn the_report_says_which_vertices_reused_their_visibility_product() {
+        let note = product_note(&ProductUse { reused: 3000, walked: 1060, not_kept: None }).unwrap();
+        assert!(note.starts_with("3000 of 4060 vertices evaluated sum their kept visibility product") && note.contains("did not move"), "{note}");
+        assert_eq!(product_note(&ProductUse { reused: 0, walked: 4060, not_kept: None }), None);
+        let over = product_note(&ProductUse { reused: 0, walked: 10, not_kept: Some("its products need 900 bytes and the budget of 0 bytes has 0 left: not kept for the next frame".into()) }).unwrap();
+        assert!(over.contains("budget"), "{over}");
     }
 }

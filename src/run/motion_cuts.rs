@@ -24,6 +24,10 @@
 //!   (or not at all), and vertices that no moved object reaches at its old or new pose keep their
 //!   last first pass while their object, the lighting and the eye stay the same; the shown
 //!   objects' ambient is the same bits as a fresh evaluation ([`CutState::evaluate_with`]).
+//! - **Visibility products kept** (`crate::cuts::products`): where the lighting changed (a new
+//!   sun or sky, every VEM frame, [`CutState::evaluate_reusing`]) but an object did not move, its
+//!   vertices and the receivers no moved object reaches keep their product cuts and sum them
+//!   with the new lighting, bit for bit as a fresh walk.
 //! - **Lighting** ([`CutState::lighting`]): the relighter's map split per unit `Pa` and `Pd`
 //!   (`crate::envmap::relight::Relighter::unit_maps`), clustered again only when its sun planes
 //!   change; the uniform sky without a bake.
@@ -32,6 +36,7 @@ use super::precompute::{self, PrecomputeOptions};
 use crate::cuts::bounce::{Bounce, BounceSurface};
 use crate::cuts::file::{self, PrecomputedCuts};
 use crate::cuts::frame::{FrameCuts, ObjectAmbient, ReceiverCuts, UnitLighting};
+use crate::cuts::products::{ProductUse, ReceiverProductUse, ReceiverProducts};
 use crate::cuts::reuse::{AmbientCache, ObjectUse};
 use crate::cuts::rotate::Pose;
 use crate::cuts::self_bounce::{SELF_BOUNCE_RAYS, SelfGather};
@@ -40,7 +45,7 @@ use crate::envmap::relight::Relighter;
 use crate::geometry::raycast::RayScene;
 use crate::scene::Scene;
 use glam::{Mat3, Mat4, Vec3};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 pub use crate::cuts::rotate::TURN_TOLERANCE;
 
@@ -70,8 +75,11 @@ pub struct CutState {
     surfaces: Vec<BounceSurface>,
     /// Per object, the rays from its vertices that meet itself (`crate::cuts::self_bounce`).
     own: Vec<SelfGather>,
-    /// The objects' per-vertex ambient kept between frames (`crate::cuts::reuse`).
+    /// The objects' per-vertex ambient and visibility products kept between frames
+    /// (`crate::cuts::reuse`, `crate::cuts::products`).
     cache: AmbientCache,
+    /// The receivers' visibility products kept between frames (`crate::cuts::products`).
+    receiver_products: Arc<Mutex<ReceiverProducts>>,
     /// This frame's outcome.
     pub outcome: CutOutcome,
     /// Per object, what this frame did with its per-vertex ambient (empty when the cuts did not
@@ -107,7 +115,7 @@ impl CutState {
         // The cuts' vertices are the meshes' at the first key (`same_objects`, or computed from
         // them), in the cuts' frame: the gathers hold in every rigid pose.
         let own = scene.virtual_objects.iter().zip(&frame.cuts.objects).map(|(o, c)| SelfGather::from_mesh(&o.mesh, &c.svc.normals, SELF_BOUNCE_RAYS)).collect();
-        Ok(Self { frame, origin, lighting: None, surfaces, own, cache: AmbientCache::default(), uses: Vec::new(), outcome: CutOutcome::Skipped("no object has moved yet: the traced per-pixel transfer serves".into()) })
+        Ok(Self { frame, origin, lighting: None, surfaces, own, cache: AmbientCache::default(), receiver_products: Arc::default(), uses: Vec::new(), outcome: CutOutcome::Skipped("no object has moved yet: the traced per-pixel transfer serves".into()) })
     }
 
     /// Each object's pose since its cuts were computed (`crate::cuts::rotate::Pose`), from its
@@ -180,8 +188,44 @@ impl CutState {
             }
         };
         self.uses = uses;
-        let receivers = self.frame.receivers_posed(light, poses.to_vec());
+        let receivers = self.frame.receivers_posed(light, poses.to_vec()).with_products(self.receiver_products.clone());
         Ok((ambient, receivers))
+    }
+
+    /// [`Self::evaluate_with`] keeping between calls what did not change
+    /// (`crate::cuts::reuse`, `crate::cuts::products`): under a new lighting every call (the
+    /// captured-VEM mode), the vertices and receivers that no moved object reaches sum their
+    /// kept visibility products with it. Every object is shown; the rows and the receivers'
+    /// values equal [`Self::evaluate_with`]'s bit for bit. [`Self::uses`] and
+    /// [`Self::product_uses`] say what was done per object, [`Self::receiver_product_use`] for
+    /// the receivers.
+    pub fn evaluate_reusing(&mut self, poses: &[Pose], light: Arc<UnitLighting>, eye: Vec3, sun: Option<Vec3>) -> Result<(ObjectAmbient, ReceiverCuts), CutsError> {
+        let bounce = Bounce { surfaces: &self.surfaces, sun, own: &self.own };
+        match self.frame.object_ambient_reusing(&light, poses, eye, &bounce, &[], &mut self.cache) {
+            Ok((ambient, uses)) => {
+                self.uses = uses;
+                let receivers = self.frame.receivers_posed(light, poses.to_vec()).with_products(self.receiver_products.clone());
+                Ok((ambient, receivers))
+            }
+            Err(e) => {
+                self.cache.clear();
+                self.uses.clear();
+                Err(e)
+            }
+        }
+    }
+
+    /// Per object, what the last evaluation did with its visibility products
+    /// (`crate::cuts::products`).
+    pub fn product_uses(&self) -> &[ProductUse] {
+        self.cache.product_uses()
+    }
+
+    /// What the receivers' last evaluation did with their visibility products, and the bytes the
+    /// vertices' and the receivers' products take now.
+    pub fn receiver_product_use(&self) -> (ReceiverProductUse, usize) {
+        let store = self.receiver_products.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        (store.last.clone(), self.cache.product_bytes() + store.bytes())
     }
 
     /// [`Self::evaluate`] under a lighting given on the cuts' tree ([`Self::tree`]) instead of

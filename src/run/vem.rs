@@ -17,9 +17,10 @@
 
 use super::Observer;
 use super::sink::Thumbs;
-use super::vem_cuts::VemCuts;
+pub use super::vem_cuts::CutRecord;
+use super::vem_cuts::{VemCuts, product_records};
 use super::vem_motion::{MotionRecord, VemMotion};
-use super::vem_summary::{ConfigOut, RenderSummary, SkipCount};
+use super::vem_summary::{ConfigOut, ProductTotal, RenderSummary, SkipCount};
 use crate::gpu::{Gpu, GpuOptions};
 use crate::io::frames::Frame;
 use crate::io::image::{LinearImage, Rgb8};
@@ -193,16 +194,6 @@ pub struct FrameRender {
     pub report: VemReport,
 }
 
-/// What the visibility cuts did in a frame (`--object-light cuts`).
-#[derive(Clone, Debug, Serialize)]
-pub struct CutRecord {
-    /// The lighting clustered, the objects' vertices and the receivers evaluated, ms (CPU,
-    /// before the render; not in `timings.total_ms`).
-    pub cuts_ms: f64,
-    /// Receiver pixels near an object whose ratio came from the cuts.
-    pub receivers: usize,
-}
-
 /// The renderer's side of a VEM run over a scene: backgrounds, GPU render, PNG frames, the
 /// contact sheet and the run's render summary.
 pub struct VemScene {
@@ -220,6 +211,8 @@ pub struct VemScene {
     cuts: Option<VemCuts>,
     /// Time of the cuts' evaluation per frame, ms.
     cut_ms: Vec<f64>,
+    /// Per object, its vertices' visibility products over the run (`--object-light cuts`).
+    product_totals: BTreeMap<String, ProductTotal>,
 }
 
 impl VemScene {
@@ -258,6 +251,7 @@ impl VemScene {
             motion,
             cuts,
             cut_ms: Vec::new(),
+            product_totals: BTreeMap::new(),
         })
     }
 
@@ -298,7 +292,8 @@ impl VemScene {
             }
             None => None,
         };
-        let cuts = match &self.cuts {
+        let first = self.cut_ms.is_empty();
+        let cuts = match &mut self.cuts {
             Some(c) => {
                 let t = std::time::Instant::now();
                 let poses = self.motion.as_ref().map(VemMotion::poses).unwrap_or_default();
@@ -306,7 +301,11 @@ impl VemScene {
                 self.overlay.set_cut_light(&f.vertices, &f.ratio);
                 let cuts_ms = t.elapsed().as_secs_f64() * 1e3;
                 self.cut_ms.push(cuts_ms);
-                Some(CutRecord { cuts_ms, receivers: f.receivers_evaluated })
+                let products = product_records(&self.scene, &f, motion.as_ref().map_or(&[][..], |m| &m.moved[..]), first);
+                for p in &products {
+                    self.product_totals.entry(p.object.clone()).or_default().add(p.reused, p.walked, f.receiver_products.reused);
+                }
+                Some(CutRecord { cuts_ms, receivers: f.receivers_evaluated, receivers_reused_product: f.receiver_products.reused, products, products_kept_bytes: f.kept_bytes })
             }
             None => None,
         };
@@ -370,6 +369,7 @@ impl VemScene {
             moved_frames: self.motion.as_ref().map(VemMotion::moved_frames),
             object_light: self.cuts.as_ref().map(|_| "cuts"),
             median_cuts_ms: self.cuts.as_ref().map(|_| median(&self.cut_ms)),
+            visibility_products: self.cuts.as_ref().map(|_| self.product_totals.clone()),
         };
         let path = self.out_dir.join("report.json");
         crate::io::write_atomic(&path, serde_json::to_string_pretty(&summary)?.as_bytes()).with_context(|| format!("writing {}", path.display()))?;

@@ -20,6 +20,11 @@
 //!   radii of an object gets its share of the captured sky that the objects leave
 //!   (`crate::cuts::receivers`, the outdoor mode's contact shadows): the differential ratio of
 //!   the composite; the others keep 1.
+//! - **Kept between frames** (`crate::cuts::products`): the VEM frame changes the lighting every
+//!   frame, so no value can be kept, but an object that did not move keeps its vertices'
+//!   visibility products (SVC × Π VCF × proxy field) wherever no moved object reaches, and the
+//!   receivers theirs (Π VCF): the frame sums them with its clustered light, bit for bit as
+//!   walking them again ([`VemCuts::evaluate_fresh`]).
 //!
 //! # Limits
 //! The ground below the horizon is a uniform plane (no shadow of the objects on the ground in
@@ -30,6 +35,7 @@
 use super::motion_cuts::CutState;
 use crate::cuts::CutsError;
 use crate::cuts::frame::UnitLighting;
+use crate::cuts::products::{ProductUse, ReceiverProductUse};
 use crate::cuts::rotate::Pose;
 use crate::geometry::Mesh;
 use crate::geometry::raycast::RayScene;
@@ -38,6 +44,7 @@ use crate::io::image::LinearImage;
 use crate::scene::Scene;
 use crate::vem::polar::PolarMap;
 use glam::{Mat4, Vec3};
+use serde::Serialize;
 use std::sync::Arc;
 
 /// Receivers within this many bounding radii of an object's centre get their visibility from
@@ -68,6 +75,13 @@ pub struct VemCutFrame {
     pub ratio: Vec<f32>,
     /// Receiver pixels evaluated.
     pub receivers_evaluated: usize,
+    /// Per object, what the frame did with its vertices' visibility products (empty from
+    /// [`VemCuts::evaluate_fresh`]).
+    pub products: Vec<ProductUse>,
+    /// What the frame did with the receivers' visibility products.
+    pub receiver_products: ReceiverProductUse,
+    /// Bytes of the visibility products kept for the next frame.
+    pub kept_bytes: usize,
 }
 
 /// The upward irradiance of `map` (rgb): `Σ L·cos θ·Δω` over its texels.
@@ -124,14 +138,30 @@ impl VemCuts {
     }
 
     /// The objects' light and the receivers' ratio for the objects at `poses` (`None`: as
-    /// placed; `crate::run::motion::MovingObjects::poses`) under the VEM frame `map`.
-    pub fn evaluate(&self, map: &PolarMap, poses: &[Option<Mat4>]) -> Result<VemCutFrame, String> {
+    /// placed; `crate::run::motion::MovingObjects::poses`) under the VEM frame `map`. The
+    /// visibility products of the vertices and receivers that no moved object reaches are kept
+    /// from the last call and summed under this frame's light (`crate::cuts::products`): the
+    /// same bits as [`Self::evaluate_fresh`].
+    pub fn evaluate(&mut self, map: &PolarMap, poses: &[Option<Mat4>]) -> Result<VemCutFrame, String> {
+        self.evaluate_inner(map, poses, true)
+    }
+
+    /// [`Self::evaluate`] walking every product afresh and keeping nothing.
+    pub fn evaluate_fresh(&mut self, map: &PolarMap, poses: &[Option<Mat4>]) -> Result<VemCutFrame, String> {
+        self.evaluate_inner(map, poses, false)
+    }
+
+    fn evaluate_inner(&mut self, map: &PolarMap, poses: &[Option<Mat4>], reuse: bool) -> Result<VemCutFrame, String> {
         let light = captured_lighting(self.tree(), map, self.ground_albedo).map_err(|e| format!("the VEM frame cannot be clustered: {e}"))?;
         let poses: Vec<Pose> = match poses.is_empty() {
             true => vec![Pose::translated(Vec3::ZERO); self.state.cuts().objects.len()],
             false => self.state.poses(poses).map_err(|(k, why)| format!("object {k} is not moved rigidly ({why}): the cuts hold for rigid motion only"))?,
         };
-        let (ambient, receivers) = self.state.evaluate_with(&poses, Arc::new(light), self.eye, None).map_err(|e| e.to_string())?;
+        let (ambient, receivers) = match reuse {
+            true => self.state.evaluate_reusing(&poses, Arc::new(light), self.eye, None),
+            false => self.state.evaluate_with(&poses, Arc::new(light), self.eye, None),
+        }
+        .map_err(|e| e.to_string())?;
         let vertices = ambient.vertices.into_iter().map(|obj| obj.into_iter().map(|a| [a[0], a[1]]).collect()).collect();
         // The objects' bounding spheres where they stand (world frame).
         let spheres: Vec<(Vec3, f32)> = self.state.cuts().objects.iter().zip(&poses).map(|(o, p)| (p.point(o.vcf.centre), o.vcf.radius_m * RECEIVER_REACH_RADII)).collect();
@@ -141,8 +171,84 @@ impl VemCuts {
         for ((i, _, _), v) in near.iter().zip(receivers.visibility(&surfaces)) {
             ratio[*i as usize] = v;
         }
-        Ok(VemCutFrame { vertices, ratio, receivers_evaluated: near.len() })
+        let (products, receiver_products, kept_bytes) = match reuse {
+            true => {
+                let (r, bytes) = self.state.receiver_product_use();
+                (self.state.product_uses().to_vec(), r, bytes)
+            }
+            false => (Vec::new(), ReceiverProductUse::default(), 0),
+        };
+        Ok(VemCutFrame { vertices, ratio, receivers_evaluated: near.len(), products, receiver_products, kept_bytes })
     }
+}
+
+/// What the visibility cuts did in a frame (`--object-light cuts`).
+#[derive(Clone, Debug, Serialize)]
+pub struct CutRecord {
+    /// The lighting clustered, the objects' vertices and the receivers evaluated, ms (CPU,
+    /// before the render; not in `timings.total_ms`).
+    pub cuts_ms: f64,
+    /// Receiver pixels near an object whose ratio came from the cuts.
+    pub receivers: usize,
+    /// Of those, the receivers whose visibility product (Π VCF) was kept from the last frame
+    /// (no moved object reaches them) and summed under this frame's light
+    /// (`crate::cuts::products`).
+    pub receivers_reused_product: usize,
+    /// Per object (scene order), what its vertices did with their visibility products, and why.
+    pub products: Vec<ProductRecord>,
+    /// Bytes of the visibility products kept for the next frame.
+    pub products_kept_bytes: usize,
+}
+
+/// One object's visibility products in a frame (`--object-light cuts`, `crate::cuts::products`).
+#[derive(Clone, Debug, Serialize)]
+pub struct ProductRecord {
+    /// The object (its file name).
+    pub object: String,
+    /// Vertices whose product SVC × Π VCF × proxy field was kept from the last frame and summed
+    /// under this frame's light.
+    pub reused: usize,
+    /// Vertices whose product was walked again.
+    pub walked: usize,
+    /// Why.
+    pub reason: String,
+}
+
+/// Why `u`'s vertices reused their products or not (`moved`: the object moved this frame).
+fn product_reason(u: &ProductUse, moved: bool, first: bool) -> String {
+    let total = u.reused + u.walked;
+    let mut why = if first {
+        "first frame: every product walked".to_owned()
+    } else if moved {
+        "it moved: every product walked".to_owned()
+    } else if u.walked == 0 {
+        format!("it did not move and no moved object's cut field reaches it: all {total} vertices sum their kept product under the new VEM frame")
+    } else if u.reused == 0 {
+        "it did not move, but a moved object's cut field reaches every vertex (at its old or new pose), or nothing was kept: every product walked".to_owned()
+    } else {
+        format!("it did not move: {} of {total} vertices sum their kept product; {} walked again where a moved object's cut field reaches them (at its old or new pose)", u.reused, u.walked)
+    };
+    if let Some(n) = &u.not_kept {
+        why.push_str("; ");
+        why.push_str(n);
+    }
+    why
+}
+
+/// Per object of `scene` (scene order), what `frame` did with its vertices' visibility products
+/// and why (`moved`: the objects' file names that moved this frame; `first`: the run's first
+/// frame).
+pub fn product_records(scene: &Scene, frame: &VemCutFrame, moved: &[String], first: bool) -> Vec<ProductRecord> {
+    scene
+        .virtual_objects
+        .iter()
+        .zip(&frame.products)
+        .map(|(o, u)| {
+            let object = o.path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| o.path.display().to_string());
+            let reason = product_reason(u, moved.contains(&object), first);
+            ProductRecord { object, reused: u.reused, walked: u.walked, reason }
+        })
+        .collect()
 }
 
 #[cfg(test)]

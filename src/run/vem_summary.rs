@@ -46,5 +46,35 @@ pub(super) struct RenderSummary<'a> {
     /// Median time of the cuts' evaluation per frame, ms (with `--object-light cuts`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub(super) median_cuts_ms: Option<f64>,
+    /// Per object, its vertices' visibility products kept between frames over the run (with
+    /// `--object-light cuts`; `crate::cuts::products`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(super) visibility_products: Option<BTreeMap<String, ProductTotal>>,
+}
+
+/// One object's visibility products over a VEM run (`crate::cuts::products`).
+#[derive(Clone, Debug, Default, Serialize)]
+pub(super) struct ProductTotal {
+    /// Vertex-frames whose product was kept from the frame before and summed under the new
+    /// VEM frame.
+    pub(super) vertices_reused: usize,
+    /// Vertex-frames whose product was walked.
+    pub(super) vertices_walked: usize,
+    /// Frames in which every vertex reused its product.
+    pub(super) frames_all_reused: usize,
+    /// Receiver pixels that reused their product, over the run (the same for every object).
+    pub(super) receivers_reused: usize,
+    /// Why.
+    pub(super) reason: &'static str,
+}
+
+impl ProductTotal {
+    pub(super) fn add(&mut self, reused: usize, walked: usize, receivers_reused: usize) {
+        self.vertices_reused += reused;
+        self.vertices_walked += walked;
+        self.frames_all_reused += usize::from(walked == 0 && reused > 0);
+        self.receivers_reused += receivers_reused;
+        self.reason = "a vertex reuses its visibility product (SVC × Π VCF × proxy field) in a frame where its object did not move and no moved object's cut field reaches it at its old or new pose; the VEM frame's light changes every frame, so the product is summed with it (bit for bit a fresh walk); the first frame and the vertices a moved object reaches walk it";
+    }
 }
 

@@ -119,6 +119,31 @@ fn a_moving_statue_follows_its_keys_in_the_vem_mode() {
     }
     let moved_cuts: Vec<bool> = cut_lines.iter().map(|v| !v["render"]["motion"]["moved"].as_array().unwrap().is_empty()).collect();
     assert_eq!(moved_cuts, moved);
+    // The visibility products (`cuts::products`): frame 0 walks every one; while the statue
+    // moves (frames 1–5) it walks its own; on frame 6 it stands still and every vertex the robot
+    // (which moves a few millimetres a frame, 7 m away) does not reach sums its kept product under
+    // the new VEM frame, the report saying why.
+    let statue = |i: usize| {
+        let p = cut_lines[i]["render"]["cuts"]["products"].as_array().unwrap().iter().find(|p| p["object"] == "statue.glb").cloned();
+        p.unwrap_or_else(|| panic!("frame {i}: no products of the statue: {}", cut_lines[i]["render"]["cuts"]))
+    };
+    let reused = |p: &serde_json::Value| p["reused"].as_u64().unwrap();
+    let walked = |p: &serde_json::Value| p["walked"].as_u64().unwrap();
+    assert!(statue(0)["reason"].as_str().unwrap().starts_with("first frame"), "{}", statue(0));
+    assert_eq!(reused(&statue(0)), 0);
+    for i in 1..6 {
+        let p = statue(i);
+        assert!(reused(&p) == 0 && walked(&p) > 0 && p["reason"].as_str().unwrap().starts_with("it moved"), "frame {i}: {p}");
+    }
+    let p = statue(6);
+    let (r, w) = (reused(&p), walked(&p));
+    assert!(r > 0 && p["reason"].as_str().unwrap().contains("did not move"), "frame 6: {p}");
+    assert_eq!(r + w, walked(&statue(0)), "frame 6: {p}");
+    assert!(cut_lines[6]["render"]["cuts"]["receivers_reused_product"].as_u64().is_some_and(|n| n > 0), "{}", cut_lines[6]["render"]["cuts"]);
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("cuts/report.json")).unwrap()).unwrap();
+    let total = &report["visibility_products"]["statue.glb"];
+    assert_eq!(total["vertices_reused"].as_u64(), Some(r), "{total}");
+    assert!(total["reason"].as_str().unwrap().contains("did not move"), "{total}");
     let c = png(&dir.join("cuts"), last);
     let (c_left, c_arrived) = (mean_diff(&c, &st, &left), mean_diff(&c, &st, &arrived));
     eprintln!("cuts, frame {last}: mean code difference from the static scene where the statue was {c_left:.1}, where it now stands {c_arrived:.1}; from the lights' frame over the statue {:.1}", mean_diff(&c, &m, &arrived));

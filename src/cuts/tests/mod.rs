@@ -4,6 +4,7 @@ mod bounce;
 mod fields;
 mod files;
 mod ops;
+mod products;
 mod reuse;
 mod shading;
 
