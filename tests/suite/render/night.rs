@@ -11,7 +11,6 @@
 //! centroid of the covered samples (`shaders/common/object.wgsl`).
 
 use super::support::*;
-use heliar::io::frames::Frame;
 use heliar::lighting::LampScales;
 use heliar::render::reference::{Classes, composite_error};
 use heliar::render::{Compositor, CompositorConfig, VideoFrame};
@@ -28,18 +27,12 @@ const OBJECT_WITH_TRUE_K: f64 = 0.045;
 #[test]
 fn the_night_composite_is_within_the_issues_bound_and_the_pedestal_top_is_lit() {
     let scene = scene_as_cli("dusk");
-    let ReferenceRun { refs, seq, lin, ray, statue, mut est } = ReferenceRun::new(&scene);
-    let (k, index) = (1, refs.frames[1]);
+    let mut run = ReferenceRun::new(&scene);
+    let (k, index) = (1, run.refs.frames[1]);
     assert_eq!(index, 4, "the night reference frame (sky and lamp)");
+    let (frame, estimate) = run.estimate_through(index);
+    let ReferenceRun { refs, lin, ray, statue, .. } = run;
     let config = CompositorConfig::for_scene(&scene);
-    let mut estimate = None;
-    let mut frame = None;
-    for i in 0..=index {
-        let f = Frame::load(&seq.files[i]).unwrap();
-        estimate = Some(est.estimate(i, &seq.times[i], &f, &lin).unwrap());
-        frame = Some(f);
-    }
-    let (frame, estimate) = (frame.unwrap(), estimate.unwrap());
     let lighting = heliar::run::outdoor::lighting_of(&estimate);
     assert!(!lighting.above_horizon, "the sun is down at frame 4");
     let video = VideoFrame::from_frame(&frame, &lin);

@@ -263,6 +263,18 @@ impl ReferenceRun {
         let lin = seq.photometry.linearizer();
         Self { refs, seq, lin, ray, statue, est }
     }
+
+    /// Estimates the sequence's frames `0..=index` in order (the smoothing needs the frames
+    /// before) and returns frame `index` with its estimate.
+    pub fn estimate_through(&mut self, index: usize) -> (heliar::io::frames::Frame, heliar::estimate::FrameEstimate) {
+        let mut last = None;
+        for i in 0..=index {
+            let f = heliar::io::frames::Frame::load(&self.seq.files[i]).unwrap();
+            let e = self.est.estimate(i, &self.seq.times[i], &f, &self.lin).unwrap();
+            last = Some((f, e));
+        }
+        last.expect("at least one frame")
+    }
 }
 
 /// A 1 m stone block on the yard proxy seen from (3, 1.6, 2.4) at 160×120 through `lens`, lit by

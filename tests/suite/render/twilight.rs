@@ -12,7 +12,6 @@
 //! receivers' `c` (the lamp shadow's `E_rest` on the real ground) had the same fault.
 
 use super::support::*;
-use heliar::io::frames::Frame;
 use heliar::lighting::{LampScales, Lighting};
 use heliar::io::image::LinearImage;
 use heliar::render::reference::{Classes, OBJECT, SHADOW, composite_error};
@@ -29,19 +28,13 @@ const MEAN_TOL: f64 = 0.04;
 #[test]
 fn the_statue_at_dusk_keeps_the_twilight_skys_light_without_a_sun_term() {
     let scene = Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/dusk")).expect("bundled dusk scene");
-    let ReferenceRun { refs, seq, lin, ray, statue, mut est } = ReferenceRun::new(&scene);
-    let (k, index) = (0, refs.frames[0]);
+    let mut run = ReferenceRun::new(&scene);
+    let (k, index) = (0, run.refs.frames[0]);
     assert_eq!(index, 1, "the dusk reference frame (sun, sky and lamp)");
+    let (frame, estimate) = run.estimate_through(index);
+    let ReferenceRun { refs, seq, lin, ray, statue, .. } = run;
     let truth = &seq.truth.as_ref().expect("truth.csv")[index];
     assert!(truth.pd[0] > 0.0, "the sun is still up at frame 1");
-    let mut frame = None;
-    let mut estimate = None;
-    for i in 0..=index {
-        let f = Frame::load(&seq.files[i]).unwrap();
-        estimate = Some(est.estimate(i, &seq.times[i], &f, &lin).unwrap());
-        frame = Some(f);
-    }
-    let (frame, estimate) = (frame.unwrap(), estimate.unwrap());
     let v = |a: [f64; 3]| Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
     // The truth's sky and lamp, no sun term (as the estimator gives at this frame).
     let base = heliar::run::outdoor::lighting_of(&estimate);
