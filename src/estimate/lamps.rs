@@ -131,7 +131,7 @@ impl LampColumns {
 }
 
 fn report(lamp: &Lamp, status: LampStatus, samples: usize, reason: Option<String>) -> LampReport {
-    LampReport { name: lamp.light.name.clone(), status, k: [lamp.light.scale; 3], k_se: None, k_smoothed: None, samples, condition_number: None, reason }
+    LampReport { name: lamp.light.name.clone(), status, k: [lamp.light.scale; 3], k_se: None, k_smoothed: None, k_hindsight: None, samples, condition_number: None, reason }
 }
 
 impl Estimator {
@@ -355,10 +355,7 @@ impl Estimator {
         let rate = self.config.lamp_smoothing_rate_per_sqrt_s;
         let Some(lc) = self.lamps.as_mut() else { return };
         for ((r, f), lamp) in reports.iter_mut().zip(&mut lc.smoothers).zip(&lc.lamps) {
-            let meas = match (r.status, r.k_se) {
-                (LampStatus::Fitted, Some(se)) => Some((r.k, se.map(|s| if s.is_finite() { s } else { f64::MAX.sqrt() }))),
-                _ => None,
-            };
+            let meas = super::hindsight::measurement(r);
             r.k_smoothed = f.update(t_s, rate, r.status != LampStatus::Off, lamp.light.scale, meas);
         }
     }

@@ -30,6 +30,7 @@
 //!
 //! Thresholds are named constants or [`EstimatorConfig`] fields, documented where defined.
 
+pub mod hindsight;
 pub mod lamps;
 pub mod lamp_bounce;
 pub mod pool;
@@ -154,6 +155,13 @@ impl Estimator {
         let mut est = Self::with_camera(scene.estimator.clone(), scene.observer, scene.geo, &scene.camera, ray_scene)?;
         est.set_lamps(lamps);
         Ok(est)
+    }
+
+    /// A new estimator for `scene` on this one's ray scene, with no temporal state: the same
+    /// estimates again from the first frame it is given (the lamps' pre-pass of
+    /// `run::augment`, [`hindsight`]).
+    pub fn fresh(&self, scene: &Scene) -> Result<Self, EstimateError> {
+        Self::new(scene, self.scene.clone())
     }
 
     /// Sets up the estimator from its parts, for a calibrated camera.

@@ -234,6 +234,11 @@ pub struct LampReport {
     /// `k` smoothed over the frames since the lamp last switched on (`estimate::smoother`;
     /// `null` while off and until its first fit).
     pub k_smoothed: Option<[f64; 3]>,
+    /// `k` smoothed over the whole recording, later frames included (`estimate::hindsight`):
+    /// set by `heliar augment` and `heliar estimate --hindsight`, absent otherwise. The renderer
+    /// prefers it to `k_smoothed`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub k_hindsight: Option<[f64; 3]>,
     /// Usable samples its light reaches.
     pub samples: usize,
     /// Condition number of its column against the others (largest over the channels).

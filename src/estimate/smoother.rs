@@ -146,7 +146,27 @@ impl Smoother {
 pub struct LampSmoother {
     k: Option<[f64; 3]>,
     var: [f64; 3],
+    /// The variance after the last frame's prediction, before its measurement (what the
+    /// backward pass of [`super::hindsight`] divides by).
+    pred_var: [f64; 3],
+    /// How many times the filter has (re)started from a fit: a new run of frames that shares no
+    /// information with the one before (a switch-on, a departure).
+    starts: u64,
     clock: FrameInterval,
+}
+
+/// The filter's state after a frame, for the backward pass ([`super::hindsight`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LampFilterState {
+    /// The filtered `k`.
+    pub k: [f64; 3],
+    /// Its variance.
+    pub var: [f64; 3],
+    /// The variance predicted for this frame before its measurement (equal to `var` on the frame
+    /// that started the run).
+    pub pred_var: [f64; 3],
+    /// The run of frames it belongs to ([`LampSmoother`]'s count of starts).
+    pub run: u64,
 }
 
 impl LampSmoother {
@@ -156,7 +176,7 @@ impl LampSmoother {
     /// switch-on.
     pub fn update(&mut self, time_s: f64, rate_per_sqrt_s: f64, on: bool, prior: f64, meas: Option<([f64; 3], [f64; 3])>) -> Option<[f64; 3]> {
         if !on {
-            *self = Self::default();
+            *self = Self { starts: self.starts, ..Self::default() };
             return None;
         }
         let dt = self.clock.advance(time_s, self.k.is_some());
@@ -169,6 +189,7 @@ impl LampSmoother {
         for c in 0..3 {
             self.var[c] += q * q * dt;
         }
+        self.pred_var = self.var;
         let Some((z, se)) = meas else { return self.k };
         // A frame beyond the robust band of the prediction in any channel: the luminaire changed
         // (warm-up, dimming), not the noise; start afresh from it.
@@ -177,7 +198,7 @@ impl LampSmoother {
             (z[c] - k[c]).abs() > super::solve::TUKEY_C * (self.var[c] + r).sqrt()
         });
         if departs {
-            *self = Self { clock: self.clock.clone(), ..Self::default() };
+            *self = Self { clock: self.clock.clone(), starts: self.starts, ..Self::default() };
             return self.update_first(z, se);
         }
         for c in 0..3 {
@@ -190,7 +211,15 @@ impl LampSmoother {
     fn update_first(&mut self, z: [f64; 3], se: [f64; 3]) -> Option<[f64; 3]> {
         self.k = Some(z);
         self.var = std::array::from_fn(|c| (se[c] * se[c]).max(REL_VAR_FLOOR * z[c] * z[c]));
+        self.pred_var = self.var;
+        self.starts += 1;
         self.k
+    }
+
+    /// The state after the last frame: `None` while the lamp is off or not fitted since it
+    /// switched on.
+    pub fn state(&self) -> Option<LampFilterState> {
+        Some(LampFilterState { k: self.k?, var: self.var, pred_var: self.pred_var, run: self.starts })
     }
 }
 

@@ -8,6 +8,7 @@
 //! the renderer uses, and the relit probe grid when there is a new one.
 
 use crate::envmap::bake::{Baked, Progress};
+use crate::estimate::hindsight::LampHindsight;
 use crate::estimate::{Estimator, FrameEstimate, LampReport, LampStatus};
 use crate::geometry::raycast::RayScene;
 use crate::io::frames::{Frame, Linearizer};
@@ -83,7 +84,9 @@ pub fn frame_sky(e: &FrameEstimate) -> FrameSky {
     }
 }
 
-/// The scale of each lamp for the render (issue 16 §3): as for `Pd` and `Pa`, the smoothed `k`
+/// The scale of each lamp for the render (issue 16 §3): `k` in hindsight when the run has it
+/// (`k_hindsight`, [`crate::estimate::hindsight`]: a recording's later frames included), else, as
+/// for `Pd` and `Pa`, the smoothed `k`
 /// when there is one (`k_smoothed`, [`crate::estimate::smoother::LampSmoother`]), else the
 /// report's `k` (the frame's fit, or the prior when the lamp was unreached, not separable or no
 /// frame since its switch-on was fitted), and zero for a lamp off by its schedule. A negative or
@@ -93,7 +96,7 @@ pub fn lamp_scales(lamps: &[LampReport]) -> LampScales {
         .iter()
         .map(|l| match l.status {
             LampStatus::Off => [0.0; 3],
-            _ => l.k_smoothed.unwrap_or(l.k).map(|k| if k.is_finite() && k > 0.0 { k as f32 } else { 0.0 }),
+            _ => l.k_hindsight.or(l.k_smoothed).unwrap_or(l.k).map(|k| if k.is_finite() && k > 0.0 { k as f32 } else { 0.0 }),
         })
         .collect();
     LampScales::from_slice(&k)
@@ -133,12 +136,14 @@ pub struct OutdoorStage {
     pub probes: Box<dyn ProbeSource + Send>,
     relit_once: bool,
     relights: usize,
+    /// The lamps' `k` in hindsight over the run's frames, when a pre-pass computed it.
+    hindsight: Option<LampHindsight>,
 }
 
 impl OutdoorStage {
     /// Joins the estimator and the probe source.
     pub fn new(estimator: Estimator, probes: Box<dyn ProbeSource + Send>) -> Self {
-        Self { estimator, probes, relit_once: false, relights: 0 }
+        Self { estimator, probes, relit_once: false, relights: 0, hindsight: None }
     }
 
     /// Probe updates so far.
@@ -158,16 +163,31 @@ impl OutdoorStage {
         self.force_relight();
     }
 
+    /// Gives every later frame's lamps their `k` in hindsight from `h` (`k_hindsight`, which the
+    /// render prefers), for the frames it covers.
+    pub fn set_hindsight(&mut self, h: LampHindsight) {
+        self.hindsight = Some(h);
+    }
+
+    /// The estimator's output for frame `index`, with the lamps' `k` in hindsight when set.
+    fn estimate(&mut self, index: usize, time: &DateTime<FixedOffset>, frame: &Frame, lin: &Linearizer) -> anyhow::Result<FrameEstimate> {
+        let mut e = self.estimator.estimate(index, time, frame, lin)?;
+        if let Some(h) = &self.hindsight {
+            h.apply(index, &mut e.lamps);
+        }
+        Ok(e)
+    }
+
     /// Estimates frame `index` (taken at `time`) without relighting: keeps the estimator's
     /// temporal state going over frames whose output exists already (a resumed run).
     pub fn estimate_only(&mut self, index: usize, time: &DateTime<FixedOffset>, frame: &Frame, lin: &Linearizer) -> anyhow::Result<FrameEstimate> {
-        Ok(self.estimator.estimate(index, time, frame, lin)?)
+        self.estimate(index, time, frame, lin)
     }
 
     /// Estimates the frame and runs the relight hook.
     pub fn light(&mut self, index: usize, time: &DateTime<FixedOffset>, frame: &Frame, lin: &Linearizer) -> anyhow::Result<OutdoorLight<'_>> {
         let t = std::time::Instant::now();
-        let estimate = self.estimator.estimate(index, time, frame, lin)?;
+        let estimate = self.estimate(index, time, frame, lin)?;
         let estimate_ms = t.elapsed().as_secs_f64() * 1e3;
         let lighting = lighting_of(&estimate);
         let source = self.probes.name();
@@ -199,13 +219,16 @@ mod tests {
 
     #[test]
     fn each_lamp_gets_its_k_and_an_off_lamp_none() {
-        let report = |status, k: f64| LampReport { name: "l".into(), status, k: [k, 0.5 * k, f64::NAN], k_se: None, k_smoothed: None, samples: 0, condition_number: None, reason: None };
+        let report = |status, k: f64| LampReport { name: "l".into(), status, k: [k, 0.5 * k, f64::NAN], k_se: None, k_smoothed: None, k_hindsight: None, samples: 0, condition_number: None, reason: None };
         let s = lamp_scales(&[report(LampStatus::Fitted, 2.0), report(LampStatus::Off, 3.0), report(LampStatus::Unreached, 1.0), report(LampStatus::NotFitted, -1.0)]);
         // fitted and prior scales pass; off, negative and NaN give no light
         assert_eq!(s.as_slice(), &[[2.0, 1.0, 0.0], [0.0; 3], [1.0, 0.5, 0.0], [0.0; 3]]);
         assert!(lamp_scales(&[]).is_empty());
         // The smoothed scale, when there is one, is the one rendered (as for Pd and Pa).
         let smoothed = LampReport { k_smoothed: Some([0.9, 0.8, 0.7]), ..report(LampStatus::Fitted, 2.0) };
-        assert_eq!(lamp_scales(&[smoothed]).as_slice(), &[[0.9, 0.8, 0.7]]);
+        assert_eq!(lamp_scales(&[smoothed.clone()]).as_slice(), &[[0.9, 0.8, 0.7]]);
+        // In hindsight, when a run has it, before the forward filter.
+        let hindsight = LampReport { k_hindsight: Some([1.0, 1.1, 1.2]), ..smoothed };
+        assert_eq!(lamp_scales(&[hindsight]).as_slice(), &[[1.0, 1.1, 1.2]]);
     }
 }

@@ -113,7 +113,7 @@ fn frame_times_that_do_not_increase_are_named_or_refused() {
             self.0.push(m.to_owned());
         }
     }
-    let opts = |out: &str, strict_clock| AugmentOptions { output: d.join(out), format: None, resume: false, max_frames: Some(4), frames: None, warmup: None, sheet_columns: 4, force: false, strict_clock };
+    let opts = |out: &str, strict_clock| AugmentOptions { output: d.join(out), format: None, resume: false, max_frames: Some(4), frames: None, warmup: None, sheet_columns: 4, force: false, strict_clock, hindsight: true };
     let stop = AtomicUsize::new(0);
     let mut notes = Notes::default();
     let done = augment(&scene, &input, &mut session(), &opts("warn", false), &mut notes, &stop).unwrap();

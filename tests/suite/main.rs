@@ -23,6 +23,7 @@ mod estimate_slices;
 mod estimator_stiff;
 mod interrupt_resume;
 mod irradiance_volume;
+mod lamp_hindsight;
 mod lamps_estimate;
 mod live;
 mod live_drag;

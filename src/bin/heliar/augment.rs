@@ -199,6 +199,11 @@ pub struct AugmentArgs {
     /// Frame times that do not increase are an error (default: a warning naming the frames).
     #[arg(long)]
     strict: bool,
+    /// Give the lamps (`[[lights]]`) the scale `k` of the frame's own and the earlier frames'
+    /// fits only (the live window's forward filter), instead of estimating the whole input
+    /// first and smoothing `k` over the frames after each frame as well.
+    #[arg(long)]
+    no_hindsight: bool,
 }
 
 /// `A..B` with A < B.
@@ -247,6 +252,7 @@ pub fn run(a: AugmentArgs) -> Result<()> {
         sheet_columns: a.sheet_columns,
         force: a.force,
         strict_clock: a.strict,
+        hindsight: !a.no_hindsight,
     };
     let outcome = augment(&scene, &input, &mut session, &opts, &mut BarObserver::default(), &stop)?;
     eprint!("{}", outcome.summary.table());

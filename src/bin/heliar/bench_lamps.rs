@@ -204,7 +204,7 @@ fn shadow_map(a: &LampsSweep, bench: &GpuBench) -> Result<Outcome> {
         bail!("{}: no [[lights]] whose shadow maps to size", scene.root.join(heliar::scene::MANIFEST_FILE).display());
     }
     let seq = scene.sequence(refs.sequence.as_deref()).context("the references' sequence")?.clone();
-    let frames = crate::bench_render::reference_frames(scene, &bench.ray, &refs, &seq, Some(1.0))?;
+    let frames = crate::bench_render::reference_frames(scene, &bench.ray, &refs, &seq, Some(1.0), false)?;
     let lamps = bench.scene_lamps()?;
     let mut table = Table::new(&["tile", "mean_pct", "worst_pct", "object_pct", "shadow_pct", "frame_ms"]);
     let mut points = Vec::new();

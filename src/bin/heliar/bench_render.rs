@@ -82,6 +82,11 @@ pub struct RenderSweep {
     /// compositor's error from the estimator's.
     #[arg(long)]
     lamp_k: Option<f32>,
+    /// The lamps' `k` from the forward filter only (the frames up to each reference frame), as
+    /// the live window has it, instead of in hindsight over the whole sequence as `heliar
+    /// augment` renders it.
+    #[arg(long)]
+    no_hindsight: bool,
     /// Leave out the objects' lamp shadows on real receivers (`lamp_ground`), to measure what
     /// they add.
     #[arg(long)]
@@ -155,7 +160,7 @@ pub fn run(a: RenderSweep) -> Result<()> {
         bail!("{}: no [[virtual_objects]] to composite", scene.root.join(heliar::scene::MANIFEST_FILE).display());
     }
     let seq = scene.sequence(refs.sequence.as_deref()).context("the references' sequence")?.clone();
-    let frames = reference_frames(&scene, &ray, &refs, &seq, a.lamp_k)?;
+    let frames = reference_frames(&scene, &ray, &refs, &seq, a.lamp_k, a.no_hindsight)?;
     let options = heliar::render::lamps::LampOptions { ground: !a.no_lamp_ground, bounce: !a.no_lamp_bounce, ground_bounce: !a.no_lamp_ground_bounce, soft_shadows: !a.hard_lamp_shadows, ..Default::default() };
     if let Some(parts) = &a.parts {
         return crate::bench_render_parts::run(&scene, &ray, &frames, seq.truth.as_deref(), parts, options);
@@ -169,10 +174,11 @@ pub fn run(a: RenderSweep) -> Result<()> {
     report(&a, &rows, &frames)
 }
 
-/// Estimates the sequence up to the last reference frame (the smoothing needs the frames
-/// before), and keeps what the references need; `lamp_k` replaces the scale of every lamp
-/// the schedule has on.
-pub(crate) fn reference_frames(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayScene>, refs: &References, seq: &heliar::scene::Sequence, lamp_k: Option<f32>) -> Result<Vec<RefFrame>> {
+/// Estimates the whole sequence, as `heliar augment` does before it renders (the smoothing needs
+/// the frames before, the lamps' `k` in hindsight those after: `estimate::hindsight`, left out
+/// with `forward_only`), and keeps what the references need; `lamp_k` replaces the scale of every
+/// lamp the schedule has on.
+pub(crate) fn reference_frames(scene: &heliar::scene::Scene, ray: &Arc<heliar::geometry::raycast::RayScene>, refs: &References, seq: &heliar::scene::Sequence, lamp_k: Option<f32>, forward_only: bool) -> Result<Vec<RefFrame>> {
     let (scene, ray) = (scene, ray.clone());
     let lin = seq.photometry.linearizer();
     let mut est = Estimator::new(&scene, ray.clone()).with_context(|| format!("setting up the estimator for {}", scene.root.display()))?;
@@ -183,16 +189,32 @@ pub(crate) fn reference_frames(scene: &heliar::scene::Scene, ray: &Arc<heliar::g
     }
     let objects = heliar::geometry::raycast::RayScene::new(objects);
 
-    let last = refs.frames.iter().copied().max().unwrap_or(0);
-    let mut frames = Vec::new();
-    let pb = frame_bar(last + 1, "estimate");
-    for i in 0..=last {
-        let path = &seq.files[i];
+    // Every frame's estimate; the reference frames' footage kept.
+    let mut estimates = Vec::new();
+    let mut kept = Vec::new();
+    let pb = frame_bar(seq.files.len(), "estimate");
+    for (i, path) in seq.files.iter().enumerate() {
         let frame = Frame::load(path).with_context(|| format!("reading {}", path.display()))?;
-        let e = est.estimate(i, &seq.times[i], &frame, &lin).with_context(|| format!("estimating {}", path.display()))?;
+        estimates.push(est.estimate(i, &seq.times[i], &frame, &lin).with_context(|| format!("estimating {}", path.display()))?);
+        if refs.frames.contains(&i) {
+            kept.push((i, frame));
+        }
         pb.inc(1);
+    }
+    pb.finish_and_clear();
+    if !forward_only && !scene.lights.is_empty() {
+        let ts = |i: usize| (seq.times[i] - seq.times[0]).num_milliseconds() as f64 / 1e3;
+        let h = heliar::estimate::hindsight::LampHindsight::from_reports(scene, estimates.iter().map(|e| (e.frame, ts(e.frame), &e.lamps[..])));
+        for e in &mut estimates {
+            h.apply(e.frame, &mut e.lamps);
+        }
+    }
+
+    let mut frames = Vec::new();
+    for (i, frame) in kept {
         let Some(k) = refs.frames.iter().position(|&f| f == i) else { continue };
-        let mut lighting = lighting_of(&e);
+        let e = &estimates[i];
+        let mut lighting = lighting_of(e);
         if let Some(k) = lamp_k {
             let scales: Vec<[f32; 3]> = e.lamps.iter().map(|l| if l.status == heliar::estimate::LampStatus::Off { [0.0; 3] } else { [k; 3] }).collect();
             lighting.lamps = heliar::lighting::LampScales::from_slice(&scales);
@@ -209,8 +231,6 @@ pub(crate) fn reference_frames(scene: &heliar::scene::Scene, ray: &Arc<heliar::g
         };
         frames.push(RefFrame { index: i, video: VideoFrame::from_frame(&frame, &lin), lighting, grid, reference: refs.image(k)?, classes });
     }
-    pb.finish_and_clear();
-
     Ok(frames)
 }
 

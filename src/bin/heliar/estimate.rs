@@ -36,6 +36,11 @@ pub struct EstimateArgs {
     /// Write the outputs even over an input or a file of the scene.
     #[arg(long)]
     force: bool,
+    /// Also give each lamp its `k` in hindsight (`k_hindsight`: smoothed forward and backward
+    /// over the whole sequence, as `heliar augment` renders with). The lines are then written
+    /// once every frame is estimated.
+    #[arg(long)]
+    hindsight: bool,
 }
 
 /// What the frame loop gathers for the summary and the plot.
@@ -51,12 +56,14 @@ struct Tally {
 }
 
 /// Estimates every frame of `seq`, one JSON line each into `out`.
-fn estimate_frames(scene: &Scene, seq: &Sequence, est: &mut Estimator, out: &mut JsonLines) -> Result<Tally> {
+fn estimate_frames(scene: &Scene, seq: &Sequence, est: &mut Estimator, out: &mut JsonLines, hindsight: bool) -> Result<Tally> {
     let lin = seq.photometry.linearizer();
     let pb = frame_bar(seq.files.len(), &format!("estimate {}", seq.name));
     let mut t = Tally::default();
     let k = &scene.camera.intrinsics;
     let luma = |v: &[f64; 3]| v[0] * LUMA[0] + v[1] * LUMA[1] + v[2] * LUMA[2];
+    // With `hindsight`, the lines wait for the backward pass: (estimate, decode ms, truth, error, s).
+    let mut held = Vec::new();
     for (i, path) in seq.files.iter().enumerate() {
         let clock = std::time::Instant::now();
         let frame = Frame::load_sized(path, k.width, k.height)?;
@@ -88,10 +95,21 @@ fn estimate_frames(scene: &Scene, seq: &Sequence, est: &mut Estimator, out: &mut
         }
         t.ms.push(e.estimate_ms);
         t.decode.push(decode_ms);
-        out.write(&Record { estimate: &e, decode_ms, truth, error })?;
+        if hindsight {
+            held.push((e, decode_ms, truth, error, ts));
+        } else {
+            out.write(&Record { estimate: &e, decode_ms, truth, error })?;
+        }
         pb.inc(1);
     }
     pb.finish_and_clear();
+    if hindsight {
+        let h = heliar::estimate::hindsight::LampHindsight::from_reports(scene, held.iter().map(|(e, _, _, _, ts)| (e.frame, *ts, &e.lamps[..])));
+        for (mut e, decode_ms, truth, error, _) in held {
+            h.apply(e.frame, &mut e.lamps);
+            out.write(&Record { estimate: &e, decode_ms, truth, error })?;
+        }
+    }
     Ok(t)
 }
 
@@ -139,12 +157,12 @@ pub fn run(a: EstimateArgs) -> Result<()> {
             let mut tally = None;
             crate::common::write_output(p, |tmp| {
                 let mut out = JsonLines::create(tmp).with_context(|| format!("creating {}", tmp.display()))?;
-                tally = Some(estimate_frames(&scene, &seq, &mut est, &mut out)?);
+                tally = Some(estimate_frames(&scene, &seq, &mut est, &mut out, a.hindsight)?);
                 Ok(())
             })?;
             tally.unwrap_or_default()
         }
-        None => estimate_frames(&scene, &seq, &mut est, &mut JsonLines::stdout())?,
+        None => estimate_frames(&scene, &seq, &mut est, &mut JsonLines::stdout(), a.hindsight)?,
     };
     let Tally { statuses, errs_pd, errs_pa, ms, decode, plot } = tally;
     let mut t = Table::new(&["quantity", "value"]);

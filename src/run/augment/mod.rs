@@ -24,9 +24,11 @@
 //! byte; shorter warm-ups are measured in `docs/measurements.md` ("Chunk warm-up"). A chunk can
 //! be resumed (`resume` with the same `frames`). [`merge`] joins chunks' output folders.
 
+mod hindsight;
 mod merge;
 mod resume;
 
+pub use hindsight::HindsightSummary;
 pub use merge::{MergeOptions, MergeOutcome, merge};
 use resume::{Resumed, catch_up, fresh, resume};
 use super::session::OutdoorSession;
@@ -75,6 +77,9 @@ pub struct AugmentOptions {
     pub force: bool,
     /// Frame times that do not increase are an error (else a warning naming the frames).
     pub strict_clock: bool,
+    /// Estimate the input once ahead of the render and give the lamps their `k` in hindsight
+    /// (`hindsight`; only scenes with `[[lights]]` run it).
+    pub hindsight: bool,
 }
 
 /// Refuses outputs that would overwrite the input or a file of the scene (unless forced).
@@ -162,6 +167,8 @@ pub struct AugmentSummary {
     pub counts: RunCounts,
     /// Per-stage timings.
     pub stages: Stages,
+    /// The lamps' pre-pass (`hindsight`): ran, or why not.
+    pub lamp_hindsight: HindsightSummary,
     /// The chunk this run wrote (absent for a whole run).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub chunk: Option<ChunkSummary>,
@@ -191,6 +198,9 @@ impl AugmentSummary {
         let statuses: Vec<String> = self.counts.statuses.iter().map(|(k, v)| format!("{k} {v}")).collect();
         t.push(vec!["estimator status".into(), statuses.join(", ")]);
         t.push(vec!["relights (probe updates)".into(), format!("{} ({})", self.counts.relights, self.probe_source)]);
+        let h = &self.lamp_hindsight;
+        let lamps = if h.ran { format!("{} ({:.1} s)", h.reason, h.ms / 1e3) } else { format!("skipped: {}", h.reason) };
+        t.push(vec!["lamps' k in hindsight".into(), lamps]);
         for (pass, reasons) in &self.counts.passes_skipped {
             let n: usize = reasons.values().sum();
             let first = reasons.iter().max_by_key(|(_, v)| **v).map(|(r, _)| r.as_str()).unwrap_or("");
@@ -251,6 +261,7 @@ pub fn augment(scene: &Scene, input: &Input, session: &mut OutdoorSession, opts:
     } else {
         fresh(&out, opts, input, scene, first, &mut thumbs, obs)?
     };
+    let lamp_hindsight = hindsight::hindsight_pass(scene, input, session, from, opts.hindsight, obs, stop)?;
     follow_motion(scene, input, session)?;
     catch_up((from, first, done), &out, opts, input, source.as_mut(), session, &lin, &mut thumbs, &mut clock_check, obs)?;
     let mut report = if done > first { JsonLines::append(&out.report) } else { JsonLines::create(&out.report) }.with_context(|| format!("{}: cannot write the report", out.report.display()))?;
@@ -308,6 +319,7 @@ pub fn augment(scene: &Scene, input: &Input, session: &mut OutdoorSession, opts:
         probe_source: session.stage.probes.name().to_owned(),
         counts,
         stages,
+        lamp_hindsight,
         chunk: opts.frames.as_ref().map(|r| ChunkSummary { first: r.start, end: r.end, warmup: first - from }),
     };
     if let Err(e) = crate::io::write_atomic(&out.summary, serde_json::to_string_pretty(&summary)?.as_bytes()) {
@@ -316,15 +328,21 @@ pub fn augment(scene: &Scene, input: &Input, session: &mut OutdoorSession, opts:
     if result.is_ok() && !interrupted {
         warn_if_truncated(input, i, limit, obs);
     }
-    let error = match (close_err, result) {
+    let error = run_error(close_err, result, (first, i), &out);
+    Ok(AugmentOutcome { summary, outputs: out, error })
+}
+
+/// What went wrong in a run that wrote frames `first..i` into `out`: closing the output, or the
+/// frame loop (the frames before are kept).
+fn run_error(close_err: Option<anyhow::Error>, result: Result<()>, (first, i): (usize, usize), out: &Outputs) -> Option<anyhow::Error> {
+    match (close_err, result) {
         (Some(e), _) => Some(e.context(format!("closing {}", out.target.display()))),
         (None, Err(e)) => {
             let kept = if first > 0 { format!("frames {first}..{i} of the chunk") } else { format!("{i} frames") };
             Some(e.context(format!("stopped after {kept}; they are kept in {} (listed in {}); `--resume` continues", out.target.display(), out.report.display())))
         }
         (None, Ok(())) => None,
-    };
-    Ok(AugmentOutcome { summary, outputs: out, error })
+    }
 }
 
 /// Makes the session's moving objects (if any) follow their motion; their key times in seconds
