@@ -7,7 +7,9 @@ What is hashed (timings and other run-dependent fields left out):
     report line (JSON, with `*_ms`, `ms`, `timings` removed);
   - `estimate` on both sequences: every JSON line (timings removed);
   - `vem` on the bundled VEM sequences (outdoor, lamp): every JSON line (timings removed);
-  - `vem --scene` on the courtyard with the outdoor VEM sequence: frames and report lines.
+  - `vem --scene` on the courtyard with the outdoor VEM sequence: frames and report lines (its
+    frames differ between machines; a frame whose bytes differ passes when its block means are
+    within a code or two of the stored ones: see BLOCK_TOL).
 
 Usage (from anywhere):
   python3 tools/check_behaviour.py [--bin PATH] [--update] [--keep DIR]
@@ -50,6 +52,87 @@ def jsonl_hashes(path, tag, out):
     out[f'{tag}/lines'] = str(len(lines))
 
 
+# The 8-bit frames of `vem --scene` (rasterised by llvmpipe with many lights and shadow maps)
+# differ between machines that report the same adapter: built from the same commit, the stored
+# hashes of 2026-12-05 06:33 were reproduced on that day's machine and not on the next one's (an
+# AVX-512 Xeon). So besides its hash each such frame stores the means of its 40×40-pixel blocks,
+# and a frame whose hash differs still passes when every block mean is within BLOCK_TOL codes and
+# the frame's mean within MEAN_TOL codes of the stored ones (a machine's rounding moves pixels by
+# a code or two at edges; a change of behaviour moves a whole region). The report lines of that
+# run and every other output are compared bit for bit.
+BLOCK = 40
+BLOCK_TOL = 2.0
+MEAN_TOL = 0.5
+STATS = '_stats/'
+
+
+def png_rgb(path):
+    """(width, height, channels, rows of bytes) of an 8-bit, non-interlaced RGB or RGBA PNG."""
+    import struct, zlib
+    with open(path, 'rb') as f:
+        data = f.read()
+    if data[:8] != b'\x89PNG\r\n\x1a\n':
+        raise ValueError(f'{path}: not a PNG')
+    pos, idat, head = 8, b'', None
+    while pos < len(data):
+        (n,) = struct.unpack('>I', data[pos:pos + 4])
+        kind, body = data[pos + 4:pos + 8], data[pos + 8:pos + 8 + n]
+        if kind == b'IHDR':
+            head = struct.unpack('>IIBBBBB', body)
+        elif kind == b'IDAT':
+            idat += body
+        pos += 12 + n
+    w, h, depth, colour, _, _, interlace = head
+    if depth != 8 or colour not in (2, 6) or interlace:
+        raise ValueError(f'{path}: only 8-bit RGB/RGBA non-interlaced PNGs are read here')
+    ch = 3 if colour == 2 else 4
+    raw, stride = zlib.decompress(idat), w * ch
+    rows, prev = [], bytearray(stride)
+    for y in range(h):
+        f, line = raw[y * (stride + 1)], bytearray(raw[y * (stride + 1) + 1:(y + 1) * (stride + 1)])
+        for i in range(stride):
+            a = line[i - ch] if i >= ch else 0
+            b, c = prev[i], (prev[i - ch] if i >= ch else 0)
+            if f == 1:
+                line[i] = (line[i] + a) & 255
+            elif f == 2:
+                line[i] = (line[i] + b) & 255
+            elif f == 3:
+                line[i] = (line[i] + (a + b) // 2) & 255
+            elif f == 4:
+                pa, pb, pc = abs(b - c), abs(a - c), abs(a + b - 2 * c)
+                line[i] = (line[i] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
+        rows.append(line)
+        prev = line
+    return w, h, ch, rows
+
+
+def block_means(path):
+    """The RGB means of the frame's BLOCK×BLOCK blocks (row-major), rounded to 0.01."""
+    w, h, ch, rows = png_rgb(path)
+    out = []
+    for by in range(0, h, BLOCK):
+        for bx in range(0, w, BLOCK):
+            acc, n = [0, 0, 0], 0
+            for y in range(by, min(by + BLOCK, h)):
+                r = rows[y]
+                for x in range(bx, min(bx + BLOCK, w)):
+                    for c in range(3):
+                        acc[c] += r[x * ch + c]
+                    n += 1
+            out.append([round(v / n, 2) for v in acc])
+    return out
+
+
+def close_enough(want, got):
+    """Block means within BLOCK_TOL and the frame's mean within MEAN_TOL, per channel."""
+    if not isinstance(want, list) or not isinstance(got, list) or len(want) != len(got):
+        return False
+    if any(abs(a - b) > BLOCK_TOL for wb, gb in zip(want, got) for a, b in zip(wb, gb)):
+        return False
+    return all(abs(sum(b[c] for b in want) - sum(b[c] for b in got)) / len(want) <= MEAN_TOL for c in range(3))
+
+
 def file_hashes(folder, exts, tag, out):
     names = sorted(n for n in os.listdir(folder) if n.rsplit('.', 1)[-1] in exts)
     for n in names:
@@ -87,6 +170,9 @@ def measure(binary, work):
     dst = os.path.join(o, 'vem_render')
     frames = os.path.join(dst, 'frames') if os.path.isdir(os.path.join(dst, 'frames')) else dst
     file_hashes(frames, {'exr', 'png'}, 'vem_render/frames', out)
+    for n in sorted(os.listdir(frames)):
+        if n.endswith('.png'):
+            out[f'{STATS}vem_render/frames/{n}'] = block_means(os.path.join(frames, n))
     jsonl_hashes(os.path.join(dst, 'frames.jsonl'), 'vem_render/report', out)
     # The GPU the frames were rasterised on: llvmpipe's results depend on its vector width, so
     # 8-bit frames can differ by a code between machines. Recorded with the hashes and named
@@ -126,7 +212,14 @@ def main():
     with open(HASHES, encoding='utf-8') as f:
         want = json.load(f)
     adapter = (want.pop('_adapter', None), got.pop('_adapter', None))
+    stats_want = {k[len(STATS):]: want.pop(k) for k in [k for k in want if k.startswith(STATS)]}
+    stats_got = {k[len(STATS):]: got.pop(k) for k in [k for k in got if k.startswith(STATS)]}
     bad = [(k, want.get(k), got.get(k)) for k in sorted(set(want) | set(got)) if want.get(k) != got.get(k)]
+    near = [b for b in bad if b[0] in stats_want and close_enough(stats_want[b[0]], stats_got.get(b[0]))]
+    bad = [b for b in bad if b not in near]
+    if near:
+        print(f'note: {len(near)} frames of vem_render differ in their bytes but every {BLOCK}-px block is within {BLOCK_TOL} codes '
+              f'and the mean within {MEAN_TOL} of the stored ones (this machine rasterises them differently): accepted')
     for k, w, g in bad:
         print(f'differs: {k}: stored {w}, now {g}')
     if bad and adapter[0] != adapter[1]:
