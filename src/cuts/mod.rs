@@ -92,6 +92,7 @@ pub mod file;
 pub mod flat;
 pub mod frame;
 pub mod lighting;
+pub mod local_sun;
 pub mod packed;
 pub mod products;
 pub mod proxy_field;

@@ -35,6 +35,7 @@
 use super::precompute::{self, PrecomputeOptions};
 use crate::cuts::bounce::{Bounce, BounceSurface};
 use crate::cuts::file::{self, PrecomputedCuts};
+use crate::cuts::local_sun::LocalSun;
 use crate::cuts::frame::{FrameCuts, ObjectAmbient, ReceiverCuts, UnitLighting};
 use crate::cuts::products::{ProductUse, ReceiverProductUse, ReceiverProducts};
 use crate::cuts::reuse::{AmbientCache, ObjectUse};
@@ -73,6 +74,8 @@ pub struct CutState {
     lighting: Option<(LightKey, Arc<UnitLighting>)>,
     /// Per object, what it reflects onto the others (`crate::cuts::bounce`).
     surfaces: Vec<BounceSurface>,
+    /// Per object, its mesh in its cuts' frame (its shadow on the proxy, `crate::cuts::local_sun`).
+    meshes: Vec<Arc<crate::geometry::Mesh>>,
     /// Per object, the rays from its vertices that meet itself (`crate::cuts::self_bounce`).
     own: Vec<SelfGather>,
     /// The objects' per-vertex ambient and visibility products kept between frames
@@ -115,7 +118,8 @@ impl CutState {
         // The cuts' vertices are the meshes' at the first key (`same_objects`, or computed from
         // them), in the cuts' frame: the gathers hold in every rigid pose.
         let own = scene.virtual_objects.iter().zip(&frame.cuts.objects).map(|(o, c)| SelfGather::from_mesh(&o.mesh, &c.svc.normals, SELF_BOUNCE_RAYS)).collect();
-        Ok(Self { frame, origin, lighting: None, surfaces, own, cache: AmbientCache::default(), receiver_products: Arc::default(), uses: Vec::new(), outcome: CutOutcome::Skipped("no object has moved yet: the traced per-pixel transfer serves".into()) })
+        let meshes = scene.virtual_objects.iter().map(|o| Arc::new(o.mesh.clone())).collect();
+        Ok(Self { frame, origin, lighting: None, surfaces, own, meshes, cache: AmbientCache::default(), receiver_products: Arc::default(), uses: Vec::new(), outcome: CutOutcome::Skipped("no object has moved yet: the traced per-pixel transfer serves".into()) })
     }
 
     /// Each object's pose since its cuts were computed (`crate::cuts::rotate::Pose`), from its
@@ -157,7 +161,11 @@ impl CutState {
                 let m = r.unit_maps();
                 // A map the tree cannot take (a negative texel of a shaped sky) falls back to the
                 // uniform sky rather than failing the frame.
-                UnitLighting::from_maps(tree, &m.sky_pa, &m.surface_pa, m.surface_pd.as_ref()).unwrap_or_else(|_| UnitLighting::uniform_sky(tree))
+                match UnitLighting::from_maps(tree, &m.sky_pa, &m.surface_pa, m.surface_pd.as_ref()) {
+                    // The proxy's light as each vertex sees it (`crate::cuts::local_sun`).
+                    Ok(l) => UnitLighting { local: r.local_light().map(|texels| Arc::new(LocalSun { texels, objects: self.meshes.clone() })), ..l },
+                    Err(_) => UnitLighting::uniform_sky(tree),
+                }
             }
             None => UnitLighting::uniform_sky(tree),
         };
