@@ -185,7 +185,8 @@ impl CutState {
     pub fn evaluate(&mut self, poses: &[Pose], relighter: Option<&Relighter>, eye: Vec3, hidden: &[bool]) -> Result<(ObjectAmbient, ReceiverCuts), CutsError> {
         let light = self.lighting(relighter);
         let sun = relighter.and_then(Relighter::sun_dir);
-        let bounce = Bounce { surfaces: &self.surfaces, sun, own: &self.own };
+        let proxy = light.local.as_ref().map(|l| &*l.texels.ray);
+        let bounce = Bounce { surfaces: &self.surfaces, sun, own: &self.own, proxy };
         let result = self.frame.object_ambient_reusing(&light, poses, eye, &bounce, hidden, &mut self.cache);
         let (ambient, uses) = match result {
             Ok(r) => r,
@@ -208,7 +209,7 @@ impl CutState {
     /// [`Self::product_uses`] say what was done per object, [`Self::receiver_product_use`] for
     /// the receivers.
     pub fn evaluate_reusing(&mut self, poses: &[Pose], light: Arc<UnitLighting>, eye: Vec3, sun: Option<Vec3>) -> Result<(ObjectAmbient, ReceiverCuts), CutsError> {
-        let bounce = Bounce { surfaces: &self.surfaces, sun, own: &self.own };
+        let bounce = Bounce { surfaces: &self.surfaces, sun, own: &self.own, proxy: None };
         match self.frame.object_ambient_reusing(&light, poses, eye, &bounce, &[], &mut self.cache) {
             Ok((ambient, uses)) => {
                 self.uses = uses;
@@ -242,7 +243,7 @@ impl CutState {
     /// the objects reflect onto each other (`crate::cuts::bounce`); `None` when the lighting holds
     /// all of it (a VEM frame).
     pub fn evaluate_with(&self, poses: &[Pose], light: Arc<UnitLighting>, eye: Vec3, sun: Option<Vec3>) -> Result<(ObjectAmbient, ReceiverCuts), CutsError> {
-        let ambient = self.frame.object_ambient_bounced(&light, poses, eye, &Bounce { surfaces: &self.surfaces, sun, own: &self.own })?;
+        let ambient = self.frame.object_ambient_bounced(&light, poses, eye, &Bounce { surfaces: &self.surfaces, sun, own: &self.own, proxy: None })?;
         let receivers = self.frame.receivers_posed(light, poses.to_vec());
         Ok((ambient, receivers))
     }
