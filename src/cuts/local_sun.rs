@@ -44,7 +44,6 @@ use super::frame::UnitLighting;
 use super::lighting::{ClusteredLighting, MIN_BRDF_COS};
 use super::rotate::Pose;
 use super::tree::DirectionTree;
-use crate::envmap::relight::LocalLightTexels;
 use crate::geometry::Mesh;
 use crate::geometry::equirect::texel_index;
 use crate::geometry::raycast::RayScene;
@@ -62,11 +61,31 @@ const LOCAL_PA: bool = true;
 /// self-visibility is zero there): no ray.
 const BELOW: f32 = -0.45;
 
+/// The relit map's surface texels as light arriving at the points they show
+/// (`crate::envmap::relight::Relighter::local_light`, which the frame loop hands over).
+#[derive(Clone)]
+pub struct ProxyLight {
+    /// Map width.
+    pub width: u32,
+    /// Map height.
+    pub height: u32,
+    /// The map's capture centre.
+    pub centre: Vec3,
+    /// Toward the sun, unit, world frame.
+    pub sun: Vec3,
+    /// Per texel, irradiance per unit `Pa` at its surface point (`c`; zero on sky).
+    pub pa: Vec<Vec3>,
+    /// Per texel, the sun's bounce per unit `Pd` at its surface point (`b`; zero on sky).
+    pub pd: Vec<Vec3>,
+    /// The proxy.
+    pub ray: Arc<RayScene>,
+}
+
 /// The map's texels as light arriving at their points, the proxy, and the objects' meshes in
 /// their cuts' frame (for their shadows on the proxy).
 pub struct LocalSun {
     /// The relighter's texels.
-    pub texels: LocalLightTexels,
+    pub texels: ProxyLight,
     /// Per object, its mesh in the frame its cuts were computed in.
     pub objects: Vec<Arc<Mesh>>,
 }
