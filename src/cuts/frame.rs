@@ -47,14 +47,14 @@
 //! already (`c` has that part removed), so contact shadows in a wall's sky shadow come out a
 //! little too dark; the bounce an object blocks is taken in the same share as the sky.
 //!
-//! The map's surface texels per unit `Pd` (the sun's light off the proxy) are the proxy as the
-//! map's capture point sees it, multiplied by the objects' visibility only: an object in a wall's
-//! sun shadow gets the bounce of the sunlit paving the capture point sees where its own view has
-//! the wall's shaded paving and face. This is the dominant error of the unmoved statue against its
-//! traced transfer (its pedestal in the courtyard wall's shadow +8%, the whole statue 7.35% where
-//! issue 15 §3 asks 2%; `tests/suite/object_cuts_static.rs`, docs/measurements.md, "The static
-//! case and the wall's sky shadow"). A binary mask of the sunlit proxy per grid point overshot
-//! there; the proxy's radiance per unit `Pd` seen from the point would be the term to use.
+//! The map's surface texels are the proxy as the map's capture point sees it, multiplied by the
+//! objects' visibility only: an object in a wall's sun shadow gets the bounce of the sunlit
+//! paving the capture point sees where its own view has the wall's shaded paving and face. That
+//! was the dominant error of the unmoved statue against its traced transfer (7.35% where issue 15
+//! §3 asks 2%; `tests/suite/object_cuts_static.rs`). The frame loop's outdoor path therefore
+//! replaces, per vertex and coarse direction, the texels' light by the proxy's light the vertex
+//! itself sees ([`UnitLighting::local`], `super::local_sun`; 2.37% since, docs/measurements.md,
+//! "The proxy's light per vertex"); [`Self::object_ambient_posed`] without it is the map's.
 
 pub use super::receivers::ReceiverCuts;
 use super::file::PrecomputedCuts;
