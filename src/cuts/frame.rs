@@ -53,7 +53,7 @@
 //! was the dominant error of the unmoved statue against its traced transfer (7.35% where issue 15
 //! §3 asks 2%; `tests/suite/object_cuts_static.rs`). The frame loop's outdoor path therefore
 //! replaces, per vertex and coarse direction, the texels' light by the proxy's light the vertex
-//! itself sees ([`UnitLighting::local`], `super::local_sun`; 2.37% since, docs/measurements.md,
+//! itself sees ([`UnitLighting::local`], `super::local_sun`; 2.22% since, docs/measurements.md,
 //! "The proxy's light per vertex"); [`Self::object_ambient_posed`] without it is the map's.
 
 pub use super::receivers::ReceiverCuts;

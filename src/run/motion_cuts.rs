@@ -30,7 +30,10 @@
 //!   with the new lighting, bit for bit as a fresh walk.
 //! - **Lighting** ([`CutState::lighting`]): the relighter's map split per unit `Pa` and `Pd`
 //!   (`crate::envmap::relight::Relighter::unit_maps`), clustered again only when its sun planes
-//!   change; the uniform sky without a bake.
+//!   change; the uniform sky without a bake. With the relighter's texels as light arriving at
+//!   their points (`Relighter::local_light`) and the objects' meshes, each vertex takes the
+//!   proxy's light along its own rays (`crate::cuts::local_sun`), and the bounce sources' sun
+//!   shadow is traced against the proxy (`crate::cuts::bounce::Bounce::proxy`).
 
 use super::precompute::{self, PrecomputeOptions};
 use crate::cuts::bounce::{Bounce, BounceSurface};
