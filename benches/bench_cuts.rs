@@ -50,6 +50,7 @@ fn lighting(tree: &DirectionTree) -> UnitLighting {
         surface_pa: Some(ClusteredLighting::from_fn(tree, |d| ground(d, 0.2))),
         surface_pd: Some(ClusteredLighting::from_fn(tree, |d| ground(d, 0.7))),
         maps: None,
+        local: None,
     }
 }
 

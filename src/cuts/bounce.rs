@@ -50,6 +50,7 @@ use super::vcf::FieldLookup;
 use super::walk::for_each_common_node;
 use super::{Cut, CutsError};
 use crate::geometry::Mesh;
+use crate::geometry::raycast::RayScene;
 use glam::{Mat3, Vec2, Vec3};
 use rayon::prelude::*;
 use std::f32::consts::FRAC_1_PI;
@@ -204,6 +205,10 @@ pub struct Bounce<'a> {
     pub sun: Option<Vec3>,
     /// Per object, or empty (no light from an object onto itself: Eq. 3's black self-occluder).
     pub own: &'a [SelfGather],
+    /// The proxy, to trace its sun shadow at each vertex instead of looking the proxy field up
+    /// at the sun's leaf (the frame loop's outdoor path, with `crate::cuts::local_sun`); `None`:
+    /// the field.
+    pub proxy: Option<&'a RayScene>,
 }
 
 /// Adds `more` to `rows`, rgb of each row.
@@ -313,7 +318,7 @@ impl FrameCuts {
             .into_par_iter()
             .map(|y| {
                 let sun = match &sun_leaves {
-                    Some((own, world)) => self.sun_visibility(poses, b, y, own, *world)?,
+                    Some((own, world)) => self.sun_visibility(poses, b, y, own, *world, bounce.proxy.zip(bounce.sun))?,
                     None => 0.0,
                 };
                 let rho = surface.albedo.get(y).copied().unwrap_or(Vec3::ZERO);
@@ -333,14 +338,20 @@ impl FrameCuts {
     /// The direct sun's irradiance per unit `Pd` at vertex `y` of object `b`:
     /// `V_s·max(n·s, 0)` from its self-visibility cut at the sun's leaf (`leaves[b]`, its
     /// frame), times the proxy field's (`world`) and the other objects' fields' values there.
-    pub(super) fn sun_visibility(&self, poses: &[Pose], b: usize, y: usize, leaves: &[u32], world: u32) -> Result<f32, CutsError> {
+    pub(super) fn sun_visibility(&self, poses: &[Pose], b: usize, y: usize, leaves: &[u32], world: u32, traced: Option<(&RayScene, Vec3)>) -> Result<f32, CutsError> {
         let obj = &self.cuts.objects[b];
         let mut v = leaf_value(obj.svc.cuts.view(y), leaves[b]);
         if v <= 0.0 {
             return Ok(0.0);
         }
         let x = poses[b].point(obj.positions[y]);
-        if let Some(field) = &self.cuts.proxy {
+        if let Some((proxy, sun)) = traced {
+            // A shadow ray against the proxy (`super::local_sun`): the field's 1 m grid blurs
+            // a wall's shadow edge across the object.
+            if !proxy.sees_direction(x, poses[b].dir(obj.svc.normals[y]), sun) {
+                return Ok(0.0);
+            }
+        } else if let Some(field) = &self.cuts.proxy {
             v *= field_value(&field.locate(x)?, &field.cuts, world);
         }
         for (c, other) in self.cuts.objects.iter().enumerate() {

@@ -47,18 +47,19 @@
 //! already (`c` has that part removed), so contact shadows in a wall's sky shadow come out a
 //! little too dark; the bounce an object blocks is taken in the same share as the sky.
 //!
-//! The map's surface texels per unit `Pd` (the sun's light off the proxy) are the proxy as the
-//! map's capture point sees it, multiplied by the objects' visibility only: an object in a wall's
-//! sun shadow gets the bounce of the sunlit paving the capture point sees where its own view has
-//! the wall's shaded paving and face. This is the dominant error of the unmoved statue against its
-//! traced transfer (its pedestal in the courtyard wall's shadow +8%, the whole statue 7.35% where
-//! issue 15 §3 asks 2%; `tests/suite/object_cuts_static.rs`, docs/measurements.md, "The static
-//! case and the wall's sky shadow"). A binary mask of the sunlit proxy per grid point overshot
-//! there; the proxy's radiance per unit `Pd` seen from the point would be the term to use.
+//! The map's surface texels are the proxy as the map's capture point sees it, multiplied by the
+//! objects' visibility only: an object in a wall's sun shadow gets the bounce of the sunlit
+//! paving the capture point sees where its own view has the wall's shaded paving and face. That
+//! was the dominant error of the unmoved statue against its traced transfer (7.35% where issue 15
+//! §3 asks 2%; `tests/suite/object_cuts_static.rs`). The frame loop's outdoor path therefore
+//! replaces, per vertex and coarse direction, the texels' light by the proxy's light the vertex
+//! itself sees ([`UnitLighting::local`], `super::local_sun`; 2.22% since, docs/measurements.md,
+//! "The proxy's light per vertex"); [`Self::object_ambient_posed`] without it is the map's.
 
 pub use super::receivers::ReceiverCuts;
 use super::file::PrecomputedCuts;
 use super::lighting::{ClusteredLighting, MIN_BRDF_COS};
+use super::local_sun::{LocalFrame, LocalSun};
 use super::packed::CutView;
 use super::rotate::{LeafIndex, LeafRemap, Pose, relative};
 use super::tree::{DirectionTree, node_index};
@@ -89,6 +90,9 @@ pub struct UnitLighting {
     /// The maps clustered (`None`: the uniform sky), kept to cluster them again in a turned
     /// object's frame ([`Self::in_frame`]).
     pub maps: Option<Arc<LightingMaps>>,
+    /// The proxy's light as each vertex sees it (`super::local_sun`; the frame loop's outdoor
+    /// path only): the surface texels' light replaced per vertex and coarse direction.
+    pub local: Option<Arc<LocalSun>>,
 }
 
 /// The three parts of a relit map (equirect, the crate's convention).
@@ -106,7 +110,7 @@ impl UnitLighting {
     /// The uniform upper-hemisphere sky of the crate's radiometry: radiance `1/π` per unit `Pa`.
     pub fn uniform_sky(tree: &DirectionTree) -> Self {
         let sky_pa = ClusteredLighting::from_fn(tree, |d| if d.y > 0.0 { Vec3::splat(FRAC_1_PI) } else { Vec3::ZERO });
-        Self { sky_pa, surface_pa: None, surface_pd: None, maps: None }
+        Self { sky_pa, surface_pa: None, surface_pd: None, maps: None, local: None }
     }
 
     /// The three parts of a relit map, each an equirect map in the crate's convention.
@@ -116,6 +120,7 @@ impl UnitLighting {
             surface_pa: Some(ClusteredLighting::from_equirect(tree, surface_pa)?),
             surface_pd: surface_pd.map(|m| ClusteredLighting::from_equirect(tree, m)).transpose()?,
             maps: Some(Arc::new(LightingMaps { sky_pa: sky_pa.clone(), surface_pa: surface_pa.clone(), surface_pd: surface_pd.cloned() })),
+            local: None,
         })
     }
 
@@ -139,7 +144,7 @@ impl UnitLighting {
     pub fn in_frame(&self, tree: &DirectionTree, rotation: Mat3) -> Result<Self, CutsError> {
         let Some(m) = &self.maps else {
             let sky_pa = ClusteredLighting::from_fn(tree, |d| if (rotation * d).y > 0.0 { Vec3::splat(FRAC_1_PI) } else { Vec3::ZERO });
-            return Ok(Self { sky_pa, surface_pa: None, surface_pd: None, maps: None });
+            return Ok(Self { sky_pa, surface_pa: None, surface_pd: None, maps: None, local: None });
         };
         let cluster = |map: &LinearImage| ClusteredLighting::from_equirect_in_frame(tree, map, rotation);
         Ok(Self {
@@ -147,6 +152,7 @@ impl UnitLighting {
             surface_pa: Some(cluster(&m.surface_pa)?),
             surface_pd: m.surface_pd.as_ref().map(cluster).transpose()?,
             maps: self.maps.clone(),
+            local: self.local.clone(),
         })
     }
 }
@@ -211,6 +217,8 @@ pub(super) struct ObjectFrame {
     lighting: Arc<UnitLighting>,
     proxy: Option<LeafRemap>,
     others: Vec<Option<LeafRemap>>,
+    /// The proxy's light per vertex (`super::local_sun`), when the lighting has it.
+    local: Option<LocalFrame>,
 }
 
 impl FrameCuts {
@@ -247,7 +255,8 @@ impl FrameCuts {
             None => lighting.clone(),
         };
         let others = poses.iter().map(|p| remap(relative(p.rotation, own))).collect();
-        Ok(ObjectFrame { lighting, proxy: remap(relative(None, own)), others })
+        let local = lighting.local.clone().map(|l| LocalFrame::new(l, poses));
+        Ok(ObjectFrame { lighting, proxy: remap(relative(None, own)), others, local })
     }
 
     /// The ambient of every vertex of every object at `poses` (cut frame → world, `super::rotate`),
@@ -388,6 +397,14 @@ impl FrameCuts {
         let surf_pa = if lighting.surface_pa.is_some() { surf[0] } else { zero };
         let surf_pd = if lighting.surface_pd.is_some() { surf[surf.len() - 1] } else { zero };
         let sky = product_sums(&self.tree, &[&lighting.sky_pa], product.sky(), n, r)[0];
+        let (surf_pa, surf_pd) = match &frame.local {
+            Some(local) => {
+                let x = poses[object].point(self.cuts.objects[object].positions[v]);
+                let [a, d] = local.deltas(&self.tree, lighting, &poses[object], x, n).sums(&self.tree, product.surface(), n, r);
+                ((surf_pa.0 + a.0, surf_pa.1 + a.1), (surf_pd.0 + d.0, surf_pd.1 + d.1))
+            }
+            None => (surf_pa, surf_pd),
+        };
         Ok([rgbw(sky.0 + surf_pa.0, 1.0), rgbw(sky.1 + surf_pa.1, 0.0), rgbw(surf_pd.0, 0.0), rgbw(surf_pd.1, 0.0)])
     }
 

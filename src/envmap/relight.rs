@@ -73,6 +73,26 @@ pub struct UnitMaps {
     pub surface_pd: Option<LinearImage>,
 }
 
+/// The relit map's surface texels as irradiance arriving at their points
+/// ([`Relighter::local_light`]).
+#[derive(Clone)]
+pub struct LocalLightTexels {
+    /// Map width.
+    pub width: u32,
+    /// Map height.
+    pub height: u32,
+    /// Capture centre.
+    pub centre: Vec3,
+    /// The sun's direction of these planes.
+    pub sun: Vec3,
+    /// Per texel, irradiance per unit `Pa` at its surface point (`c`; zero on sky).
+    pub pa: Vec<Vec3>,
+    /// Per texel, the sun's bounce per unit `Pd` at its surface point (`b`; zero on sky).
+    pub pd: Vec<Vec3>,
+    /// The proxy.
+    pub ray: Arc<RayScene>,
+}
+
 /// The sun-dependent planes.
 #[derive(Clone, Debug)]
 struct SunPlanes {
@@ -99,6 +119,8 @@ pub struct Relighter {
     sun: Option<SunPlanes>,
     config: RelightConfig,
     ray: Arc<RayScene>,
+    /// The bake's capture centre.
+    centre: Vec3,
     /// The bake's weighted-ambient factor `c` per texel (Jensen's uniform sky).
     c_uniform: Vec<Vec3>,
     /// The scene's sky.
@@ -140,6 +162,7 @@ impl Relighter {
             sun: None,
             config,
             ray,
+            centre: baked.centre,
             c_uniform: baked.ambient.clone(),
             scene_sky: SkyModel::uniform(),
             sky_model: SkyModel::uniform(),
@@ -310,6 +333,34 @@ impl Relighter {
         };
         let surface_pd = self.direct_plane().map(|d| LinearImage { width: self.width, height: self.height, data: (0..n).map(|i| std::array::from_fn(|c| d[c][i])).collect() });
         UnitMaps { sky_pa: image(false), surface_pa: image(true), surface_pd }
+    }
+
+    /// The map's surface texels as light *arriving* at the surface point each shows, per unit
+    /// `Pa` and per unit `Pd` with the direct sun left out (the sun's bounce `b` only), for
+    /// relighting a point of the proxy seen from elsewhere than the capture centre
+    /// (`crate::cuts::local_sun`): `None` before the first sun.
+    pub fn local_light(&self) -> Option<LocalLightTexels> {
+        let sun = self.sun.as_ref()?;
+        let n = self.sky.len();
+        let amb = self.ambient_plane();
+        let (mut pa, mut pd) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+        let vals: Vec<(usize, Vec3, Vec3)> = self
+            .surface
+            .par_iter()
+            .map(|&i| {
+                let i = i as usize;
+                let (p, nn, rho) = (self.position[i], self.normal[i], self.albedo[i]);
+                let cos = nn.dot(sun.dir).max(0.0);
+                let s = if cos > 0.0 && self.ray.sees_direction(p, nn, sun.dir) { cos } else { 0.0 };
+                let per = |plane: &[Vec<f32>; 3], minus: f32| Vec3::from_array(std::array::from_fn(|c| if rho[c] > 0.0 { (plane[c][i] * std::f32::consts::PI / rho[c] - minus).max(0.0) } else { 0.0 }));
+                (i, per(amb, 0.0), per(&sun.direct, s))
+            })
+            .collect();
+        for (i, a, d) in vals {
+            pa[i] = a;
+            pd[i] = d;
+        }
+        Some(LocalLightTexels { width: self.width, height: self.height, centre: self.centre, sun: sun.dir, pa, pd, ray: self.ray.clone() })
     }
 
     /// Relights into `out` (resized as needed). Without a built sun (or with the sun down), the

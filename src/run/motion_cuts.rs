@@ -30,11 +30,15 @@
 //!   with the new lighting, bit for bit as a fresh walk.
 //! - **Lighting** ([`CutState::lighting`]): the relighter's map split per unit `Pa` and `Pd`
 //!   (`crate::envmap::relight::Relighter::unit_maps`), clustered again only when its sun planes
-//!   change; the uniform sky without a bake.
+//!   change; the uniform sky without a bake. With the relighter's texels as light arriving at
+//!   their points (`Relighter::local_light`) and the objects' meshes, each vertex takes the
+//!   proxy's light along its own rays (`crate::cuts::local_sun`), and the bounce sources' sun
+//!   shadow is traced against the proxy (`crate::cuts::bounce::Bounce::proxy`).
 
 use super::precompute::{self, PrecomputeOptions};
 use crate::cuts::bounce::{Bounce, BounceSurface};
 use crate::cuts::file::{self, PrecomputedCuts};
+use crate::cuts::local_sun::{LocalSun, ProxyLight};
 use crate::cuts::frame::{FrameCuts, ObjectAmbient, ReceiverCuts, UnitLighting};
 use crate::cuts::products::{ProductUse, ReceiverProductUse, ReceiverProducts};
 use crate::cuts::reuse::{AmbientCache, ObjectUse};
@@ -73,6 +77,8 @@ pub struct CutState {
     lighting: Option<(LightKey, Arc<UnitLighting>)>,
     /// Per object, what it reflects onto the others (`crate::cuts::bounce`).
     surfaces: Vec<BounceSurface>,
+    /// Per object, its mesh in its cuts' frame (its shadow on the proxy, `crate::cuts::local_sun`).
+    meshes: Vec<Arc<crate::geometry::Mesh>>,
     /// Per object, the rays from its vertices that meet itself (`crate::cuts::self_bounce`).
     own: Vec<SelfGather>,
     /// The objects' per-vertex ambient and visibility products kept between frames
@@ -115,7 +121,8 @@ impl CutState {
         // The cuts' vertices are the meshes' at the first key (`same_objects`, or computed from
         // them), in the cuts' frame: the gathers hold in every rigid pose.
         let own = scene.virtual_objects.iter().zip(&frame.cuts.objects).map(|(o, c)| SelfGather::from_mesh(&o.mesh, &c.svc.normals, SELF_BOUNCE_RAYS)).collect();
-        Ok(Self { frame, origin, lighting: None, surfaces, own, cache: AmbientCache::default(), receiver_products: Arc::default(), uses: Vec::new(), outcome: CutOutcome::Skipped("no object has moved yet: the traced per-pixel transfer serves".into()) })
+        let meshes = scene.virtual_objects.iter().map(|o| Arc::new(o.mesh.clone())).collect();
+        Ok(Self { frame, origin, lighting: None, surfaces, own, meshes, cache: AmbientCache::default(), receiver_products: Arc::default(), uses: Vec::new(), outcome: CutOutcome::Skipped("no object has moved yet: the traced per-pixel transfer serves".into()) })
     }
 
     /// Each object's pose since its cuts were computed (`crate::cuts::rotate::Pose`), from its
@@ -157,7 +164,14 @@ impl CutState {
                 let m = r.unit_maps();
                 // A map the tree cannot take (a negative texel of a shaped sky) falls back to the
                 // uniform sky rather than failing the frame.
-                UnitLighting::from_maps(tree, &m.sky_pa, &m.surface_pa, m.surface_pd.as_ref()).unwrap_or_else(|_| UnitLighting::uniform_sky(tree))
+                match UnitLighting::from_maps(tree, &m.sky_pa, &m.surface_pa, m.surface_pd.as_ref()) {
+                    // The proxy's light as each vertex sees it (`crate::cuts::local_sun`).
+                    Ok(l) => {
+                        let texels = r.local_light().map(|t| ProxyLight { width: t.width, height: t.height, centre: t.centre, sun: t.sun, pa: t.pa, pd: t.pd, ray: t.ray });
+                        UnitLighting { local: texels.map(|texels| Arc::new(LocalSun { texels, objects: self.meshes.clone() })), ..l }
+                    }
+                    Err(_) => UnitLighting::uniform_sky(tree),
+                }
             }
             None => UnitLighting::uniform_sky(tree),
         };
@@ -177,7 +191,8 @@ impl CutState {
     pub fn evaluate(&mut self, poses: &[Pose], relighter: Option<&Relighter>, eye: Vec3, hidden: &[bool]) -> Result<(ObjectAmbient, ReceiverCuts), CutsError> {
         let light = self.lighting(relighter);
         let sun = relighter.and_then(Relighter::sun_dir);
-        let bounce = Bounce { surfaces: &self.surfaces, sun, own: &self.own };
+        let proxy = light.local.as_ref().map(|l| &*l.texels.ray);
+        let bounce = Bounce { surfaces: &self.surfaces, sun, own: &self.own, proxy };
         let result = self.frame.object_ambient_reusing(&light, poses, eye, &bounce, hidden, &mut self.cache);
         let (ambient, uses) = match result {
             Ok(r) => r,
@@ -200,7 +215,7 @@ impl CutState {
     /// [`Self::product_uses`] say what was done per object, [`Self::receiver_product_use`] for
     /// the receivers.
     pub fn evaluate_reusing(&mut self, poses: &[Pose], light: Arc<UnitLighting>, eye: Vec3, sun: Option<Vec3>) -> Result<(ObjectAmbient, ReceiverCuts), CutsError> {
-        let bounce = Bounce { surfaces: &self.surfaces, sun, own: &self.own };
+        let bounce = Bounce { surfaces: &self.surfaces, sun, own: &self.own, proxy: None };
         match self.frame.object_ambient_reusing(&light, poses, eye, &bounce, &[], &mut self.cache) {
             Ok((ambient, uses)) => {
                 self.uses = uses;
@@ -234,7 +249,7 @@ impl CutState {
     /// the objects reflect onto each other (`crate::cuts::bounce`); `None` when the lighting holds
     /// all of it (a VEM frame).
     pub fn evaluate_with(&self, poses: &[Pose], light: Arc<UnitLighting>, eye: Vec3, sun: Option<Vec3>) -> Result<(ObjectAmbient, ReceiverCuts), CutsError> {
-        let ambient = self.frame.object_ambient_bounced(&light, poses, eye, &Bounce { surfaces: &self.surfaces, sun, own: &self.own })?;
+        let ambient = self.frame.object_ambient_bounced(&light, poses, eye, &Bounce { surfaces: &self.surfaces, sun, own: &self.own, proxy: None })?;
         let receivers = self.frame.receivers_posed(light, poses.to_vec());
         Ok((ambient, receivers))
     }

@@ -258,9 +258,9 @@ fn a_statue_moved_under_the_walls_sky_shadow_takes_it_from_the_proxy_field() {
     assert!(contact.len() > 100, "{} contact pixels", contact.len());
     assert!(err <= OBJECT_TOLERANCE, "relative RMSE {err:.4} over {} object pixels", pixels.len());
     assert!(contact_err <= CONTACT_TOLERANCE, "relative RMSE {contact_err:.4} over the contact region");
-    // Without the proxy field the cuts give the statue the sky the wall hides.
-    // Without the proxy field the cuts give the statue the sky the wall hides (measured 17.9%
-    // against 9.9%, too bright by 13.7% on average against 3.3%).
+    // Without the proxy field the cuts give the statue the sky the wall hides (measured 7.5%
+    // against 4.74%, too bright by 6.3% on average against 2.2% too dark; 17.9% against 9.9%
+    // before `cuts::local_sun`).
     assert!(err < 0.75 * err_no_field, "without the proxy field {err_no_field:.4}, with it {err:.4}");
     for d in [&moving, &placed, &bare, &no_field, &outs] {
         std::fs::remove_dir_all(d).ok();
@@ -268,25 +268,25 @@ fn a_statue_moved_under_the_walls_sky_shadow_takes_it_from_the_proxy_field() {
 }
 
 /// Relative RMSE allowed over the unmoved statue's pixels against its traced transfer. Issue 15
-/// §3 asks 2%; measured 7.35% (debug build, the frame loop's cuts: `S = 2^10`, 8 × 16² fields,
-/// proxy field on the `[irradiance]` box at 1 m), the cuts too bright by 4.7% on average. The
-/// sunlit pixels are within 1.5%; the error is on the pedestal in the wall's sun shadow (+7.2%,
-/// three quarters of the squared error): its ground bounce of the sun is the relit map's
-/// surface texels, the paving as the capture point sees it (sunlit), where the trace finds the
-/// paving at the pedestal's foot in the wall's shadow (docs/measurements.md, "The static case
-/// and the wall's sky shadow"). Not met: the bound holds the measured value, with 0.65 point for
-/// the Monte Carlo noise of the trace and the runs' variation.
-const STATIC_TOLERANCE: f64 = 0.08;
+/// §3 asks 2%. Measured 7.35% (+4.7% on average) while the cuts lit the statue with the relit
+/// map's surface texels as distant light: the pedestal in the wall's sun shadow got the sunlit
+/// paving the capture point sees. With the proxy's light taken per vertex and coarse direction
+/// (`cuts::local_sun`) and the bounce sources' sun shadow traced against the proxy: measured
+/// 2.22% (+0.9%; debug build, the frame loop's cuts: `S = 2^10`, 8 × 16² fields, proxy field on
+/// the `[irradiance]` box at 1 m; docs/measurements.md, "The proxy's light per vertex"). Not
+/// met: the bound holds the measured value with 0.8 point of margin (the trace's Monte Carlo
+/// noise; runs repeat to the digits shown).
+const STATIC_TOLERANCE: f64 = 0.03;
 /// Relative RMSE allowed over the statue's pixels at the wall. Issue 15 §3 asks 5%; measured
-/// 9.93% (17.9% without the proxy field). The same term as the static case's (the pedestal in
-/// the wall's sun shadow lit by the map's sunlit paving, +6.1% there) and the 1 m proxy field
-/// interpolated across the wall, whose grid points at x = −3 lie inside it (docs/measurements.md).
-/// Not met: the bound holds the measured value with one point of margin.
-const OBJECT_TOLERANCE: f64 = 0.11;
+/// 9.93% while the map's surface texels lit it (17.9% without the proxy field), 4.74% with
+/// `cuts::local_sun` (7.5% without the proxy field). Met as measured, narrowly: the bound gives
+/// 0.76 point of margin.
+const OBJECT_TOLERANCE: f64 = 0.055;
 /// Relative RMSE allowed over the contact region at the wall. Issue 15 §3 asks 8%; measured
 /// 11.1%: the cuts darken the ground there half as much as the trace (mean 6.0% against 11.6%);
 /// the proxy field is not used for the receivers (their traced `c`, `b` have the wall in them).
 /// Not met: the bound holds the measured value with one point of margin.
 const CONTACT_TOLERANCE: f64 = 0.12;
-/// Relative RMSE allowed over the unmoved statue's contact region (issue 15 §3: 8%; measured 6.5%).
+/// Relative RMSE allowed over the unmoved statue's contact region (issue 15 §3: 8%; measured 6.5%,
+/// the receivers unchanged by `cuts::local_sun`).
 const STATIC_CONTACT_TOLERANCE: f64 = 0.08;

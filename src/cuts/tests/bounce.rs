@@ -106,7 +106,7 @@ fn a_lone_object_is_unchanged_and_a_neighbour_adds_light_linearly_on_its_facing_
     let light = Arc::new(UnitLighting::uniform_sky(&lone.tree));
     let first = lone.object_ambient_posed(&light, &[Pose::translated(Vec3::ZERO)], eye).unwrap();
     let mut with = first.clone();
-    lone.add_bounce(&mut with, &[Pose::translated(Vec3::ZERO)], eye, &Bounce { surfaces: std::slice::from_ref(&surf), sun, own: &[] }).unwrap();
+    lone.add_bounce(&mut with, &[Pose::translated(Vec3::ZERO)], eye, &Bounce { surfaces: std::slice::from_ref(&surf), sun, own: &[], proxy: None }).unwrap();
     assert_eq!(with, first);
 
     let two = frame(2);
@@ -116,14 +116,14 @@ fn a_lone_object_is_unchanged_and_a_neighbour_adds_light_linearly_on_its_facing_
         let mut b = surf.clone();
         b.albedo.iter_mut().for_each(|r| *r = Vec3::splat(albedo));
         let mut amb = base.clone();
-        two.add_bounce(&mut amb, &poses, eye, &Bounce { surfaces: &[surf.clone(), b], sun, own: &[] }).unwrap();
+        two.add_bounce(&mut amb, &poses, eye, &Bounce { surfaces: &[surf.clone(), b], sun, own: &[], proxy: None }).unwrap();
         amb
     };
     let (once, twice) = (bounced(0.4), bounced(0.8));
     // Both passes at once (the fields looked up once) give the same bits.
     let mut b = surf.clone();
     b.albedo.iter_mut().for_each(|r| *r = Vec3::splat(0.4));
-    assert_eq!(two.object_ambient_bounced(&light, &poses, eye, &Bounce { surfaces: &[surf.clone(), b], sun, own: &[] }).unwrap(), once);
+    assert_eq!(two.object_ambient_bounced(&light, &poses, eye, &Bounce { surfaces: &[surf.clone(), b], sun, own: &[], proxy: None }).unwrap(), once);
     let normals = &one.svc.normals;
     let facing = (0..normals.len()).max_by(|&i, &j| normals[i].x.total_cmp(&normals[j].x)).unwrap();
     let away = (0..normals.len()).min_by(|&i, &j| normals[i].x.total_cmp(&normals[j].x)).unwrap();

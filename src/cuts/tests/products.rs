@@ -62,7 +62,7 @@ impl Scene {
     }
 
     fn bounce(&self) -> Bounce<'_> {
-        Bounce { surfaces: &self.surfaces, sun: None, own: &self.own }
+        Bounce { surfaces: &self.surfaces, sun: None, own: &self.own, proxy: None }
     }
 }
 

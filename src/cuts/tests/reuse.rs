@@ -47,7 +47,7 @@ fn a_vertex_beyond_every_other_objects_reach_gets_exactly_its_lone_value() {
     assert_eq!(with.vertices[0], alone.vertices[0]);
     // Nor does `b` send light or shade the sun there: the bounce adds nothing to `a`.
     let surf = BounceSurface::from_mesh(&mesh);
-    let bounce = Bounce { surfaces: &[surf.clone(), surf], sun: Some(Vec3::new(0.3, 0.9, 0.1).normalize()), own: &[] };
+    let bounce = Bounce { surfaces: &[surf.clone(), surf], sun: Some(Vec3::new(0.3, 0.9, 0.1).normalize()), own: &[], proxy: None };
     assert_eq!(two.object_ambient_bounced(&light, &poses, eye, &bounce).unwrap().vertices[0], alone.vertices[0]);
     // Within reach (1.2 m apart) the facing side loses light.
     let near = [Pose::translated(Vec3::ZERO), Pose::translated(Vec3::new(1.2, 0.0, 0.0))];
@@ -74,7 +74,7 @@ impl Pair {
     }
 
     fn bounce(&self) -> Bounce<'_> {
-        Bounce { surfaces: &self.surfaces, sun: Some(Vec3::new(0.3, 0.9, 0.1).normalize()), own: &self.own }
+        Bounce { surfaces: &self.surfaces, sun: Some(Vec3::new(0.3, 0.9, 0.1).normalize()), own: &self.own, proxy: None }
     }
 
     fn poses(b: Vec3) -> Vec<Pose> {
