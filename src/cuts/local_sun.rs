@@ -51,6 +51,7 @@ use super::rotate::Pose;
 use super::tree::DirectionTree;
 use crate::geometry::Mesh;
 use crate::geometry::equirect::texel_index;
+pub use crate::geometry::proxy_light::ProxyLight;
 use crate::geometry::raycast::RayScene;
 use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
@@ -65,26 +66,6 @@ const LOCAL_PA: bool = true;
 /// Below `n·ω` under this a node lies wholly below the vertex's tangent plane (its cosine-folded
 /// self-visibility is zero there): no ray.
 const BELOW: f32 = -0.45;
-
-/// The relit map's surface texels as light arriving at the points they show
-/// (`crate::envmap::relight::Relighter::local_light`, which the frame loop hands over).
-#[derive(Clone)]
-pub struct ProxyLight {
-    /// Map width.
-    pub width: u32,
-    /// Map height.
-    pub height: u32,
-    /// The map's capture centre.
-    pub centre: Vec3,
-    /// Toward the sun, unit, world frame.
-    pub sun: Vec3,
-    /// Per texel, irradiance per unit `Pa` at its surface point (`c`; zero on sky).
-    pub pa: Vec<Vec3>,
-    /// Per texel, the sun's bounce per unit `Pd` at its surface point (`b`; zero on sky).
-    pub pd: Vec<Vec3>,
-    /// The proxy.
-    pub ray: Arc<RayScene>,
-}
 
 /// The map's texels as light arriving at their points, the proxy, and the objects' meshes in
 /// their cuts' frame (for their shadows on the proxy).

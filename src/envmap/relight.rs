@@ -21,6 +21,7 @@ pub use crate::scene::settings::RelightConfig;
 use crate::lighting::Lighting;
 use crate::geometry::ambient::{TransportQuality, transport, transport_under};
 use crate::geometry::equirect::dir_from_texel_centre;
+use crate::geometry::proxy_light::ProxyLight;
 use crate::sky::radiance::{ShapeMinusUniform, SkyModel, SkyRadiance};
 use crate::geometry::raycast::RayScene;
 use crate::io::image::LinearImage;
@@ -71,26 +72,6 @@ pub struct UnitMaps {
     pub surface_pa: LinearImage,
     /// Surface texels' radiance per unit `Pd`, once a sun is built.
     pub surface_pd: Option<LinearImage>,
-}
-
-/// The relit map's surface texels as irradiance arriving at their points
-/// ([`Relighter::local_light`]).
-#[derive(Clone)]
-pub struct LocalLightTexels {
-    /// Map width.
-    pub width: u32,
-    /// Map height.
-    pub height: u32,
-    /// Capture centre.
-    pub centre: Vec3,
-    /// The sun's direction of these planes.
-    pub sun: Vec3,
-    /// Per texel, irradiance per unit `Pa` at its surface point (`c`; zero on sky).
-    pub pa: Vec<Vec3>,
-    /// Per texel, the sun's bounce per unit `Pd` at its surface point (`b`; zero on sky).
-    pub pd: Vec<Vec3>,
-    /// The proxy.
-    pub ray: Arc<RayScene>,
 }
 
 /// The sun-dependent planes.
@@ -339,7 +320,7 @@ impl Relighter {
     /// `Pa` and per unit `Pd` with the direct sun left out (the sun's bounce `b` only), for
     /// relighting a point of the proxy seen from elsewhere than the capture centre
     /// (`crate::cuts::local_sun`): `None` before the first sun.
-    pub fn local_light(&self) -> Option<LocalLightTexels> {
+    pub fn local_light(&self) -> Option<ProxyLight> {
         let sun = self.sun.as_ref()?;
         let n = self.sky.len();
         let amb = self.ambient_plane();
@@ -360,7 +341,7 @@ impl Relighter {
             pa[i] = a;
             pd[i] = d;
         }
-        Some(LocalLightTexels { width: self.width, height: self.height, centre: self.centre, sun: sun.dir, pa, pd, ray: self.ray.clone() })
+        Some(ProxyLight { width: self.width, height: self.height, centre: self.centre, sun: sun.dir, pa, pd, ray: self.ray.clone() })
     }
 
     /// Relights into `out` (resized as needed). Without a built sun (or with the sun down), the

@@ -11,6 +11,7 @@
 pub mod ambient;
 pub mod brdf;
 pub mod equirect;
+pub mod proxy_light;
 pub mod raycast;
 pub mod sampling;
 pub mod subdivide;

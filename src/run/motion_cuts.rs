@@ -38,7 +38,7 @@
 use super::precompute::{self, PrecomputeOptions};
 use crate::cuts::bounce::{Bounce, BounceSurface};
 use crate::cuts::file::{self, PrecomputedCuts};
-use crate::cuts::local_sun::{LocalSun, ProxyLight};
+use crate::cuts::local_sun::LocalSun;
 use crate::cuts::frame::{FrameCuts, ObjectAmbient, ReceiverCuts, UnitLighting};
 use crate::cuts::products::{ProductUse, ReceiverProductUse, ReceiverProducts};
 use crate::cuts::reuse::{AmbientCache, ObjectUse};
@@ -167,7 +167,7 @@ impl CutState {
                 match UnitLighting::from_maps(tree, &m.sky_pa, &m.surface_pa, m.surface_pd.as_ref()) {
                     // The proxy's light as each vertex sees it (`crate::cuts::local_sun`).
                     Ok(l) => {
-                        let texels = r.local_light().map(|t| ProxyLight { width: t.width, height: t.height, centre: t.centre, sun: t.sun, pa: t.pa, pd: t.pd, ray: t.ray });
+                        let texels = r.local_light();
                         UnitLighting { local: texels.map(|texels| Arc::new(LocalSun { texels, objects: self.meshes.clone() })), ..l }
                     }
                     Err(_) => UnitLighting::uniform_sky(tree),
