@@ -305,6 +305,16 @@ impl FrameCuts {
         Ok(())
     }
 
+    /// Every object's outgoing radiance per vertex (module docs) with `ambient` as its ambient
+    /// (an object with no rows there reflects nothing): what the objects show the real
+    /// receivers (`super::receiver_light::ObjectsSeen`).
+    pub fn objects_radiance(&self, ambient: &ObjectAmbient, poses: &[Pose], bounce: &Bounce) -> Result<Vec<ObjectRadiance>, CutsError> {
+        if bounce.surfaces.len() != self.cuts.objects.len() || ambient.vertices.len() != self.cuts.objects.len() || poses.len() != self.cuts.objects.len() {
+            return Err(CutsError::Operands(format!("objects' radiance: {} objects, {} surfaces, {} ambient rows, {} poses", self.cuts.objects.len(), bounce.surfaces.len(), ambient.vertices.len(), poses.len())));
+        }
+        (0..self.cuts.objects.len()).map(|b| self.object_radiance(ambient, poses, b, bounce)).collect()
+    }
+
     /// Object `b`'s outgoing radiance per vertex (module docs), from its first-pass ambient.
     pub(super) fn object_radiance(&self, ambient: &ObjectAmbient, poses: &[Pose], b: usize, bounce: &Bounce) -> Result<ObjectRadiance, CutsError> {
         let obj = &self.cuts.objects[b];

@@ -113,7 +113,7 @@ impl LocalFrame {
 
     /// Light per unit `Pa` and per unit `Pd` arriving at `x` along world direction `w` from the
     /// proxy (module docs); `None` when the ray misses it.
-    fn radiance(&self, x: Vec3, w: Vec3) -> Option<(Vec3, Vec3)> {
+    pub(super) fn radiance(&self, x: Vec3, w: Vec3) -> Option<(Vec3, Vec3)> {
         let t = &self.sun.texels;
         let hit = t.ray.intersect(x, w, f32::MAX)?;
         let rho = t.ray.albedo(&hit) * FRAC_1_PI;

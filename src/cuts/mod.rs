@@ -102,6 +102,7 @@ pub mod local_sun;
 pub mod packed;
 pub mod products;
 pub mod proxy_field;
+pub mod receiver_light;
 pub mod receivers;
 pub mod reuse;
 pub mod rotate;

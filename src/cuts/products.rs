@@ -34,8 +34,11 @@
 use std::cell::RefCell;
 use std::collections::HashMap;
 
+use super::local_sun::LocalSun;
+use super::receiver_light::ReceiverLight;
 use super::rotate::Pose;
 use glam::Vec3;
+use std::sync::Arc;
 
 /// The products' memory budget by default: 256 MiB (about a million vertices at the courtyard's
 /// mean product size; `docs/measurements.md`, "Visibility products kept between frames").
@@ -179,13 +182,23 @@ fn key_point(k: &ReceiverKey) -> Vec3 {
     Vec3::new(f32::from_bits(k[0]), f32::from_bits(k[1]), f32::from_bits(k[2]))
 }
 
-/// The receivers' products at the last call's poses, and what the last call did.
+/// A receiver's light by direction's key: the receiver's, and the turned frame's rotation
+/// (`None`: the world's) as bits.
+pub(super) type LightKey = (ReceiverKey, Option<[u32; 9]>);
+
+/// The receivers' products at the last call's poses, their light by direction
+/// (`super::receiver_light`) under the last call's proxy light, and what the last call did.
 #[derive(Clone, Debug, Default)]
 pub struct ReceiverProducts {
     pub(super) budget: ProductBudget,
     pub(super) poses: Vec<Pose>,
     pub(super) kept: HashMap<ReceiverKey, ReceiverProduct>,
     pub(super) bytes: usize,
+    /// The receivers' light by direction; it does not depend on the poses, only on the proxy's
+    /// light (`light_of`).
+    pub(super) lights: HashMap<LightKey, ReceiverLight>,
+    pub(super) light_bytes: usize,
+    light_of: Option<Arc<LocalSun>>,
     /// The last call's counts.
     pub last: ReceiverProductUse,
 }
@@ -199,6 +212,8 @@ pub struct ReceiverProductUse {
     pub walked: usize,
     /// Receivers walked but not kept for lack of budget.
     pub over_budget: usize,
+    /// Receivers whose light by direction was traced (`super::receiver_light`).
+    pub lights_traced: usize,
 }
 
 impl ReceiverProducts {
@@ -238,10 +253,38 @@ impl ReceiverProducts {
         self.poses = poses.to_vec();
     }
 
+    /// Forgets the receivers' light by direction unless it was traced under `local` (the same
+    /// proxy light, by identity).
+    pub(super) fn light_for(&mut self, local: Option<&Arc<LocalSun>>) {
+        let same = match (&self.light_of, local) {
+            (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+            (None, None) => true,
+            _ => false,
+        };
+        if !same {
+            self.lights.clear();
+            self.light_bytes = 0;
+            self.light_of = local.cloned();
+        }
+    }
+
+    /// Keeps a receiver's light by direction unless the budget (shared with the products) is
+    /// spent.
+    pub(super) fn keep_light(&mut self, key: LightKey, light: ReceiverLight) {
+        let b = light.bytes() + 64;
+        if self.bytes + self.light_bytes + b > self.budget.0 {
+            return;
+        }
+        self.light_bytes += b;
+        if self.lights.insert(key, light).is_some() {
+            self.light_bytes -= b;
+        }
+    }
+
     /// Keeps `product` for `key` unless the budget is spent; false when it was not kept.
     pub(super) fn keep(&mut self, key: ReceiverKey, product: ReceiverProduct) -> bool {
         let b = product.bytes();
-        if self.bytes + b > self.budget.0 {
+        if self.bytes + self.light_bytes + b > self.budget.0 {
             return false;
         }
         self.bytes += b;

@@ -79,6 +79,8 @@ pub struct CutState {
     surfaces: Vec<BounceSurface>,
     /// Per object, its mesh in its cuts' frame (its shadow on the proxy, `crate::cuts::local_sun`).
     meshes: Vec<Arc<crate::geometry::Mesh>>,
+    /// The same meshes to trace receivers against (`crate::cuts::receivers::near_cut`).
+    near: Arc<Vec<RayScene>>,
     /// Per object, the rays from its vertices that meet itself (`crate::cuts::self_bounce`).
     own: Vec<SelfGather>,
     /// The objects' per-vertex ambient and visibility products kept between frames
@@ -121,8 +123,9 @@ impl CutState {
         // The cuts' vertices are the meshes' at the first key (`same_objects`, or computed from
         // them), in the cuts' frame: the gathers hold in every rigid pose.
         let own = scene.virtual_objects.iter().zip(&frame.cuts.objects).map(|(o, c)| SelfGather::from_mesh(&o.mesh, &c.svc.normals, SELF_BOUNCE_RAYS)).collect();
-        let meshes = scene.virtual_objects.iter().map(|o| Arc::new(o.mesh.clone())).collect();
-        Ok(Self { frame, origin, lighting: None, surfaces, own, meshes, cache: AmbientCache::default(), receiver_products: Arc::default(), uses: Vec::new(), outcome: CutOutcome::Skipped("no object has moved yet: the traced per-pixel transfer serves".into()) })
+        let meshes: Vec<Arc<crate::geometry::Mesh>> = scene.virtual_objects.iter().map(|o| Arc::new(o.mesh.clone())).collect();
+        let near = Arc::new(meshes.iter().map(|m| RayScene::new((**m).clone())).collect());
+        Ok(Self { frame, origin, lighting: None, surfaces, own, meshes, near, cache: AmbientCache::default(), receiver_products: Arc::default(), uses: Vec::new(), outcome: CutOutcome::Skipped("no object has moved yet: the traced per-pixel transfer serves".into()) })
     }
 
     /// Each object's pose since its cuts were computed (`crate::cuts::rotate::Pose`), from its
@@ -203,7 +206,18 @@ impl CutState {
             }
         };
         self.uses = uses;
-        let receivers = self.frame.receivers_posed(light, poses.to_vec()).with_products(self.receiver_products.clone());
+        let mut receivers = self.frame.receivers_posed(light.clone(), poses.to_vec()).with_products(self.receiver_products.clone());
+        if light.local.is_some() {
+            receivers = receivers.with_near(self.near.clone());
+            // What the objects reflect onto the receivers they hide light from
+            // (`crate::cuts::receiver_light`).
+            let radiance = self.frame.objects_radiance(&ambient, poses, &bounce)?;
+            let objects = &self.frame.cuts.objects;
+            let points: Vec<Vec<Vec3>> = objects.iter().zip(poses).map(|(o, p)| o.positions.iter().map(|&x| p.point(x)).collect()).collect();
+            let seen: Vec<(Vec3, f32, &[Vec3], &crate::cuts::bounce::ObjectRadiance)> =
+                objects.iter().zip(poses).zip(&points).zip(&radiance).map(|(((o, p), x), r)| (p.point(o.vcf.centre), o.vcf.radius_m, &x[..], r)).collect();
+            receivers = receivers.with_seen(Arc::new(crate::cuts::receiver_light::ObjectsSeen::new(&seen)));
+        }
         Ok((ambient, receivers))
     }
 
@@ -275,7 +289,7 @@ impl CutState {
 /// The receivers' visibility as the compositor keeps it between frames
 /// (`render::compositor`'s `cut_cache`): evaluated only where a moved object's field reaches.
 impl crate::render::compositor::ReceiverField for ReceiverCuts {
-    fn visibility(&self, surfaces: &[(Vec3, Vec3)], which: &[usize]) -> Vec<f32> {
+    fn visibility(&self, surfaces: &[(Vec3, Vec3)], which: &[usize]) -> Vec<crate::cuts::receivers::LightLeft> {
         self.visibility_of(surfaces, which)
     }
 

@@ -169,7 +169,8 @@ impl VemCuts {
         let surfaces: Vec<(Vec3, Vec3)> = near.iter().map(|(_, x, n)| (*x, *n)).collect();
         let mut ratio = vec![1.0f32; self.pixels];
         for ((i, _, _), v) in near.iter().zip(receivers.visibility(&surfaces)) {
-            ratio[*i as usize] = v;
+            // No proxy light in the captured-VEM mode: the sky's share, the same for `b`.
+            ratio[*i as usize] = v.ambient;
         }
         let (products, receiver_products, kept_bytes) = match reuse {
             true => {

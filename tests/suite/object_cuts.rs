@@ -25,10 +25,16 @@ pub(crate) fn edit(dir: &Path, from: &str, to: &str) {
 /// `heliar augment` of the courtyard's first three HDR frames of `scene` into `out`; the frames
 /// and the report's lines.
 pub(crate) fn augment3(scene: &Path, out: &Path) -> (Vec<LinearImage>, Vec<serde_json::Value>) {
+    augment3_with(scene, out, &[])
+}
+
+/// [`augment3`] with further `heliar augment` arguments.
+pub(crate) fn augment3_with(scene: &Path, out: &Path, extra: &[&str]) -> (Vec<LinearImage>, Vec<serde_json::Value>) {
     let input = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/courtyard/frames/hdr");
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_heliar"))
         .args(["augment", s(scene), "--input", s(&input), "--output", s(out), "--format", "exr"])
         .args(["--start", "2024-06-21T15:30:00+02:00", "--fps", "0.1", "--max-frames", "3"])
+        .args(extra)
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -191,10 +197,13 @@ fn a_moved_frame_takes_ambient_and_contact_shadow_from_the_cuts() {
         v[v.len() / 2]
     };
     eprintln!("left region medians: still {:.4}, cuts {:.4}", median(&c[2], &left), median(&a[2], &left));
-    // Not asserted: the ground the statue left should recover to the bare footage, as the
-    // re-traced placement's does (median −0.01%), but the cuts darken it by ≈ 4% (median) for
-    // the new place 1.5 m away, where the trace finds < 0.2%: the frame loop's coarse field
-    // blurs the statue's occlusion outward. Open (docs/measurements.md, "Moving objects").
+    // The ground the statue left recovers to the bare footage, as the re-traced placement's does
+    // (median −0.01%). With `c·V` the cuts darkened it by ≈ 4% (median) for the new place 1.5 m
+    // away, where the trace finds < 0.2%; with each receiver's own light by direction and the
+    // statue's reflected light (`cuts::receiver_light`) measured: median 0.00%, mean −0.37%
+    // (the still run darkens it by 5.3%).
+    assert!(left.len() > 20, "{} left pixels", left.len());
+    assert!(median(&a[2], &left).abs() < 0.01 && mean(&a[2], &left).abs() < 0.01, "the ground the statue left must recover");
     for d in [&moving, &placed, &still, &retrace, &bare, &outs] {
         std::fs::remove_dir_all(d).ok();
     }
@@ -206,5 +215,9 @@ fn a_moved_frame_takes_ambient_and_contact_shadow_from_the_cuts() {
 /// the pedestal's two-triangle top put the contact shadow between its vertices and the cuts left
 /// out the sunlit pedestal's light on the sphere's underside.
 const OBJECT_TOLERANCE: f64 = 0.05;
-/// Relative RMSE allowed over the contact region (issue 15 §3 asks ≤ 8%).
-const CONTACT_TOLERANCE: f64 = 0.08;
+/// Relative RMSE allowed over the contact region (issue 15 §3 asks ≤ 8%). Measured 6.2% while each
+/// receiver lost its share of the whole sky's light (`c·V`, `b·V`); 2.17% with the receivers'
+/// own light by direction, the statue's reflected light and its near field traced
+/// (`cuts::receiver_light`, `cuts::receivers::near_cut`; mean darkening 7.05% against the
+/// trace's 8.67%, debug build). The bound keeps two points of margin under the issue's.
+const CONTACT_TOLERANCE: f64 = 0.04;

@@ -282,11 +282,15 @@ const STATIC_TOLERANCE: f64 = 0.03;
 /// `cuts::local_sun` (7.5% without the proxy field). Met as measured, narrowly: the bound gives
 /// 0.76 point of margin.
 const OBJECT_TOLERANCE: f64 = 0.055;
-/// Relative RMSE allowed over the contact region at the wall. Issue 15 §3 asks 8%; measured
-/// 11.1%: the cuts darken the ground there half as much as the trace (mean 6.0% against 11.6%);
-/// the proxy field is not used for the receivers (their traced `c`, `b` have the wall in them).
-/// Not met: the bound holds the measured value with one point of margin.
-const CONTACT_TOLERANCE: f64 = 0.12;
-/// Relative RMSE allowed over the unmoved statue's contact region (issue 15 §3: 8%; measured 6.5%,
-/// the receivers unchanged by `cuts::local_sun`).
-const STATIC_CONTACT_TOLERANCE: f64 = 0.08;
+/// Relative RMSE allowed over the contact region at the wall (issue 15 §3 asks 8%). Measured 11.1%
+/// while a receiver lost the share of the *whole* sky's light the statue hides (the cuts
+/// darkened the ground half as much as the trace, mean 6.0% against 11.6%: the wall already
+/// hides half of that sky, so the statue takes twice the share of what is left); 7.19% with each
+/// receiver's light by direction as it sees it (`cuts::receiver_light`); 2.95% with the statue's
+/// reflected light added and the ground closer to it than its field's innermost sphere traced
+/// against it (`cuts::receivers::near_cut`: the field saw the statue from 1.2 r there). Mean
+/// darkening 11.4% against the trace's 11.6%; debug build, deterministic.
+const CONTACT_TOLERANCE: f64 = 0.04;
+/// Relative RMSE allowed over the unmoved statue's contact region (issue 15 §3 asks 8%; measured
+/// 6.5% with `c·V`, `b·V`, 2.49% with `cuts::receiver_light` and `near_cut`).
+const STATIC_CONTACT_TOLERANCE: f64 = 0.04;

@@ -3,7 +3,8 @@
 //! leave out"; cyberworlds §V-B, `../shared/papers/cyberworlds-captured-lighting-cuts.txt`).
 //!
 //! # How it works
-//! A receiver's value `V(x) = Σ_k w_k Π_b V_b(x, ω_k) / Σ_k w_k` depends on its own point and
+//! A receiver's value `V(x) = Σ_k w_k Π_b V_b(x, ω_k) / Σ_k w_k` (per `c` and `b`, with the light
+//! the objects reflect onto it, `crate::cuts::receiver_light`) depends on its own point and
 //! normal, the lighting's weights, and the fields of the objects that reach it: an object is left
 //! out beyond its field's outermost sphere (`crate::cuts::receivers`, where this is exact: the
 //! field is 1 there), and each receiver's weights depend on its own normal only. So when a new
@@ -12,8 +13,12 @@
 //! at its old pose (the value held it; the pixels it left are restored) or at its new one
 //! ([`ReceiverField::reaches`]). Objects that did not move count for nothing. Every other case
 //! (new lighting, another object count, a field that cannot say) evaluates every receiver asked
-//! for. The values kept are those the full evaluation would give, bit for bit.
+//! for. The values kept are those the full evaluation would give, bit for bit, with one
+//! exception: the light an unmoved object reflects onto a receiver
+//! (`crate::cuts::receiver_light::ObjectsSeen`) can change when another object moves (its shadow
+//! on it); a receiver the moved object does not reach keeps the old light until it is evaluated.
 
+pub use crate::geometry::proxy_light::LightLeft;
 pub use crate::render::frame::CutReceiverCounts;
 use glam::Vec3;
 use std::sync::Arc;
@@ -22,10 +27,10 @@ use std::sync::Arc;
 /// objects' visibility cut fields (`run::motion_cuts`; a closure `Fn(&[(Vec3, Vec3)]) -> Vec<f32>`
 /// is one that cannot say what it depends on, so every receiver is evaluated each time).
 pub trait ReceiverField: Send + Sync {
-    /// The share of sky light left at `surfaces[i]` (point, normal; world frame), in `[0, 1]`,
-    /// for each `i` of `which`, in that order. A receiver's value must not depend on which
-    /// others are asked for.
-    fn visibility(&self, surfaces: &[(Vec3, Vec3)], which: &[usize]) -> Vec<f32>;
+    /// The share of its light (`c` and `b`) left at `surfaces[i]` (point, normal; world frame),
+    /// in `[0, 1]`, for each `i` of `which`, in that order. A receiver's value must not depend
+    /// on which others are asked for.
+    fn visibility(&self, surfaces: &[(Vec3, Vec3)], which: &[usize]) -> Vec<LightLeft>;
 
     /// Per object, its pose this frame as bits (equal bits: the same field in the same place);
     /// `None`: not known, nothing is kept.
@@ -50,9 +55,9 @@ impl<F> ReceiverField for F
 where
     F: Fn(&[(Vec3, Vec3)]) -> Vec<f32> + Send + Sync,
 {
-    fn visibility(&self, surfaces: &[(Vec3, Vec3)], which: &[usize]) -> Vec<f32> {
+    fn visibility(&self, surfaces: &[(Vec3, Vec3)], which: &[usize]) -> Vec<LightLeft> {
         let all = self(surfaces);
-        which.iter().map(|&i| all.get(i).copied().unwrap_or(1.0)).collect()
+        which.iter().map(|&i| LightLeft::both(all.get(i).copied().unwrap_or(1.0))).collect()
     }
 }
 
@@ -61,7 +66,7 @@ where
 pub(super) struct CutCache {
     basis: Option<Arc<dyn ReceiverField>>,
     /// Per pixel, its stored visibility (NaN: none).
-    values: Vec<f32>,
+    values: Vec<LightLeft>,
 }
 
 fn same(a: &Arc<dyn ReceiverField>, b: &Arc<dyn ReceiverField>) -> bool {
@@ -91,7 +96,7 @@ impl CutCache {
 
     /// `field`'s visibility at `pixels`, whose surfaces are `surfaces`: evaluated where a moved
     /// object reaches at its old or new pose or nothing is stored, the stored value elsewhere.
-    pub(super) fn visibility(&mut self, field: &Arc<dyn ReceiverField>, pixels: &[u32], surfaces: &[(Vec3, Vec3)]) -> (Vec<f32>, CutReceiverCounts) {
+    pub(super) fn visibility(&mut self, field: &Arc<dyn ReceiverField>, pixels: &[u32], surfaces: &[(Vec3, Vec3)]) -> (Vec<LightLeft>, CutReceiverCounts) {
         let changed = self.changed(field);
         if changed.is_none() {
             self.values.clear();
@@ -99,12 +104,12 @@ impl CutCache {
         if let Some(&top) = pixels.iter().max()
             && self.values.len() <= top as usize
         {
-            self.values.resize(top as usize + 1, f32::NAN);
+            self.values.resize(top as usize + 1, LightLeft::both(f32::NAN));
         }
         let basis = self.basis.clone();
         let moved = changed.unwrap_or_default();
         let reached = |x: Vec3| moved.iter().any(|&b| basis.as_ref().is_some_and(|o| o.reaches(b, x)) || field.reaches(b, x));
-        let need: Vec<usize> = pixels.iter().zip(surfaces).enumerate().filter(|(_, (p, (x, _)))| self.values[**p as usize].is_nan() || reached(*x)).map(|(i, _)| i).collect();
+        let need: Vec<usize> = pixels.iter().zip(surfaces).enumerate().filter(|(_, (p, (x, _)))| self.values[**p as usize].ambient.is_nan() || reached(*x)).map(|(i, _)| i).collect();
         let fresh = field.visibility(surfaces, &need);
         for (&i, v) in need.iter().zip(fresh) {
             self.values[pixels[i] as usize] = v;
@@ -129,9 +134,9 @@ mod tests {
     }
 
     impl ReceiverField for Disc {
-        fn visibility(&self, surfaces: &[(Vec3, Vec3)], which: &[usize]) -> Vec<f32> {
+        fn visibility(&self, surfaces: &[(Vec3, Vec3)], which: &[usize]) -> Vec<LightLeft> {
             self.asked.fetch_add(which.len(), Ordering::Relaxed);
-            which.iter().map(|&i| if self.reaches(0, surfaces[i].0) { 0.5 } else { 1.0 }).collect()
+            which.iter().map(|&i| LightLeft::both(if self.reaches(0, surfaces[i].0) { 0.5 } else { 1.0 })).collect()
         }
         fn pose_keys(&self) -> Option<Vec<[u32; 12]>> {
             let mut k = [0; 12];
@@ -181,9 +186,9 @@ mod tests {
         // the same field keeps its values).
         let e: Arc<dyn ReceiverField> = Arc::new(|s: &[(Vec3, Vec3)]| vec![0.25; s.len()]);
         let (v, n) = cache.visibility(&e, &pixels, &surfaces);
-        assert_eq!((v, n.evaluated), (vec![0.25; 21], 21));
+        assert_eq!((v, n.evaluated), (vec![LightLeft::both(0.25); 21], 21));
         let f: Arc<dyn ReceiverField> = Arc::new(|s: &[(Vec3, Vec3)]| vec![0.75; s.len()]);
         let (v, n) = cache.visibility(&f, &pixels, &surfaces);
-        assert_eq!((v, n.evaluated), (vec![0.75; 21], 21));
+        assert_eq!((v, n.evaluated), (vec![LightLeft::both(0.75); 21], 21));
     }
 }

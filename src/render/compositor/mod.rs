@@ -80,7 +80,7 @@ mod volumes;
 
 pub use config::{CompositorConfig, HALF_PRECISION, PassSwitches, REUSE_SUN_DEG, RenderedFrame, SceneParts, TRACE_PATHS_PER_FRAME};
 pub use context::{FrameContext, Gate};
-pub use cut_cache::{CutReceiverCounts, ReceiverField};
+pub use cut_cache::{CutReceiverCounts, LightLeft, ReceiverField};
 pub use motion::{ReceiverVisibility, VertexAmbient};
 pub use resources::Resources;
 pub use stencil_cache::StencilCache;

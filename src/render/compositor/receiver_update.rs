@@ -199,7 +199,7 @@ impl Compositor {
     /// some objects keep their trace, those a moved object has reached: `kept`), with those
     /// pixels and how many were evaluated (the others keep the value of an earlier frame, where
     /// no moved object reaches: `cut_cache`); `None` when the cuts do not serve.
-    pub(super) fn cut_visibility(&mut self, pixels: &[u32]) -> Option<(Vec<u32>, Vec<f32>, super::CutReceiverCounts)> {
+    pub(super) fn cut_visibility(&mut self, pixels: &[u32]) -> Option<(Vec<u32>, Vec<super::LightLeft>, super::CutReceiverCounts)> {
         let cuts = self.cuts.clone()?;
         let served = if self.kept.any() { self.receivers.by_cuts(pixels) } else { pixels.to_vec() };
         let kept: Vec<u32> = served.into_iter().filter(|&p| self.receivers.surface(p).is_some()).collect();

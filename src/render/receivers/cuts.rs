@@ -3,6 +3,7 @@
 //! traced transfer (`render::compositor`'s `kept`), forgotten only where a moved object reaches.
 
 use super::{Owed, Receivers};
+use crate::geometry::proxy_light::LightLeft;
 
 impl Receivers {
     /// Forgets `c_v` and `b_v` at `pixels` only (objects moved that can reach them, the others
@@ -38,25 +39,26 @@ impl Receivers {
         pixels.iter().copied().filter(|&p| self.by_cuts.get(p as usize).copied().unwrap_or(false)).collect()
     }
 
-    /// Sets `c_v = c·V` and `b_v = b·V` at `pixels` from each one's sky visibility with the
-    /// objects present `visibility` (the visibility cuts, `crate::cuts::frame`) instead of
-    /// tracing them with the objects. Pixels whose `c` is not known are left alone.
-    pub fn set_with_from_visibility(&mut self, pixels: &[u32], visibility: &[f32]) {
-        for (&p, &v) in pixels.iter().zip(visibility) {
+    /// Sets `c_v = c·V_c + E_c` and `b_v = b·V_b + E_b` at `pixels` from what each keeps with the
+    /// objects present and what they reflect onto it, `visibility` (the visibility cuts,
+    /// `crate::cuts::receivers`, `crate::cuts::receiver_light`) instead of tracing them with the
+    /// objects. Pixels whose `c` is not known are left alone.
+    pub fn set_with_from_visibility(&mut self, pixels: &[u32], visibility: &[LightLeft]) {
+        for (&p, v) in pixels.iter().zip(visibility) {
             let i = p as usize;
             if i >= self.point.len() || !self.have_ambient[i] {
                 continue;
             }
-            let (c, b) = (self.ambient[i], self.bounce[i]);
-            self.ambient_with[i] = [c[0] * v, c[1] * v, c[2] * v, 1.0];
-            self.bounce_with[i] = [b[0] * v, b[1] * v, b[2] * v, 1.0];
+            let (c, b, (va, vb), (ca, ba)) = (self.ambient[i], self.bounce[i], (v.ambient, v.bounce), (v.ambient_add, v.bounce_add));
+            self.ambient_with[i] = [c[0] * va + ca.x, c[1] * va + ca.y, c[2] * va + ca.z, 1.0];
+            self.bounce_with[i] = [b[0] * vb + ba.x, b[1] * vb + ba.y, b[2] * vb + ba.z, 1.0];
             self.have_with[i] = true;
         }
     }
 
     /// Owes [`Self::set_with_from_visibility`] with `visibility` at `pixels` (a replayed frame's
     /// visibility cuts), after the computations owed before it.
-    pub fn owe_visibility(&mut self, pixels: Vec<u32>, visibility: Vec<f32>) {
+    pub fn owe_visibility(&mut self, pixels: Vec<u32>, visibility: Vec<LightLeft>) {
         self.owed.push(Owed::Visibility { pixels, visibility });
     }
 }

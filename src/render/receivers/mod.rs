@@ -109,7 +109,7 @@ enum Owed {
     Compute { todo: Vec<u32>, bounce_sun: Option<Vec3>, with: bool, sky: SkyModel },
     /// `c_v`, `b_v` set from the sky visibility with the objects present (the visibility cuts
     /// at a replayed frame's poses): [`Receivers::set_with_from_visibility`].
-    Visibility { pixels: Vec<u32>, visibility: Vec<f32> },
+    Visibility { pixels: Vec<u32>, visibility: Vec<crate::geometry::proxy_light::LightLeft> },
     /// The objects moved: `c_v`, `b_v` forgotten ([`Receivers::forget_objects`]).
     Forget,
     /// Some objects moved: `c_v`, `b_v` forgotten at these pixels ([`Receivers::forget_objects_at`]).
