@@ -156,6 +156,23 @@ impl LocalFrame {
     }
 }
 
+/// The rows `[j0, j1)` of a table over the `2^depth` nodes at `depth` (heap order from the
+/// depth's first node) that heap node `k` covers, and its share of them: a node deeper than
+/// `depth` takes `2^-up` of its ancestor's row, a shallower one the rows under it whole.
+pub(super) fn depth_rows(depth: u32, k: usize) -> (usize, usize, f32) {
+    let d = usize::BITS - 1 - (k + 1).leading_zeros();
+    let first = (1usize << depth) - 1;
+    if d >= depth {
+        let up = d - depth;
+        let j = ((k + 1) >> up) - 1 - first;
+        (j, j + 1, 1.0 / (1u32 << up) as f32)
+    } else {
+        let down = depth - d;
+        let j0 = ((k + 1) << down) - 1 - first;
+        (j0, j0 + (1usize << down), 1.0)
+    }
+}
+
 /// One vertex's `δ_K` as prefix sums ([`LocalFrame::deltas`]).
 pub struct Deltas {
     depth: u32,
@@ -167,19 +184,8 @@ impl Deltas {
     /// `δ` of heap node `k` per unit `Pa` and `Pd`: a share of its ancestor's at depth `D`, or
     /// the sum of its descendants' there.
     fn node(&self, k: usize) -> (Vec3, Vec3) {
-        let d = usize::BITS - 1 - (k + 1).leading_zeros();
-        let first = (1usize << self.depth) - 1;
-        if d >= self.depth {
-            let up = d - self.depth;
-            let j = ((k + 1) >> up) - 1 - first;
-            let share = 1.0 / (1u32 << up) as f32;
-            ((self.pa[j + 1] - self.pa[j]) * share, (self.pd[j + 1] - self.pd[j]) * share)
-        } else {
-            let down = self.depth - d;
-            let j0 = ((k + 1) << down) - 1 - first;
-            let j1 = j0 + (1usize << down);
-            (self.pa[j1] - self.pa[j0], self.pd[j1] - self.pd[j0])
-        }
+        let (j0, j1, share) = depth_rows(self.depth, k);
+        ((self.pa[j1] - self.pa[j0]) * share, (self.pd[j1] - self.pd[j0]) * share)
     }
 
     /// The changes of `(E_n, E_r)` per unit `Pa` and per unit `Pd` over a product's nodes

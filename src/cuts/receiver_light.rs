@@ -58,7 +58,7 @@
 pub use crate::geometry::proxy_light::LightLeft;
 use super::bounce::ObjectRadiance;
 use super::lighting::ReceiverWeights;
-use super::local_sun::{LOCAL_DEPTH, LocalFrame};
+use super::local_sun::{LOCAL_DEPTH, LocalFrame, depth_rows};
 use super::products::ReceiverProduct;
 use super::tree::DirectionTree;
 use glam::{Mat3, Vec3};
@@ -112,19 +112,9 @@ impl ReceiverLight {
         Self { depth, ambient: ambient.into(), bounce: bounce.into(), cosine: cosine.into() }
     }
 
-    /// The rows `[j0, j1)` of heap node `k` at depth `D`, and its share of them.
+    /// The rows of heap node `k` at depth `D`, and its share of them.
     fn rows(&self, k: usize) -> (usize, usize, f32) {
-        let d = usize::BITS - 1 - (k + 1).leading_zeros();
-        let first = (1usize << self.depth) - 1;
-        if d >= self.depth {
-            let up = d - self.depth;
-            let j = ((k + 1) >> up) - 1 - first;
-            (j, j + 1, 1.0 / (1u32 << up) as f32)
-        } else {
-            let down = self.depth - d;
-            let j0 = ((k + 1) << down) - 1 - first;
-            (j0, j0 + (1usize << down), 1.0)
-        }
+        depth_rows(self.depth, k)
     }
 
     /// Weights of heap node `k` per unit `Pa` and `Pd` (module docs).
