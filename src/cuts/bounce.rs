@@ -305,14 +305,15 @@ impl FrameCuts {
         Ok(())
     }
 
-    /// Every object's outgoing radiance per vertex (module docs) with `ambient` as its ambient
-    /// (an object with no rows there reflects nothing): what the objects show the real
-    /// receivers (`super::receiver_light::ObjectsSeen`).
-    pub fn objects_radiance(&self, ambient: &ObjectAmbient, poses: &[Pose], bounce: &Bounce) -> Result<Vec<ObjectRadiance>, CutsError> {
+    /// The outgoing radiance per vertex (module docs) of each object `evaluated` says, with
+    /// `ambient` as its ambient (an object with no rows there reflects nothing); the others
+    /// reflect nothing (empty): what the objects show the real receivers
+    /// (`super::receiver_light::ObjectsSeen`).
+    pub fn objects_radiance(&self, ambient: &ObjectAmbient, poses: &[Pose], bounce: &Bounce, evaluated: impl Fn(usize) -> bool) -> Result<Vec<ObjectRadiance>, CutsError> {
         if bounce.surfaces.len() != self.cuts.objects.len() || ambient.vertices.len() != self.cuts.objects.len() || poses.len() != self.cuts.objects.len() {
             return Err(CutsError::Operands(format!("objects' radiance: {} objects, {} surfaces, {} ambient rows, {} poses", self.cuts.objects.len(), bounce.surfaces.len(), ambient.vertices.len(), poses.len())));
         }
-        (0..self.cuts.objects.len()).map(|b| self.object_radiance(ambient, poses, b, bounce)).collect()
+        (0..self.cuts.objects.len()).map(|b| if evaluated(b) { self.object_radiance(ambient, poses, b, bounce) } else { Ok(ObjectRadiance::default()) }).collect()
     }
 
     /// Object `b`'s outgoing radiance per vertex (module docs), from its first-pass ambient.

@@ -210,8 +210,10 @@ impl CutState {
         if light.local.is_some() {
             receivers = receivers.with_near(self.near.clone());
             // What the objects reflect onto the receivers they hide light from
-            // (`crate::cuts::receiver_light`).
-            let radiance = self.frame.objects_radiance(&ambient, poses, &bounce)?;
+            // (`crate::cuts::receiver_light`); an object whose first pass was skipped (not
+            // shown, reaching no shown object) has no ambient rows to reflect and shows nothing.
+            let uses = &self.uses;
+            let radiance = self.frame.objects_radiance(&ambient, poses, &bounce, |b| !matches!(uses.get(b), Some(ObjectUse::Skipped)))?;
             let objects = &self.frame.cuts.objects;
             let points: Vec<Vec<Vec3>> = objects.iter().zip(poses).map(|(o, p)| o.positions.iter().map(|&x| p.point(x)).collect()).collect();
             let seen: Vec<(Vec3, f32, &[Vec3], &crate::cuts::bounce::ObjectRadiance)> =
