@@ -119,6 +119,12 @@ pub struct ObjectRadiance {
     pub pa: Vec<Vec3>,
     /// Radiance per unit `Pd`.
     pub pd: Vec<Vec3>,
+    /// Radiance per unit `Pd` without the direct sun (`ρ/π·E_Pd`), for the light the object
+    /// reflects onto itself with the sun traced at each hit ([`FrameCuts::self_bounce_rows`]);
+    /// empty: not kept.
+    pub pd_indirect: Vec<Vec3>,
+    /// `ρ/π` per vertex (with [`Self::pd_indirect`]).
+    pub albedo_pi: Vec<Vec3>,
 }
 
 impl ObjectRadiance {
@@ -267,16 +273,8 @@ impl FrameCuts {
         let mut added: Vec<Vec<VertexAmbient>> = Vec::with_capacity(objects.len());
         if own {
             // The light each object reflects onto itself, from the same first pass.
-            for (a, gather) in bounce.own.iter().enumerate() {
-                let obj = &objects[a];
-                let count = obj.positions.len().min(obj.svc.cuts.len());
-                let rows: Vec<VertexAmbient> = (0..count)
-                    .into_par_iter()
-                    .map(|v| {
-                        let (_, n_local, _, r) = self.vertex_geometry(poses, a, v, eye)?;
-                        Ok(gather.vertex_ambient(v, &radiance[a].pa, &radiance[a].pd, n_local, poses[a].local_dir(r)))
-                    })
-                    .collect::<Result<_, CutsError>>()?;
+            for a in 0..bounce.own.len() {
+                let rows = self.self_bounce_rows(poses, a, eye, bounce, &radiance[a])?;
                 add_rows(&mut ambient.vertices[a], &rows);
             }
         }
@@ -338,12 +336,61 @@ impl FrameCuts {
             })
             .collect::<Result<_, CutsError>>()?;
         let (pa, pd) = per_vertex.into_iter().unzip();
+        let albedo_pi: Vec<Vec3> = (0..count).map(|y| surface.albedo.get(y).copied().unwrap_or(Vec3::ZERO) * FRAC_1_PI).collect();
         Ok(ObjectRadiance {
             normals: (0..count).map(|y| pose.dir(obj.svc.normals[y])).collect(),
             area_m2: (0..count).map(|y| surface.area_m2.get(y).copied().unwrap_or(0.0)).collect(),
             pa,
             pd,
+            pd_indirect: (0..count).map(|y| albedo_pi[y] * rgb(rows[y][2])).collect(),
+            albedo_pi,
         })
+    }
+
+    /// The light object `a` reflects onto itself per vertex ([`super::self_bounce`], its
+    /// gather `bounce.own[a]`) from its radiance `rad`: the hit points' ambient interpolated
+    /// from their triangles' vertices, their direct sun traced at each hit ([`Self::sun_at`]:
+    /// the sphere's shadow on a pedestal's top is where it falls, not where the top's vertices
+    /// are).
+    pub(super) fn self_bounce_rows(&self, poses: &[Pose], a: usize, eye: Vec3, bounce: &Bounce, rad: &ObjectRadiance) -> Result<Vec<VertexAmbient>, CutsError> {
+        let obj = &self.cuts.objects[a];
+        let gather = &bounce.own[a];
+        let count = obj.positions.len().min(obj.svc.cuts.len());
+        let traced = gather.scene.is_some() && rad.albedo_pi.len() == rad.pd.len();
+        let sun = bounce.sun.map(|s| (poses.iter().map(|p| self.index.nearest(p.local_dir(s))).collect::<Vec<u32>>(), self.index.nearest(s), s));
+        (0..count)
+            .into_par_iter()
+            .map(|v| {
+                let (_, n_local, _, r) = self.vertex_geometry(poses, a, v, eye)?;
+                let r = poses[a].local_dir(r);
+                if !traced {
+                    return Ok(gather.vertex_ambient(v, &rad.pa, &rad.pd, n_local, r));
+                }
+                let lit: Vec<f32> = match &sun {
+                    Some((leaves, world, s)) => gather
+                        .hit_points(v, &obj.positions, &obj.svc.normals)
+                        .map(|(p, n)| self.sun_at(poses, a, (p, n), gather, leaves, *world, (*s, bounce.proxy)))
+                        .collect::<Result<_, _>>()?,
+                    None => Vec::new(),
+                };
+                Ok(gather.vertex_ambient_lit(v, &rad.pa, &rad.pd_indirect, Some((&rad.albedo_pi, &lit)), n_local, r))
+            })
+            .collect()
+    }
+
+    /// The direct sun's irradiance per unit `Pd` at point `p` with unit normal `n` (both in
+    /// object `b`'s cut frame) on object `b`: `max(n·s, 0)`, zero where `b` itself hides the sun
+    /// (a shadow ray against its mesh, `gather.scene`), times the proxy's (traced, or its field at
+    /// the world's sun leaf `world`) and the other objects' fields' values at their sun leaves
+    /// `leaves`. `sun`: toward the sun (world) and the proxy to trace.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn sun_at(&self, poses: &[Pose], b: usize, (p, n): (Vec3, Vec3), gather: &SelfGather, leaves: &[u32], world: u32, (sun, proxy): (Vec3, Option<&RayScene>)) -> Result<f32, CutsError> {
+        let s = poses[b].local_dir(sun);
+        let cos = n.dot(s);
+        if cos <= 0.0 || gather.shades(p, n, s) {
+            return Ok(0.0);
+        }
+        self.sun_beyond(poses, b, (poses[b].point(p), poses[b].dir(n)), cos, leaves, world, proxy.map(|r| (r, sun)))
     }
 
     /// The direct sun's irradiance per unit `Pd` at vertex `y` of object `b`:
@@ -351,15 +398,21 @@ impl FrameCuts {
     /// frame), times the proxy field's (`world`) and the other objects' fields' values there.
     pub(super) fn sun_visibility(&self, poses: &[Pose], b: usize, y: usize, leaves: &[u32], world: u32, traced: Option<(&RayScene, Vec3)>) -> Result<f32, CutsError> {
         let obj = &self.cuts.objects[b];
-        let mut v = leaf_value(obj.svc.cuts.view(y), leaves[b]);
+        let v = leaf_value(obj.svc.cuts.view(y), leaves[b]);
         if v <= 0.0 {
             return Ok(0.0);
         }
-        let x = poses[b].point(obj.positions[y]);
+        self.sun_beyond(poses, b, (poses[b].point(obj.positions[y]), poses[b].dir(obj.svc.normals[y])), v, leaves, world, traced)
+    }
+
+    /// `v` (object `b`'s own share of the sun at world point `x`, normal `n`) times the proxy's
+    /// and the other objects' (module docs of [`Self::sun_visibility`]).
+    #[allow(clippy::too_many_arguments)]
+    fn sun_beyond(&self, poses: &[Pose], b: usize, (x, n): (Vec3, Vec3), mut v: f32, leaves: &[u32], world: u32, traced: Option<(&RayScene, Vec3)>) -> Result<f32, CutsError> {
         if let Some((proxy, sun)) = traced {
             // A shadow ray against the proxy (`super::local_sun`): the field's 1 m grid blurs
             // a wall's shadow edge across the object.
-            if !proxy.sees_direction(x, poses[b].dir(obj.svc.normals[y]), sun) {
+            if !proxy.sees_direction(x, n, sun) {
                 return Ok(0.0);
             }
         } else if let Some(field) = &self.cuts.proxy {

@@ -316,7 +316,7 @@ mod tests {
     /// facing it mix by the projected solid angle each subtends (`A·cos θ_p·cos θ_x / d²`).
     #[test]
     fn objects_show_the_radiance_of_the_patches_facing_a_receiver() {
-        let one = |n: Vec3, pa: f32| ObjectRadiance { normals: vec![n], area_m2: vec![0.01], pa: vec![Vec3::splat(pa)], pd: vec![Vec3::splat(2.0 * pa)] };
+        let one = |n: Vec3, pa: f32| ObjectRadiance { normals: vec![n], area_m2: vec![0.01], pa: vec![Vec3::splat(pa)], pd: vec![Vec3::splat(2.0 * pa)], ..ObjectRadiance::default() };
         let facing = one(Vec3::NEG_X, 0.3);
         let seen = ObjectsSeen::new(&[(Vec3::new(1.0, 0.5, 0.0), 0.5, &[Vec3::new(1.0, 0.5, 0.0)], &facing)]);
         let (a, d) = seen.seen_from(0, Vec3::ZERO, Vec3::Y);
@@ -334,6 +334,7 @@ mod tests {
             area_m2: vec![0.01; 2],
             pa: vec![Vec3::splat(1.0), Vec3::splat(0.0)],
             pd: vec![Vec3::ZERO; 2],
+            ..ObjectRadiance::default()
         };
         let points = [Vec3::new(1.0, 1.0, 0.0), Vec3::new(2.0, 2.0, 0.0)];
         let seen = ObjectsSeen::new(&[(Vec3::new(1.5, 1.5, 0.0), 2.0, &points, &two)]);

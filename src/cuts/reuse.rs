@@ -235,14 +235,7 @@ impl FrameCuts {
     fn add_self_bounce(&self, ambient: &mut ObjectAmbient, poses: &[Pose], eye: Vec3, bounce: &Bounce, shown: &[bool], radiance: &[Option<ObjectRadiance>]) -> Result<(), CutsError> {
         for a in (0..shown.len()).filter(|&a| shown[a]) {
             let Some(rad) = &radiance[a] else { continue };
-            let gather = &bounce.own[a];
-            let rows: Vec<VertexAmbient> = (0..self.vertex_count(a))
-                .into_par_iter()
-                .map(|v| {
-                    let (_, n_local, _, r) = self.vertex_geometry(poses, a, v, eye)?;
-                    Ok(gather.vertex_ambient(v, &rad.pa, &rad.pd, n_local, poses[a].local_dir(r)))
-                })
-                .collect::<Result<_, CutsError>>()?;
+            let rows = self.self_bounce_rows(poses, a, eye, bounce, rad)?;
             add_rows(&mut ambient.vertices[a], &rows);
         }
         Ok(())

@@ -14,23 +14,30 @@
 //!   vertices with their barycentric weights. The object is rigid, so this holds in every pose:
 //!   nothing is traced per frame. Rays that escape, or meet a back face (inside the mesh), keep
 //!   nothing: there the first pass is right (open) or the direction is dark.
-//! - **Per frame** ([`SelfGather::vertex_ambient`]): each kept ray brings the radiance of its hit
-//!   point, the barycentric mean of the object's per-vertex outgoing radiance from the first pass
-//!   (`super::bounce::ObjectRadiance`: `ρ/π` times the cuts' ambient plus the direct sun with the
-//!   self-visibility cut's and the fields' value at the sun's leaf), per unit `Pa` and `Pd`. With
-//!   cosine-distributed rays the irradiance about the normal is `E_n = π/M·Σ L`, and about the
-//!   reflected view direction (`super::frame`'s split-sum ambient) `E_r = π/M·Σ L·max(r·ω, 0) /
-//!   max(n·ω, sin 3°)`. One bounce: the hit point's radiance has no light from the object itself.
+//! - **Per frame** ([`SelfGather::vertex_ambient_lit`], called by
+//!   `super::bounce::FrameCuts::self_bounce_rows`): each kept ray brings the radiance of its hit
+//!   point. Its ambient part is the barycentric mean of the object's per-vertex outgoing
+//!   radiance from the first pass without the direct sun (`super::bounce::ObjectRadiance`:
+//!   `ρ/π` times the cuts' ambient), per unit `Pa` and `Pd`. Its direct sun is taken at the hit
+//!   itself: `ρ/π` interpolated times `max(n·s, 0)` at the hit, zero where a shadow ray against
+//!   the object's own mesh ([`SelfGather::shades`]) or the proxy (traced, or its field) meets
+//!   something, times the other objects' fields at the sun's leaf. With cosine-distributed rays
+//!   the irradiance about the normal is `E_n = π/M·Σ L`, and about the reflected view direction
+//!   (`super::frame`'s split-sum ambient) `E_r = π/M·Σ L·max(r·ω, 0) / max(n·ω, sin 3°)`. One
+//!   bounce: the hit point's radiance has no light from the object itself.
 //!
 //! # Limits
-//! The hit point's radiance is interpolated from its triangle's vertices: a large triangle
-//! (a box's top, two triangles) takes its corners' light, so the sphere's shadow on the
-//! pedestal's top is not seen from the sphere's underside, and that bounce comes out a little
-//! too bright: alone it made the courtyard's statues worse where their tops show
-//! (docs/measurements.md), so it goes with the long edges split (`crate::geometry::subdivide`).
-//! `M` rays per vertex give Monte Carlo noise on the bounce (not on the rest). The frame loop
-//! casts every object's gather when it loads the cuts (`crate::run::motion_cuts`), and the scene
-//! loader splits every virtual object's long edges.
+//! The hit's ambient is interpolated from its triangle's vertices, so it goes with every virtual
+//! object's long edges split (`crate::geometry::subdivide`). The sun used to be interpolated too:
+//! a pedestal top's vertices are sunlit at its corners where the sphere's shadow covers its
+//! middle, so the sphere's underside got the bounce of a sunlit top. Tracing it per hit took the
+//! unmoved statue from 2.22% to 1.86% against its traced transfer, its sphere's shaded underside
+//! from 8.0% to 4.9% (`tests/suite/object_cuts_static.rs`; docs/measurements.md, "The sun at the
+//! self-bounce's hits"). The cost is one shadow ray against the object and one against the proxy
+//! per kept hit and frame that evaluates the object. `M` rays per vertex give Monte Carlo noise
+//! on the bounce (not on the rest). The frame loop casts every object's gather when it loads the
+//! cuts (`crate::run::motion_cuts`), and the scene loader splits every virtual object's long
+//! edges.
 
 use super::frame::VertexAmbient;
 use super::lighting::MIN_BRDF_COS;
@@ -40,6 +47,7 @@ use crate::geometry::raycast::RayScene;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::f32::consts::PI;
+use std::sync::Arc;
 
 /// Rays per vertex of the self-bounce gather, as measured on the courtyard's two statues
 /// (docs/measurements.md, "Where the two statues' error was").
@@ -57,12 +65,30 @@ pub struct SelfHit {
 }
 
 /// Per vertex, the rays that meet the object itself (module docs).
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Default)]
 pub struct SelfGather {
     /// Rays cast per vertex (`M`).
     pub rays: u32,
     /// Per vertex, its rays that met the object.
     pub hits: Vec<Vec<SelfHit>>,
+    /// The object's mesh in its cut frame, for the sun's shadow rays from the hits
+    /// ([`Self::hit_points`]); `None` for an empty mesh.
+    pub scene: Option<Arc<RayScene>>,
+    /// How far a ray starts off the surface along its normal, m (the self-visibility cut's).
+    pub offset_m: f32,
+}
+
+impl std::fmt::Debug for SelfGather {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SelfGather").field("rays", &self.rays).field("vertices", &self.hits.len()).field("offset_m", &self.offset_m).finish()
+    }
+}
+
+impl PartialEq for SelfGather {
+    /// The same rays and hits (the mesh they were cast against is the object's).
+    fn eq(&self, other: &Self) -> bool {
+        self.rays == other.rays && self.hits == other.hits && self.offset_m == other.offset_m
+    }
 }
 
 /// `k` of `m` cosine-distributed directions about `n` (the disc's strata lifted, turned by `turn`).
@@ -81,9 +107,9 @@ impl SelfGather {
     /// The gather of `mesh` (the object at its cut frame) from its vertices with `normals`
     /// (`super::svc::SelfVisibility::normals`), `rays` per vertex. An empty mesh gathers nothing.
     pub fn from_mesh(mesh: &Mesh, normals: &[Vec3], rays: u32) -> Self {
-        let Some((_, radius)) = bounding_sphere(mesh) else { return Self { rays, hits: Vec::new() } };
+        let Some((_, radius)) = bounding_sphere(mesh) else { return Self { rays, ..Self::default() } };
         let offset_m = (radius * SELF_RAY_OFFSET_FRACTION).max(f32::MIN_POSITIVE);
-        let scene = RayScene::new(mesh.clone());
+        let scene = Arc::new(RayScene::new(mesh.clone()));
         let count = mesh.positions.len().min(normals.len());
         let golden = PI * (3.0 - 5f32.sqrt());
         let hits = (0..count)
@@ -108,24 +134,57 @@ impl SelfGather {
                     .collect()
             })
             .collect();
-        Self { rays, hits }
+        Self { rays, hits, scene: Some(scene), offset_m }
+    }
+
+    /// The hits of vertex `v` as points and unit normals on the object (its cut frame): the
+    /// barycentric means of `positions` and `normals` (the self-visibility cut's vertices).
+    pub fn hit_points<'a>(&'a self, v: usize, positions: &'a [Vec3], normals: &'a [Vec3]) -> impl Iterator<Item = (Vec3, Vec3)> + 'a {
+        self.hits.get(v).into_iter().flatten().map(move |h| {
+            let (mut p, mut n) = (Vec3::ZERO, Vec3::ZERO);
+            for (&i, &w) in h.vertices.iter().zip(&h.weights) {
+                p += positions.get(i as usize).copied().unwrap_or(Vec3::ZERO) * w;
+                n += normals.get(i as usize).copied().unwrap_or(Vec3::ZERO) * w;
+            }
+            (p, n.normalize_or_zero())
+        })
+    }
+
+    /// Whether the object itself hides the sun (`sun`, unit, its cut frame) from the point `p`
+    /// with normal `n` there; false without a mesh.
+    pub fn shades(&self, p: Vec3, n: Vec3, sun: Vec3) -> bool {
+        self.scene.as_ref().is_some_and(|s| s.occluded(p + n * self.offset_m, sun, f32::MAX))
     }
 
     /// What vertex `v` gets from the object itself (module docs): `E_n` and `E_r` per unit `Pa`
     /// (from `pa`, the object's outgoing radiance per vertex) and per unit `Pd` (from `pd`), in
     /// [`VertexAmbient`]'s rows; `n` and `r` in the object's frame.
     pub fn vertex_ambient(&self, v: usize, pa: &[Vec3], pd: &[Vec3], n: Vec3, r: Vec3) -> VertexAmbient {
+        self.vertex_ambient_lit(v, pa, pd, None, n, r)
+    }
+
+    /// [`Self::vertex_ambient`] with the direct sun at each hit given apart: `lit = (ρ/π per
+    /// vertex, the sun's irradiance per unit Pd at each of vertex v's hits)`, added to `pd`
+    /// (which then holds the radiance without the direct sun) as `ρ/π` interpolated times the
+    /// hit's own value, instead of the vertices' direct sun interpolated across the triangle.
+    pub fn vertex_ambient_lit(&self, v: usize, pa: &[Vec3], pd: &[Vec3], lit: Option<(&[Vec3], &[f32])>, n: Vec3, r: Vec3) -> VertexAmbient {
         let mut out: VertexAmbient = [[0.0; 4]; 4];
         let Some(hits) = self.hits.get(v) else { return out };
         if hits.is_empty() || self.rays == 0 {
             return out;
         }
         let (mut en_a, mut er_a, mut en_d, mut er_d) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
-        for h in hits {
-            let (mut la, mut ld) = (Vec3::ZERO, Vec3::ZERO);
+        for (j, h) in hits.iter().enumerate() {
+            let (mut la, mut ld, mut rho) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
             for (&i, &w) in h.vertices.iter().zip(&h.weights) {
                 la += pa.get(i as usize).copied().unwrap_or(Vec3::ZERO) * w;
                 ld += pd.get(i as usize).copied().unwrap_or(Vec3::ZERO) * w;
+                if let Some((albedo, _)) = lit {
+                    rho += albedo.get(i as usize).copied().unwrap_or(Vec3::ZERO) * w;
+                }
+            }
+            if let Some((_, sun)) = lit {
+                ld += rho * sun.get(j).copied().unwrap_or(0.0);
             }
             let fr = r.dot(h.dir).max(0.0) / n.dot(h.dir).max(MIN_BRDF_COS);
             en_a += la;

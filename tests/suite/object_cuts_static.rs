@@ -267,16 +267,20 @@ fn a_statue_moved_under_the_walls_sky_shadow_takes_it_from_the_proxy_field() {
     }
 }
 
-/// Relative RMSE allowed over the unmoved statue's pixels against its traced transfer. Issue 15
-/// §3 asks 2%. Measured 7.35% (+4.7% on average) while the cuts lit the statue with the relit
-/// map's surface texels as distant light: the pedestal in the wall's sun shadow got the sunlit
-/// paving the capture point sees. With the proxy's light taken per vertex and coarse direction
-/// (`cuts::local_sun`) and the bounce sources' sun shadow traced against the proxy: measured
-/// 2.22% (+0.9%; debug build, the frame loop's cuts: `S = 2^10`, 8 × 16² fields, proxy field on
-/// the `[irradiance]` box at 1 m; docs/measurements.md, "The proxy's light per vertex"). Not
-/// met: the bound holds the measured value with 0.8 point of margin (the trace's Monte Carlo
-/// noise; runs repeat to the digits shown).
-const STATIC_TOLERANCE: f64 = 0.03;
+/// Relative RMSE allowed over the unmoved statue's pixels against its traced transfer: issue 15
+/// §3's 2%. Measured 7.35% (+4.7% on average) while the cuts lit the statue with the relit map's
+/// surface texels as distant light (the pedestal in the wall's sun shadow got the sunlit paving
+/// the capture point sees); 2.22% with the proxy's light taken per vertex and coarse direction
+/// (`cuts::local_sun`) and the bounce sources' sun shadow traced against the proxy, the sphere's
+/// shaded underside 8.0% (the pedestal top's sunlit corners lit it across the sphere's shadow);
+/// 1.86% (mean −0.1%; the underside 4.9%) with the sun traced at each hit of the self-bounce
+/// gather (`cuts::bounce::FrameCuts::self_bounce_rows`). Debug build, the frame loop's cuts
+/// (`S = 2^10`, 8 × 16² fields, proxy field on the `[irradiance]` box at 1 m); runs repeat to
+/// the digits shown. What is left: the pedestal +1.8% on average (the paving's `c` at its foot
+/// does not know the statue hides its sky) and the sphere's lowest pixel row (Gouraud between
+/// its dark bottom vertex and the ring above; docs/measurements.md, "The sun at the
+/// self-bounce's hits").
+const STATIC_TOLERANCE: f64 = 0.02;
 /// Relative RMSE allowed over the statue's pixels at the wall. Issue 15 §3 asks 5%; measured
 /// 9.93% while the map's surface texels lit it (17.9% without the proxy field), 4.74% with
 /// `cuts::local_sun` (7.5% without the proxy field). Met as measured, narrowly: the bound gives

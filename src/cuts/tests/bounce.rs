@@ -87,7 +87,7 @@ fn a_half_lit_sphere_shows_two_thirds_of_its_brightest_radiance_from_the_sun_and
     let s = Vec3::new(0.3, 0.8, 0.2).normalize();
     let normals: Vec<Vec3> = mesh.positions.iter().map(|p| p.normalize()).collect();
     let lit: Vec<Vec3> = normals.iter().map(|n| Vec3::splat(n.dot(s).max(0.0))).collect();
-    let r = ObjectRadiance { normals, area_m2: surf.area_m2, pa: lit.clone(), pd: lit };
+    let r = ObjectRadiance { normals, area_m2: surf.area_m2, pa: lit.clone(), pd: lit, ..ObjectRadiance::default() };
     let (front, _) = r.seen_along(-s);
     let (back, _) = r.seen_along(s);
     assert!((front.x - 2.0 / 3.0).abs() < 0.01, "{front}");
@@ -138,4 +138,71 @@ fn a_lone_object_is_unchanged_and_a_neighbour_adds_light_linearly_on_its_facing_
     // The neighbour itself gains from the first sphere too, the same (mirror image).
     let b_facing = (0..normals.len()).min_by(|&i, &j| normals[i].x.total_cmp(&normals[j].x)).unwrap();
     assert!(once.vertices[1][b_facing][0][1] > base.vertices[1][b_facing][0][1]);
+}
+
+/// The light an object reflects onto itself takes the sun where it falls at each hit
+/// (`FrameCuts::self_bounce_rows`), not its triangle's corners' sun interpolated: a 2 m floor
+/// (two triangles, its corners all sunlit) under a 0.4 m roof 0.3 m up, the sun overhead. The
+/// roof's corner, facing down, sees the floor lit but for the roof's shadow square, the
+/// 0.4 m square right under the roof: `E = ρ·(F_floor − F_shadow)` per unit `Pd`, the view
+/// factors `F` by Lambert's formula. The corners' sun interpolated lights the whole floor.
+#[test]
+fn the_light_an_object_reflects_onto_itself_has_its_own_shadow_where_it_falls() {
+    let tree = DirectionTree::new(9).unwrap();
+    let (f, h, r) = (1.0f32, 0.3f32, 0.2f32);
+    let mut mesh = Mesh {
+        positions: vec![
+            Vec3::new(-f, 0.0, -f),
+            Vec3::new(f, 0.0, -f),
+            Vec3::new(f, 0.0, f),
+            Vec3::new(-f, 0.0, f),
+            Vec3::new(-r, h, -r),
+            Vec3::new(r, h, -r),
+            Vec3::new(r, h, r),
+            Vec3::new(-r, h, r),
+        ],
+        // The floor wound to face +y, the roof −y.
+        triangles: vec![[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7]],
+        ..Mesh::default()
+    };
+    mesh.tri_node = vec![0; 4];
+    mesh.tri_material = vec![0; 4];
+    let vcf = VcfSampling { spheres: 4, rows: 8, cols: 8, ..VcfSampling::default() };
+    let cuts = ObjectCuts::compute("floor and roof", &mesh, &tree, &SvcSettings::default(), &vcf, &no_progress).unwrap();
+    assert!(cuts.svc.normals[6].y < -0.99 && cuts.svc.normals[0].y > 0.99, "{:?}", cuts.svc.normals);
+    let gather = crate::cuts::self_bounce::SelfGather::from_mesh(&mesh, &cuts.svc.normals, 1024);
+    let frame = FrameCuts::new(PrecomputedCuts { inputs_hash: [0; 32], levels: 9, objects: vec![cuts], proxy: None }).unwrap();
+    let rho = Vec3::new(0.6, 0.5, 0.4);
+    let n = mesh.positions.len();
+    // No ambient: the light per unit Pd is the floor's direct sun only (the roof faces away).
+    let lit_corner = |v: usize| if v < 4 { rho / std::f32::consts::PI } else { Vec3::ZERO };
+    let rad = ObjectRadiance {
+        normals: frame.cuts.objects[0].svc.normals.clone(),
+        area_m2: vec![0.1; n],
+        pa: vec![Vec3::ZERO; n],
+        pd: (0..n).map(lit_corner).collect(),
+        pd_indirect: vec![Vec3::ZERO; n],
+        albedo_pi: vec![rho / std::f32::consts::PI; n],
+    };
+    let surfaces = [BounceSurface { albedo: vec![rho; n], area_m2: vec![0.1; n] }];
+    let own = [gather];
+    let bounce = Bounce { surfaces: &surfaces, sun: Some(Vec3::Y), own: &own, proxy: None };
+    let poses = [Pose::translated(Vec3::ZERO)];
+    let eye = Vec3::new(0.0, 5.0, 0.1);
+    let traced = frame.self_bounce_rows(&poses, 0, eye, &bounce, &rad).unwrap();
+    let interpolated = frame.self_bounce_rows(&poses, 0, eye, &bounce, &ObjectRadiance { albedo_pi: Vec::new(), ..rad.clone() }).unwrap();
+    let x = mesh.positions[6];
+    let down = Vec3::NEG_Y;
+    let floor = polygon_cosine_solid_angle(x, down, &mesh.positions[..4]) / std::f64::consts::PI;
+    let square = [Vec3::new(-r, 0.0, -r), Vec3::new(r, 0.0, -r), Vec3::new(r, 0.0, r), Vec3::new(-r, 0.0, r)];
+    let shadow = polygon_cosine_solid_angle(x, down, &square) / std::f64::consts::PI;
+    let (e_traced, e_interpolated) = (traced[6][2][1] as f64, interpolated[6][2][1] as f64);
+    let expected = rho.y as f64 * (floor - shadow);
+    // 1 024 stratified cosine rays: the view factors within 0.005 (the shadow's edge crosses
+    // strata).
+    assert!((e_traced - expected).abs() < 0.005 * rho.y as f64, "traced {e_traced:.4}, expected {expected:.4} (floor {floor:.4}, shadow {shadow:.4})");
+    assert!((e_interpolated - rho.y as f64 * floor).abs() < 0.005 * rho.y as f64, "interpolated {e_interpolated:.4}, floor {floor:.4}");
+    assert!(shadow > 0.15, "the shadow's view factor {shadow:.4}");
+    // Per unit Pa nothing (no ambient anywhere): the sun goes to the Pd rows only.
+    assert_eq!(traced[6][0], [0.0; 4]);
 }
