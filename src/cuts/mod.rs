@@ -50,7 +50,8 @@
 //!   directions and takes the light of the point it meets (its sun shadow with the objects', the
 //!   bake's `c` and the relighter's `b` there) instead of the map's surface texels, which are the
 //!   proxy as the capture centre sees it. The unmoved statue against its traced transfer: 7.35%
-//!   → 2.22% (docs/measurements.md, "The proxy's light per vertex").
+//!   → 2.22% (docs/measurements.md, "The proxy's light per vertex"); 1.86% with the sun taken at
+//!   each hit of the self-bounce gather ([`self_bounce`]; "The sun at the self-bounce's hits").
 //! - **Products kept between frames** ([`products`]): a vertex's or a receiver's product cut
 //!   depends on the poses only, so an object that did not move keeps it (while no moved object
 //!   reaches the point) and a frame whose lighting changed sums it again, bit for bit as a fresh
