@@ -13,10 +13,15 @@
 //! can warn; a lookup never gives NaN.
 //!
 //! Grid points that fall inside the proxy's solids (at the `[irradiance]` spacing of 1 m the
-//! courtyard's points at x = −3 m lie inside its 0.4 m wall) see nothing, and a lookup beside
-//! the wall interpolates toward them; finer spacings (`heliar precompute --proxy-spacing`) trade
-//! that for the other errors measured in docs/measurements.md, "The static case and the wall's
-//! sky shadow".
+//! courtyard's points at x = −3 m lie inside its 0.4 m wall) see nothing in any direction. A
+//! lookup leaves them out and shares their weight among the other neighbours
+//! ([`ProxyField::locate`]), as probe grids do with probes stuck in geometry: a point beside
+//! the wall then takes the sky of the grid points on its own side instead of a blend toward
+//! black (the statue at the wall's foot, 0.1–0.5 m from it, took up to 0.7 of its weight from
+//! inside the wall: its wall side came out 6–15% too dark; docs/measurements.md, "Grid points
+//! inside the wall"). A cut that is zero everywhere marks such a point: a point in the open
+//! always sees some sky. When all the neighbours are inside (a point in the wall itself) the
+//! lookup keeps them.
 
 use super::cut::{Cut, check_threshold};
 use super::packed::{PackedCuts, ValueEncoding};
@@ -141,7 +146,22 @@ impl ProxyField {
             clamped_axis(x, n)
         };
         let region = if outside { FieldRegion::OutsideBox } else { FieldRegion::Within };
-        Ok(FieldLookup::trilinear([axis(0), axis(1), axis(2)], |i, j, k| g.index(i, j, k), region))
+        let mut found = FieldLookup::trilinear([axis(0), axis(1), axis(2)], |i, j, k| g.index(i, j, k), region);
+        // Neighbours inside the proxy's solids left out, their weight shared (module docs).
+        let open: f32 = found.neighbours.iter().filter(|(k, _)| !self.solid(*k)).map(|(_, w)| w).sum();
+        if open > 0.0 && open < 1.0 {
+            found.neighbours.retain(|(k, _)| !self.solid(*k));
+            for (_, w) in &mut found.neighbours {
+                *w /= open;
+            }
+        }
+        Ok(found)
+    }
+
+    /// Whether grid point `k` lies inside the proxy: its cut is zero in every direction.
+    pub fn solid(&self, k: usize) -> bool {
+        let v = self.cuts.view(k);
+        (0..v.len()).all(|i| v.value(i) == 0.0)
     }
 
     /// The interpolated visibility cut at `p` and where `p` lies.

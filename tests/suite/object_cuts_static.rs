@@ -274,26 +274,30 @@ fn a_statue_moved_under_the_walls_sky_shadow_takes_it_from_the_proxy_field() {
 /// (`cuts::local_sun`) and the bounce sources' sun shadow traced against the proxy, the sphere's
 /// shaded underside 8.0% (the pedestal top's sunlit corners lit it across the sphere's shadow);
 /// 1.86% (mean −0.1%; the underside 4.9%) with the sun traced at each hit of the self-bounce
-/// gather (`cuts::bounce::FrameCuts::self_bounce_rows`). Debug build, the frame loop's cuts
+/// gather (`cuts::bounce::FrameCuts::self_bounce_rows`), 1.89% with the proxy field's grid
+/// points inside the wall left out of its lookups (the statue's west side had neighbours there). Debug build, the frame loop's cuts
 /// (`S = 2^10`, 8 × 16² fields, proxy field on the `[irradiance]` box at 1 m); runs repeat to
 /// the digits shown. What is left: the pedestal +1.8% on average (the paving's `c` at its foot
 /// does not know the statue hides its sky) and the sphere's lowest pixel row (Gouraud between
 /// its dark bottom vertex and the ring above; docs/measurements.md, "The sun at the
 /// self-bounce's hits").
 const STATIC_TOLERANCE: f64 = 0.02;
-/// Relative RMSE allowed over the statue's pixels at the wall. Issue 15 §3 asks 5%; measured
-/// 9.93% while the map's surface texels lit it (17.9% without the proxy field), 4.74% with
-/// `cuts::local_sun` (7.5% without the proxy field). Met as measured, narrowly: the bound gives
-/// 0.76 point of margin.
-const OBJECT_TOLERANCE: f64 = 0.055;
+/// Relative RMSE allowed over the statue's pixels at the wall: issue 15 §3's 5%. Measured 9.93%
+/// while the map's surface texels lit it (17.9% without the proxy field), 4.74% with
+/// `cuts::local_sun` (7.5% without the proxy field; its wall side 6–15% too dark: it blended
+/// toward the proxy field's grid points inside the wall), 3.82% (mean +2.0%) with those points
+/// left out of the lookups (`cuts::proxy_field`; docs/measurements.md, "Grid points inside the
+/// wall"). Debug build, deterministic.
+const OBJECT_TOLERANCE: f64 = 0.05;
 /// Relative RMSE allowed over the contact region at the wall (issue 15 §3 asks 8%). Measured 11.1%
 /// while a receiver lost the share of the *whole* sky's light the statue hides (the cuts
 /// darkened the ground half as much as the trace, mean 6.0% against 11.6%: the wall already
 /// hides half of that sky, so the statue takes twice the share of what is left); 7.19% with each
 /// receiver's light by direction as it sees it (`cuts::receiver_light`); 2.95% with the statue's
 /// reflected light added and the ground closer to it than its field's innermost sphere traced
-/// against it (`cuts::receivers::near_cut`: the field saw the statue from 1.2 r there). Mean
-/// darkening 11.4% against the trace's 11.6%; debug build, deterministic.
+/// against it (`cuts::receivers::near_cut`: the field saw the statue from 1.2 r there), mean
+/// darkening 11.4% against the trace's 11.6%; 3.40% (darkening 10.8%) with the proxy field's
+/// grid points inside the wall left out of its lookups. Debug build, deterministic.
 const CONTACT_TOLERANCE: f64 = 0.04;
 /// Relative RMSE allowed over the unmoved statue's contact region (issue 15 §3 asks 8%; measured
 /// 6.5% with `c·V`, `b·V`, 2.49% with `cuts::receiver_light` and `near_cut`).

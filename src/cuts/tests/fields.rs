@@ -283,3 +283,57 @@ fn meshes_and_samplings_that_cannot_carry_cuts_are_errors() {
     let coarse = VisibilityCutField::compute("sphere", &sphere, &tree, &VcfSampling { spheres: 2, rows: 2, cols: 2, threshold: f32::INFINITY, ..base }, &no_progress).expect("valid");
     assert_eq!(coarse.cuts.mean_cut_size(), 1.0);
 }
+
+/// A closed box, `lo..hi`, as 12 triangles.
+fn solid_box(lo: Vec3, hi: Vec3) -> Mesh {
+    let c = |i: u32| Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z });
+    let faces: [[u32; 4]; 6] = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]];
+    let mut mesh = Mesh { positions: (0..8).map(c).collect(), ..Mesh::default() };
+    for f in faces {
+        mesh.triangles.push([f[0], f[1], f[2]]);
+        mesh.triangles.push([f[0], f[2], f[3]]);
+    }
+    mesh.tri_node = vec![0; 12];
+    mesh.tri_material = vec![0; 12];
+    mesh
+}
+
+/// A grid point inside a solid wall sees nothing in any direction; a lookup beside the wall
+/// leaves it out and takes the sky of the grid points on its own side, not a blend toward
+/// black (`ProxyField::locate`). A point whose neighbours are all inside keeps them.
+#[test]
+fn proxy_field_lookups_leave_out_grid_points_inside_the_proxy() {
+    let levels = 10;
+    let tree = DirectionTree::new(levels).expect("valid levels");
+    // A 0.4 m thick, 3 m high, 10 m long wall at x = 0; grid points at x = −1, 0, 1 (the middle
+    // ones inside it), z = −1, 0, 1, all at 1 m height.
+    let proxy = RayScene::new(solid_box(Vec3::new(-0.2, 0.0, -5.0), Vec3::new(0.2, 3.0, 5.0)));
+    let grid = ProxyGrid { min: [-1.0, 1.0, -1.0], max: [1.0, 1.0, 1.0], counts: [3, 1, 3], threshold: 0.0 };
+    let field = ProxyField::compute(&proxy, &tree, &grid, &no_progress).expect("valid grid");
+    let index = |i: usize, k: usize| k * 3 + i;
+    for k in 0..3 {
+        assert!(field.solid(index(1, k)), "the grid point in the wall at z index {k}");
+        assert!(!field.solid(index(0, k)) && !field.solid(index(2, k)));
+    }
+    // 0.5 m east of the wall's axis (0.3 m off its face): half the weight was the point inside.
+    let found = field.locate(Vec3::new(0.5, 1.0, 0.0)).expect("finite point");
+    assert_eq!(found.neighbours, vec![(index(2, 1), 1.0)]);
+    let cut = found.interpolate(&field.cuts).expect("same levels");
+    assert_eq!(cut.to_leaves(), field.cuts.get(index(2, 1)).to_leaves());
+    // What it sees: the wall's east face, 0.8 m away, 2 m above and 1 m below, 5 m to each
+    // side: four rectangles with a corner at the foot of the perpendicular, each
+    // `atan(a·b / (d·√(a² + b² + d²)))` (0.325 of the sphere), where the blend with the black
+    // point inside gave 0.66.
+    let corner = |a: f64, b: f64, d: f64| (a * b / (d * (a * a + b * b + d * d).sqrt())).atan();
+    let want = 2.0 * (corner(2.0, 5.0, 0.8) + corner(1.0, 5.0, 0.8));
+    let got = occluded_sr(&cut);
+    assert!((got - want).abs() < counting_tolerance_sr(levels), "hidden {got} sr, the face subtends {want} sr");
+    // Off the grid's lines: the two points on the east side share the weight by their distance.
+    let found = field.locate(Vec3::new(0.5, 1.0, 0.25)).expect("finite point");
+    let mut got = found.neighbours.clone();
+    got.sort_by_key(|(k, _)| *k);
+    assert_eq!(got, vec![(index(2, 1), 0.75), (index(2, 2), 0.25)]);
+    // A point in the wall itself, between two points inside it: no open neighbour, kept.
+    let found = field.locate(Vec3::new(0.0, 1.0, 0.5)).expect("finite point");
+    assert!(found.neighbours.iter().all(|(k, _)| field.solid(*k)) && found.neighbours.len() == 2, "{:?}", found.neighbours);
+}
