@@ -365,5 +365,5 @@ fn read_proxy(r: &mut Reader, levels: u32) -> Result<ProxyField, CutsError> {
     if cuts.len() != grid.points() {
         return Err(r.corrupt(format!("{f}: {} cuts for {} grid points", cuts.len(), grid.points())));
     }
-    Ok(ProxyField { grid, cuts })
+    Ok(ProxyField::new(grid, cuts))
 }

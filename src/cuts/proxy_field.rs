@@ -97,6 +97,8 @@ pub struct ProxyField {
     pub grid: ProxyGrid,
     /// One cut per grid point, index `(k·ny + j)·nx + i`.
     pub cuts: PackedCuts,
+    /// Per grid point, whether it lies inside the proxy's solids ([`Self::solid`]), found once.
+    solid: Vec<bool>,
 }
 
 /// Binary visibility leaves of `proxy` seen from `p` (rays start [`RAY_EPSILON_M`] along their
@@ -128,7 +130,18 @@ impl ProxyField {
             }
             progress(end as u64, total as u64);
         }
-        Ok(Self { grid: *grid, cuts })
+        Ok(Self::new(*grid, cuts))
+    }
+
+    /// The field of `cuts` (one per point of `grid`), with its points inside the proxy found.
+    pub fn new(grid: ProxyGrid, cuts: PackedCuts) -> Self {
+        let solid = (0..cuts.len())
+            .map(|k| {
+                let v = cuts.view(k);
+                (0..v.len()).all(|i| v.value(i) == 0.0)
+            })
+            .collect();
+        Self { grid, cuts, solid }
     }
 
     /// The neighbouring grid points of `p` (world frame) and their weights; a point outside the
@@ -160,8 +173,7 @@ impl ProxyField {
 
     /// Whether grid point `k` lies inside the proxy: its cut is zero in every direction.
     pub fn solid(&self, k: usize) -> bool {
-        let v = self.cuts.view(k);
-        (0..v.len()).all(|i| v.value(i) == 0.0)
+        self.solid.get(k).copied().unwrap_or(false)
     }
 
     /// The interpolated visibility cut at `p` and where `p` lies.

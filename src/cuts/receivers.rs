@@ -64,7 +64,7 @@ pub struct ReceiverCuts {
     seen: Option<Arc<ObjectsSeen>>,
     /// Per object, its mesh in its cuts' frame, to trace the receivers closer to it than its
     /// field's innermost sphere ([`near_cut`]).
-    near: Option<Arc<Vec<RayScene>>>,
+    near: Option<Vec<Option<Arc<RayScene>>>>,
 }
 
 /// A receiver normal's key in the weights cache: its exact bits (a proxy's receivers take
@@ -102,9 +102,9 @@ impl ReceiverCuts {
     }
 
     /// The same, tracing the receivers closer to an object than its field's innermost sphere
-    /// against `meshes` (per object, in its cuts' frame) instead of looking its field up there
-    /// ([`near_cut`]).
-    pub fn with_near(mut self, meshes: Arc<Vec<RayScene>>) -> Self {
+    /// against `meshes` (per object, in its cuts' frame; `None`: its field serves) instead of
+    /// looking its field up there ([`near_cut`]).
+    pub fn with_near(mut self, meshes: Vec<Option<Arc<RayScene>>>) -> Self {
         self.near = Some(meshes);
         self
     }
@@ -294,7 +294,7 @@ impl ReceiverCuts {
     fn field_at(&self, b: usize, local: Vec3, n_local: Vec3) -> Result<Cut, CutsError> {
         let obj = &self.cuts.cuts.objects[b];
         let (cut, region) = obj.vcf.lookup(local)?;
-        match (region, self.near.as_ref().and_then(|m| m.get(b))) {
+        match (region, self.near.as_ref().and_then(|m| m.get(b)).and_then(Option::as_ref)) {
             (FieldRegion::InsideInner, Some(mesh)) => near_cut(mesh, &self.cuts.tree, local, n_local),
             _ => Ok(cut),
         }

@@ -79,8 +79,9 @@ pub struct CutState {
     surfaces: Vec<BounceSurface>,
     /// Per object, its mesh in its cuts' frame (its shadow on the proxy, `crate::cuts::local_sun`).
     meshes: Vec<Arc<crate::geometry::Mesh>>,
-    /// The same meshes to trace receivers against (`crate::cuts::receivers::near_cut`).
-    near: Arc<Vec<RayScene>>,
+    /// The same meshes to trace receivers against (`crate::cuts::receivers::near_cut`): the
+    /// self-bounce gathers' own (`SelfGather::scene`), built once for both.
+    near: Vec<Option<Arc<RayScene>>>,
     /// Per object, the rays from its vertices that meet itself (`crate::cuts::self_bounce`).
     own: Vec<SelfGather>,
     /// The objects' per-vertex ambient and visibility products kept between frames
@@ -122,9 +123,10 @@ impl CutState {
         let surfaces = scene.virtual_objects.iter().map(|o| BounceSurface::from_mesh(&o.mesh)).collect();
         // The cuts' vertices are the meshes' at the first key (`same_objects`, or computed from
         // them), in the cuts' frame: the gathers hold in every rigid pose.
-        let own = scene.virtual_objects.iter().zip(&frame.cuts.objects).map(|(o, c)| SelfGather::from_mesh(&o.mesh, &c.svc.normals, SELF_BOUNCE_RAYS)).collect();
+        let own: Vec<SelfGather> = scene.virtual_objects.iter().zip(&frame.cuts.objects).map(|(o, c)| SelfGather::from_mesh(&o.mesh, &c.svc.normals, SELF_BOUNCE_RAYS)).collect();
+        // The receivers' near field traces the same meshes the gathers were cast against.
+        let near = own.iter().map(|g| g.scene.clone()).collect();
         let meshes: Vec<Arc<crate::geometry::Mesh>> = scene.virtual_objects.iter().map(|o| Arc::new(o.mesh.clone())).collect();
-        let near = Arc::new(meshes.iter().map(|m| RayScene::new((**m).clone())).collect());
         Ok(Self { frame, origin, lighting: None, surfaces, own, meshes, near, cache: AmbientCache::default(), receiver_products: Arc::default(), uses: Vec::new(), outcome: CutOutcome::Skipped("no object has moved yet: the traced per-pixel transfer serves".into()) })
     }
 
